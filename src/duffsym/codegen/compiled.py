@@ -1,0 +1,179 @@
+"""Compiled (numba) right-hand side, Jacobian, output and integrator generated from a model.
+
+The generated source is written once to a cache directory (``$DUFFSYM_CACHE`` or
+``~/.cache/duffsym``) under the model's hash, and numba caches its machine code beside it, so a
+second process pays neither code generation nor compilation.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+from functools import lru_cache
+from pathlib import Path
+from types import ModuleType
+
+import sympy as sp
+from sympy.printing.pycode import PythonCodePrinter
+
+from duffsym.codegen._printing import check_numeric_structure, state_jacobian
+from duffsym.model.core import SymbolicModel
+
+_TEMPLATE = Path(__file__).with_name("_integrator_template.py")
+_GENERATOR_VERSION = "5"
+_lock = threading.Lock()
+
+
+class _Printer(PythonCodePrinter):
+    """Python printer whose integer powers stay integer (numba turns them into multiplications)."""
+
+    def _print_Pow(self, expr, rational=False):
+        if expr.exp.is_Integer and 1 < int(expr.exp) <= 8:
+            base = self.parenthesize(expr.base, 100)
+            return "*".join([base] * int(expr.exp))
+        return super()._print_Pow(expr, rational=rational)
+
+
+def cache_dir() -> Path:
+    """Directory of generated code: ``$DUFFSYM_CACHE`` or ``~/.cache/duffsym`` (a temp dir if unwritable)."""
+    base = os.environ.get("DUFFSYM_CACHE")
+    candidates = [Path(base)] if base else []
+    candidates += [Path.home() / ".cache" / "duffsym", Path(tempfile.gettempdir()) / "duffsym-cache"]
+    for c in candidates:
+        try:
+            c.mkdir(parents=True, exist_ok=True)
+            probe = c / ".write-test"
+            probe.write_text("ok")
+            probe.unlink()
+            return c
+        except OSError:
+            continue
+    raise OSError("no writable cache directory for generated code; set DUFFSYM_CACHE to a writable folder")
+
+
+def _assign_block(lhs: list[str], exprs: list[sp.Expr], printer: _Printer, indent: str = "    ") -> list[str]:
+    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("_t"))
+    lines = [f"{indent}{sym} = {printer.doprint(val)}" for sym, val in replacements]
+    lines += [f"{indent}{target} = {printer.doprint(val)}" for target, val in zip(lhs, reduced)]
+    return lines
+
+
+def _scalar_rk4(model: SymbolicModel, printer: _Printer) -> list[str]:
+    """A scalar RHS ``_f`` (one argument per state, input and parameter, returning a tuple) and the
+    RK4 substep loop ``_advance`` written with scalar locals: no small temporary arrays."""
+    n, ni = model.n_states, model.n_inputs
+    xs = [f"x{i}_" for i in range(n)]
+    us = [f"u{j}_" for j in range(ni)]
+    ps = [f"p{j}_" for j in range(model.n_params)]
+    subs = dict(zip(model.states, map(sp.Symbol, xs)))
+    subs.update(zip(model.input_symbols, map(sp.Symbol, us)))
+    subs.update(zip(model.param_symbols, map(sp.Symbol, ps)))
+    exprs = [e.xreplace(subs) for e in model.rhs]
+    outs = [f"_r{i}" for i in range(n)]
+    lines = [
+        "@njit(cache=True, inline=\"always\")",
+        f"def _f({', '.join(xs + us + ps)}):",
+        *_assign_block(outs, exprs, printer),
+        f"    return ({', '.join(outs)},)",
+        "",
+        "",
+        "@njit(cache=True, inline=\"always\")",
+        "def _advance(x, U, k, p, dt, m, hold, xo):",
+        "    h = dt / m",
+        *[f"    {v} = p[{j}]" for j, v in enumerate(ps)],
+        *[f"    s{i} = x[{i}]" for i in range(n)],
+        *[f"    a{j} = U[k, {j}]" for j in range(ni)],
+        *[f"    g{j} = 0.0 if hold else (U[k + 1, {j}] - U[k, {j}]) / m" for j in range(ni)],
+        "    for s in range(m):",
+        *[f"        ua{j} = a{j} + s * g{j}" for j in range(ni)],
+        *[f"        ub{j} = ua{j} + 0.5 * g{j}" for j in range(ni)],
+        *[f"        uc{j} = ua{j} + g{j}" for j in range(ni)],
+    ]
+    P = ", ".join(ps)
+
+    def call(state, u):
+        return f"_f({', '.join(state + [f'{u}{j}' for j in range(ni)])}, {P})"
+
+    def tup(prefix):
+        return ", ".join(f"{prefix}{i}" for i in range(n)) + ("," if n == 1 else "")
+
+    S = [f"s{i}" for i in range(n)]
+    lines.append(f"        {tup('q1_')} = {call(S, 'ua')}")
+    lines.append(f"        {tup('q2_')} = {call([f's{i} + 0.5 * h * q1_{i}' for i in range(n)], 'ub')}")
+    lines.append(f"        {tup('q3_')} = {call([f's{i} + 0.5 * h * q2_{i}' for i in range(n)], 'ub')}")
+    lines.append(f"        {tup('q4_')} = {call([f's{i} + h * q3_{i}' for i in range(n)], 'uc')}")
+    for i in range(n):
+        lines.append(f"        s{i} = s{i} + h / 6.0 * (q1_{i} + 2.0 * q2_{i} + 2.0 * q3_{i} + q4_{i})")
+    lines += [f"    xo[{i}] = s{i}" for i in range(n)]
+    return lines
+
+
+def generate_source(model: SymbolicModel) -> str:
+    """The Python/numba source of the model's compiled functions (rhs, jac, output, integrator)."""
+    check_numeric_structure(model)
+    printer = _Printer({"fully_qualified_modules": True, "standard": "python3"})
+    unpack = [f"    {s} = x[{i}]" for i, s in enumerate(model.states)]
+    unpack += [f"    {c.symbol} = u[{i}]" for i, c in enumerate(model.inputs)]
+    unpack += [f"    {p.symbol} = p[{i}]" for i, p in enumerate(model.params)]
+    n = model.n_states
+    jac = state_jacobian(model)
+    lines = [
+        f"# generated by duffsym.codegen.compiled (v{_GENERATOR_VERSION}) for model {model.name!r}",
+        f"# effects: {list(model.effects)}; key {model.key}. Do not edit: regenerated from the SymPy model.",
+        "import math",
+        "import numpy as np",
+        "from numba import njit, prange",
+        "",
+        f"N_STATES = {n}",
+        f"N_INPUTS = {model.n_inputs}",
+        f"N_PARAMS = {model.n_params}",
+        "",
+        "",
+        "@njit(cache=True, inline=\"always\")",
+        "def rhs(x, u, p, out):",
+        *unpack,
+        *_assign_block([f"out[{i}]" for i in range(n)], list(model.rhs), printer),
+        "",
+        "",
+        *_scalar_rk4(model, printer),
+        "",
+        "",
+        "@njit(cache=True, inline=\"always\")",
+        "def jac(x, u, p, out):",
+        *unpack,
+        *_assign_block([f"out[{i}, {j}]" for i in range(n) for j in range(n)], list(jac), printer),
+        "",
+        "",
+        "@njit(cache=True, inline=\"always\")",
+        "def output(x, u, p):",
+        *unpack,
+        *_assign_block(["_y"], [model.output], printer),
+        "    return _y",
+        "",
+        "",
+    ]
+    return "\n".join(lines) + _TEMPLATE.read_text()
+
+
+@lru_cache(maxsize=64)
+def compiled_module(model: SymbolicModel) -> ModuleType:
+    """Import (generating on first use) the compiled module of ``model``."""
+    source = generate_source(model)
+    key = f"duffsym_gen_{model.key}_v{_GENERATOR_VERSION}"
+    path = cache_dir() / f"{key}.py"
+    with _lock:
+        if not path.exists() or path.read_text() != source:
+            # atomic replace, so that concurrent processes never import a half-written file
+            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            with os.fdopen(fd, "w") as fh:
+                fh.write(source)
+            os.replace(tmp, path)
+        if key in sys.modules:
+            return sys.modules[key]
+        spec = importlib.util.spec_from_file_location(key, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[key] = module
+        spec.loader.exec_module(module)
+    return module

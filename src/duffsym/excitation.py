@@ -1,0 +1,129 @@
+"""Input signals with exact time derivatives: sine, multisine and band-limited random."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from duffsym.errors import DataError
+
+
+class Excitation:
+    """A signal :math:`d(t)` whose derivatives up to order 2 are known exactly."""
+
+    signal: str = "d"
+
+    def derivative(self, t: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def __call__(self, t) -> np.ndarray:
+        return self.derivative(np.asarray(t, dtype=float), 0)
+
+    def channels(self, t, model) -> np.ndarray:
+        """The model's input matrix ``(n_times, n_inputs)`` sampled at ``t``."""
+        t = np.asarray(t, dtype=float)
+        cols = []
+        for ch in model.inputs:
+            if ch.signal != self.signal:
+                raise DataError(
+                    f"model {model.name} needs input signal {ch.signal!r}, the excitation provides "
+                    f"{self.signal!r}; build the excitation with signal={ch.signal!r}"
+                )
+            cols.append(self.derivative(t, ch.order))
+        return np.column_stack(cols)
+
+
+def _check_positive(name, value):
+    if not (math.isfinite(value) and value > 0):
+        raise DataError(f"{name} must be a positive finite number; got {value}")
+
+
+@dataclass(frozen=True)
+class Sine(Excitation):
+    """:math:`d(t) = a \\sin(2\\pi f t + \\varphi)`."""
+
+    amplitude: float = 1.0
+    frequency: float = 1.0
+    phase: float = 0.0
+    signal: str = "d"
+
+    def __post_init__(self):
+        _check_positive("frequency (Hz)", self.frequency)
+        if not math.isfinite(self.amplitude):
+            raise DataError(f"amplitude must be finite; got {self.amplitude}")
+
+    @property
+    def period(self) -> float:
+        return 1.0 / self.frequency
+
+    def derivative(self, t, order):
+        w = 2 * math.pi * self.frequency
+        arg = w * np.asarray(t, dtype=float) + self.phase
+        # d^k/dt^k sin = w^k sin(arg + k pi/2)
+        return self.amplitude * w**order * np.sin(arg + order * math.pi / 2)
+
+
+@dataclass(frozen=True)
+class Multisine(Excitation):
+    """Sum of sines with given amplitudes, frequencies (Hz) and phases."""
+
+    amplitudes: tuple[float, ...]
+    frequencies: tuple[float, ...]
+    phases: tuple[float, ...] = ()
+    signal: str = "d"
+
+    def __post_init__(self):
+        if len(self.amplitudes) != len(self.frequencies) or len(self.amplitudes) == 0:
+            raise DataError("Multisine needs as many amplitudes as frequencies (at least one)")
+        for f in self.frequencies:
+            _check_positive("frequency (Hz)", f)
+        if self.phases and len(self.phases) != len(self.amplitudes):
+            raise DataError("Multisine phases must match the frequencies in number (or be empty)")
+
+    @classmethod
+    def random_phase(cls, rms: float, f_min: float, f_max: float, n_lines: int, *, rng=None, signal="d"):
+        """Equal-amplitude lines between ``f_min`` and ``f_max`` with random phases, scaled to ``rms``."""
+        rng = np.random.default_rng(rng)
+        freqs = np.linspace(f_min, f_max, n_lines)
+        amp = rms * math.sqrt(2.0 / n_lines)
+        return cls(tuple([amp] * n_lines), tuple(freqs), tuple(rng.uniform(0, 2 * math.pi, n_lines)), signal)
+
+    def derivative(self, t, order):
+        t = np.asarray(t, dtype=float)
+        phases = self.phases or (0.0,) * len(self.amplitudes)
+        out = np.zeros_like(t)
+        for a, f, ph in zip(self.amplitudes, self.frequencies, phases):
+            w = 2 * math.pi * f
+            out += a * w**order * np.sin(w * t + ph + order * math.pi / 2)
+        return out
+
+
+@dataclass(frozen=True)
+class BandLimitedRandom(Excitation):
+    """Gaussian-like random signal: many random-phase lines with random amplitudes up to ``f_max``.
+
+    Deterministic from ``seed``; smooth, so its derivatives are exact.
+    """
+
+    rms: float = 1.0
+    f_max: float = 5.0
+    duration: float = 10.0
+    seed: int = 0
+    signal: str = "d"
+    _lines: Multisine = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        _check_positive("rms", self.rms)
+        _check_positive("f_max (Hz)", self.f_max)
+        _check_positive("duration (s)", self.duration)
+        rng = np.random.default_rng(self.seed)
+        f0 = 1.0 / self.duration
+        freqs = np.arange(f0, self.f_max + 0.5 * f0, f0)
+        amps = rng.rayleigh(1.0, freqs.size)
+        amps *= self.rms / math.sqrt(0.5 * np.sum(amps**2))
+        lines = Multisine(tuple(amps), tuple(freqs), tuple(rng.uniform(0, 2 * math.pi, freqs.size)), self.signal)
+        object.__setattr__(self, "_lines", lines)
+
+    def derivative(self, t, order):
+        return self._lines.derivative(t, order)
