@@ -113,8 +113,8 @@ def duffing_like(n: int | sp.Symbol = 3, *, n_x: int | sp.Symbol | None = None, 
     ``n`` sets both powers; ``n_x``/``n_v`` set them separately, as the paper allows.
     Defaults are the paper's Fig. 3 benchmark.
     """
-    n_x = check_power("n_x", n if n_x is None else n_x, allow_even=allow_even)
-    n_v = check_power("n_v", n if n_v is None else n_v, allow_even=allow_even)
+    n_x = check_power("n" if n_x is None else "n_x", n if n_x is None else n_x, allow_even=allow_even)
+    n_v = check_power("n" if n_v is None else "n_v", n if n_v is None else n_v, allow_even=allow_even)
     params = (
         _p("gamma", r"\gamma", 10.0, -1e4, 1e4, "linear damping of the fluid mass"),
         _p("alpha", r"\alpha", 10.0, -1e5, 1e5, "linear stiffness"),
@@ -153,8 +153,8 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
     With ``physical=True`` the mass m stays a parameter (Eq. 11 as written); otherwise m = 1
     and the constants are dimensionless (Eq. 12). Defaults are Table 2's 0.4 V row.
     """
-    n_x = check_power("n_x", n if n_x is None else n_x, allow_even=allow_even)
-    n_v = check_power("n_v", n if n_v is None else n_v, allow_even=allow_even)
+    n_x = check_power("n" if n_x is None else "n_x", n if n_x is None else n_x, allow_even=allow_even)
+    n_v = check_power("n" if n_v is None else "n_v", n if n_v is None else n_v, allow_even=allow_even)
     params = [
         _p("c1", "c_{1}", 10.0, 1e-3, 1e4, "input (piston-side) damping", scale=10.0),
         _p("c2", "c_{2}", 10.0, -1e4, 1e4, "ground-side damping", scale=10.0),

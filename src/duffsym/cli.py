@@ -1,0 +1,272 @@
+"""The ``duffsym`` command line (see docs: the stable contract).
+
+Thin: every subcommand calls the public Python API. ``--json`` prints one JSON object on stdout
+and nothing else there; messages go to stderr. Bad input exits non-zero with one line, no traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from duffsym.errors import DuffsymError
+
+EXIT_ERROR = 2
+
+
+class CLIError(DuffsymError):
+    """A command-line usage problem found after parsing."""
+
+
+def _err(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+def _emit_json(obj) -> None:
+    print(json.dumps(obj, indent=2, allow_nan=False, default=_json_default))
+
+
+def _json_default(o):
+    import numpy as np
+
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    return str(o)
+
+
+def _parse_assignments(items, what: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for item in items or ():
+        for part in item.split(","):
+            if not part:
+                continue
+            if "=" not in part:
+                raise CLIError(f"{what} {part!r} must look like NAME=VALUE (e.g. c3=300)")
+            name, value = part.split("=", 1)
+            try:
+                number = float(value)
+            except ValueError:
+                raise CLIError(f"{what} {name}={value!r}: {value!r} is not a number") from None
+            if not math.isfinite(number):
+                raise CLIError(f"{what} {name}={value}: the value must be finite")
+            out[name.strip()] = number
+    return out
+
+
+# ---------------------------------------------------------------------------------------- models
+def cmd_models(args) -> int:
+    from duffsym.model.library import MODELS, get_model
+
+    rows = []
+    for name in MODELS:
+        m = get_model(name)
+        rows.append({"model": name, "description": m.description, "params": list(m.param_names),
+                     "inputs": [c.name for c in m.inputs], "output": m.output_name})
+    if args.json:
+        _emit_json({"models": rows})
+    else:
+        for r in rows:
+            print(f"{r['model']:<14} {r['description']}")
+            print(f"{'':<14} inputs {', '.join(r['inputs'])} -> output {r['output']}; params {', '.join(r['params'])}")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------- derive
+def cmd_derive(args) -> int:
+    from duffsym.derive.report import derivation_report
+    from duffsym.model.library import get_model
+
+    model = get_model(args.model, args.n)
+    report = derivation_report(model)
+    if args.json:
+        _emit_json(report.to_dict())
+    elif args.latex:
+        print(report.to_latex())
+    else:
+        print(report.to_text())
+    return 0
+
+
+# ---------------------------------------------------------------------------------------- simulate
+def _excitation(args, signal: str):
+    from duffsym.excitation import BandLimitedRandom, Multisine, Sine
+
+    rms = args.amplitude / math.sqrt(2)  # --amplitude is the peak of a sine; multisine/random get the same RMS
+    if args.excitation == "sine":
+        return Sine(args.amplitude, args.frequency, signal=signal)
+    if args.excitation == "multisine":
+        return Multisine.random_phase(rms, args.frequency, args.f_max, args.lines, rng=args.seed, signal=signal)
+    return BandLimitedRandom(rms=rms, f_max=args.f_max, duration=args.duration, seed=args.seed, signal=signal)
+
+
+def _simulation_columns(model):
+    """CSV column names per the contract: time, displacement, velocity, force for the damper models."""
+    names = {"d": "displacement", "d_dot": "velocity", "d_ddot": "acceleration"}
+    inputs = [names.get(c.name, "input" if c.order == 0 else f"input_{c.name}") for c in model.inputs]
+    output = "force" if model.output_name == "y" and "d" in model.signals else "output"
+    return inputs, output
+
+
+def cmd_simulate(args) -> int:
+    import numpy as np
+
+    from duffsym.model.library import get_model
+    from duffsym.model.presets import TABLE2_N, table2_params
+    from duffsym.simulate import simulate
+
+    n = args.n
+    if args.voltage is not None:
+        if args.model != "mr-damper":
+            raise CLIError("--voltage selects a Table 2 row of the mr-damper model; drop --model or --voltage")
+        if n is not None and n != TABLE2_N:
+            raise CLIError(f"Table 2 was identified with n = {TABLE2_N}; drop --n or give parameters with --param")
+    model = get_model(args.model, n)
+    params = table2_params(args.voltage) if args.voltage is not None else {}
+    params.update(_parse_assignments(args.param, "--param"))
+    pvec = model.param_vector(params, fill_defaults=True)
+    if args.dt <= 0 or not math.isfinite(args.dt):
+        raise CLIError(f"--dt must be a positive number of seconds; got {args.dt}")
+    duration = args.duration if args.periods is None else args.periods / args.frequency
+    if duration <= 0 or not math.isfinite(duration):
+        raise CLIError(f"the duration must be positive; got {duration}")
+    t = np.arange(int(round(duration / args.dt)) + 1) * args.dt
+    exc = _excitation(args, next(iter(model.signals)))
+    traj = simulate(model, pvec, t, exc, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
+    in_cols, out_col = _simulation_columns(model)
+    header = ["time", *in_cols, out_col]
+    data = np.column_stack([traj.t, traj.u, traj.y])
+    written = []
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        np.savetxt(out, data, delimiter=",", header=",".join(header), comments="", fmt="%.10g")
+        written.append(str(out))
+    if args.plot:
+        from duffsym.plot.loops import plot_loops, save_figure
+
+        period = 1.0 / args.frequency if args.excitation == "sine" else None
+        fig = plot_loops(traj, period=period, labels=[f"{model.name}"])
+        save_figure(fig, args.plot)
+        written.append(str(args.plot))
+    summary = {"model": model.name, "params": traj.params, "n_samples": int(t.size), "dt": args.dt,
+               "excitation": args.excitation, "status": traj.status, "success": traj.success,
+               "max_abs_output": float(np.max(np.abs(traj.y))), "substeps_total": int(traj.substeps.sum()),
+               "files": written}
+    if args.json:
+        _emit_json(summary)
+    else:
+        if not args.out:
+            print(",".join(header))
+            np.savetxt(sys.stdout, data, delimiter=",", fmt="%.10g")
+        _err(f"{traj.summary()}" + (f"; wrote {', '.join(written)}" if written else ""))
+    return 0
+
+
+# ---------------------------------------------------------------------------------------- reproduce
+def _find_studies(start: Path) -> Path | None:
+    for folder in (start, *start.parents):
+        candidate = folder / "studies" / "run_all.py"
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def cmd_reproduce(args) -> int:
+    runner = Path(args.studies) / "run_all.py" if args.studies else _find_studies(Path.cwd())
+    if runner is None or not runner.is_file():
+        raise CLIError("no studies/run_all.py found from the current folder upwards; run `duffsym reproduce` "
+                       "inside a duffsym checkout or pass --studies PATH/TO/studies")
+    cmd = [sys.executable, str(runner)] + (["--smoke"] if args.smoke else [])
+    _err(f"running {' '.join(cmd)}")
+    proc = subprocess.run(cmd, cwd=runner.parent.parent, env={**os.environ, "MPLBACKEND": "Agg"})
+    if proc.returncode != 0:
+        raise CLIError(f"the studies failed (exit {proc.returncode}); see the messages above")
+    return 0
+
+
+# ---------------------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    from duffsym import __version__
+
+    p = argparse.ArgumentParser(prog="duffsym", description="Continuous hysteresis models from one symbolic model "
+                                "(Tu, Lin & Cheng's Duffing-like equation).")
+    p.add_argument("--version", action="version", version=f"duffsym {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    s = sub.add_parser("models", help="list the models")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_models)
+
+    s = sub.add_parser("derive", help="the paper's derivations for a model: state space, Lyapunov, invariant set, "
+                       "stability conditions, scaling symmetry")
+    s.add_argument("--model", default="mr-damper", help="model name (see `duffsym models`; default mr-damper)")
+    s.add_argument("--n", type=int, default=None, help="the odd power n (default: the model's, 5 for mr-damper)")
+    fmt = s.add_mutually_exclusive_group()
+    fmt.add_argument("--latex", action="store_true", help="print LaTeX")
+    fmt.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_derive)
+
+    s = sub.add_parser("simulate", help="simulate a model under an excitation; CSV (time, displacement, velocity, "
+                       "force) and an optional loop plot")
+    s.add_argument("--model", default="mr-damper", help="model name (default mr-damper)")
+    s.add_argument("--n", type=int, default=None, help="the odd power n")
+    s.add_argument("--voltage", type=float, default=None, help="use the Table 2 row of this voltage (V)")
+    s.add_argument("--param", action="append", metavar="NAME=VALUE", help="set parameters (repeat or comma-separate); "
+                   "others keep their defaults")
+    s.add_argument("--excitation", choices=("sine", "multisine", "random"), default="sine")
+    s.add_argument("--amplitude", type=float, default=1.0, help="sine amplitude (peak) of d; default 1")
+    s.add_argument("--frequency", type=float, default=2.0, help="sine frequency in Hz (lowest line of a multisine); "
+                   "default 2")
+    s.add_argument("--f-max", type=float, default=5.0, help="highest frequency of multisine/random, Hz")
+    s.add_argument("--lines", type=int, default=10, help="multisine lines")
+    s.add_argument("--seed", type=int, default=0, help="seed of random phases/signals")
+    s.add_argument("--dt", type=float, default=0.005, help="sampling time, s (paper: 0.005)")
+    s.add_argument("--duration", type=float, default=5.0, help="duration, s")
+    s.add_argument("--periods", type=float, default=None, help="duration in periods of --frequency (overrides --duration)")
+    s.add_argument("--substeps", default="auto", help="RK4 substeps per sample: auto (from the local stiffness) or N")
+    s.add_argument("--out", help="CSV file to write (default: stdout)")
+    s.add_argument("--plot", help="loop plot file (PNG/PDF)")
+    s.add_argument("--json", action="store_true", help="print a JSON summary on stdout (needs --out for the data)")
+    s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("reproduce", help="run the studies and regenerate every figure and number")
+    s.add_argument("--smoke", action="store_true", help="quick run with small settings (for CI)")
+    s.add_argument("--studies", help="path of the studies folder (default: found from the current folder upwards)")
+    s.set_defaults(func=cmd_reproduce)
+    return p
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except DuffsymError as exc:
+        _err(f"duffsym {args.command}: error: {exc}")
+        return EXIT_ERROR
+    except (OSError, ValueError) as exc:
+        if args.debug:
+            raise
+        _err(f"duffsym {args.command}: error: {exc}")
+        return EXIT_ERROR
+    except KeyboardInterrupt:
+        _err("interrupted")
+        return 130
+    except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
+        if args.debug:
+            raise
+        _err(f"duffsym {args.command}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
+             "and please report it)")
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
