@@ -79,10 +79,11 @@ def cmd_models(args) -> int:
 
 # ---------------------------------------------------------------------------------------- derive
 def cmd_derive(args) -> int:
-    from duffsym.derive.report import derivation_report
     from duffsym.model.library import get_model
 
     model = get_model(args.model, args.n)
+    from duffsym.derive.report import derivation_report
+
     report = derivation_report(model)
     if args.json:
         _emit_json(report.to_dict())

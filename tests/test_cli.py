@@ -1,0 +1,83 @@
+"""The command line: results against the Python API, and one-line errors with non-zero exits."""
+import json
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from duffsym import Sine, mr_damper, simulate
+from duffsym.cli import main
+from duffsym.model.presets import TABLE2
+
+
+def run(argv, capsys):
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_models_json_lists_the_paper_models(capsys):
+    code, out, err = run(["models", "--json"], capsys)
+    assert code == 0
+    names = [m["model"] for m in json.loads(out)["models"]]
+    assert names == ["mr-damper", "duffing-like", "duffing"]
+
+
+def test_simulate_table2_row_matches_python_api(tmp_path, capsys):
+    csv = tmp_path / "sim.csv"
+    code, out, err = run(["simulate", "--voltage", "0.6", "--periods", "2", "--frequency", "2", "--dt", "0.005",
+                          "--out", str(csv), "--json"], capsys)
+    assert code == 0
+    summary = json.loads(out)
+    assert summary["success"] and summary["params"]["k2"] == 450.0
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    assert data.dtype.names == ("time", "displacement", "velocity", "force")
+    t = np.arange(201) * 0.005
+    ref = simulate(mr_damper(), TABLE2[0.6], t, Sine(1.0, 2.0))
+    np.testing.assert_allclose(data["time"], t, atol=1e-12)
+    np.testing.assert_allclose(data["force"], ref.y, rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(data["velocity"], 2 * np.pi * 2 * np.cos(2 * np.pi * 2 * t), rtol=1e-8, atol=1e-8)
+
+
+def test_simulate_param_override(tmp_path, capsys):
+    code, out, _ = run(["simulate", "--voltage", "0.4", "--param", "c3=100,A_f=3", "--periods", "1",
+                        "--out", str(tmp_path / "a.csv"), "--json"], capsys)
+    params = json.loads(out)["params"]
+    assert code == 0 and params["c3"] == 100.0 and params["A_f"] == 3.0 and params["k1"] == 34.0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["simulate", "--voltage", "0.35"], "0.35 V is not a row of Table 2"),
+    (["simulate", "--param", "c4=1"], r"unknown parameter\(s\) \['c4'\]"),
+    (["simulate", "--param", "c3=inf"], "must be finite"),
+    (["simulate", "--param", "c3"], "must look like NAME=VALUE"),
+    (["simulate", "--n", "4"], "n must be odd"),
+    (["simulate", "--dt", "0"], "--dt must be a positive"),
+    (["simulate", "--param", "c3=-300", "--amplitude", "3", "--periods", "2"], "blew up at t="),
+    (["simulate", "--voltage", "0.4", "--model", "duffing"], "--voltage selects a Table 2 row"),
+    (["derive", "--model", "bouc"], "unknown model 'bouc'"),
+])
+def test_bad_input_exits_nonzero_with_one_line(argv, message, capsys):
+    code, out, err = run(argv, capsys)
+    assert code == 2
+    assert out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err
+    assert re.search(message, lines[0]), lines[0]
+
+
+def test_reproduce_without_studies_says_where_to_run(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code, out, err = run(["reproduce", "--smoke"], capsys)
+    assert code == 2 and "no studies/run_all.py found" in err
+
+
+def test_console_script_reports_without_traceback(tmp_path):
+    """The installed entry point, as a user runs it: one stderr line, exit 2."""
+    proc = subprocess.run([sys.executable, "-m", "duffsym.cli", "simulate", "--n", "2"],
+                          capture_output=True, text=True, cwd=tmp_path)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
+    assert "n must be odd" in proc.stderr
