@@ -1,0 +1,409 @@
+"""Readers for measured data: the CSV format of ``contract.md`` and the real third-party data sets.
+
+Third-party data is never copied into the repository; loaders take a path, and
+:func:`external_data_dir` finds the shared folder through one setting.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from duffsym.data.record import Record
+from duffsym.errors import DataError
+
+#: Roles of the CSV columns and the synonyms accepted for each (first = canonical file column name).
+ROLES: dict[str, tuple[str, ...]] = {
+    "time": ("time", "t"),
+    "input": ("displacement", "input"),
+    "output": ("force", "output"),
+    "velocity": ("velocity",),
+    "current": ("current",),
+    "voltage": ("voltage",),
+}
+#: Names a user may use as keys of ``columns`` for each role.
+ROLE_KEYS: dict[str, str] = {
+    "time": "time", "t": "time",
+    "input": "input", "displacement": "input", "d": "input",
+    "output": "output", "force": "output", "y": "output",
+    "velocity": "velocity", "d_dot": "velocity",
+    "current": "current", "voltage": "voltage",
+}
+REQUIRED_ROLES = ("time", "input", "output")
+#: Record field of each role, used for units.
+_FIELD = {"time": "t", "input": "d", "output": "y", "velocity": "d_dot", "current": "current", "voltage": "voltage"}
+
+ENV_EXTERNAL = "DUFFSYM_EXTERNAL_DATA"
+_OBTAIN = (
+    "set DUFFSYM_EXTERNAL_DATA to the folder holding mr_damper_utfsm_quiroz2022/ and silverbox/ "
+    "(each has a SOURCE.md saying where the files come from), or place it at ../shared/data/external"
+)
+
+
+def external_data_dir() -> Path:
+    """The folder of real third-party data (never committed to the repository).
+
+    The environment variable ``DUFFSYM_EXTERNAL_DATA`` if set; otherwise the first existing of
+    ``../shared/data/external`` relative to the current directory and relative to the repository.
+
+    Raises
+    ------
+    DataError
+        If the variable points to a missing folder, or no candidate exists; the message says how to
+        obtain the data.
+    """
+    env = os.environ.get(ENV_EXTERNAL)
+    if env:
+        p = Path(env).expanduser()
+        if not p.is_dir():
+            raise DataError(f"{ENV_EXTERNAL}={env} is not a folder; {_OBTAIN}")
+        return p
+    repo = Path(__file__).resolve().parents[3]
+    candidates = [Path.cwd() / ".." / "shared" / "data" / "external", repo / ".." / "shared" / "data" / "external"]
+    for c in candidates:
+        if c.is_dir():
+            return c.resolve()
+    tried = ", ".join(str(c) for c in candidates)
+    raise DataError(f"external data folder not found (tried {tried}); {_OBTAIN}")
+
+
+# ---------------------------------------------------------------------------- CSV
+def _check_file(path: Path) -> bytes:
+    if not path.exists():
+        raise DataError(f"{path}: no such file; check the path")
+    if path.is_dir():
+        raise DataError(f"{path}: is a folder, not a data file; give a CSV file")
+    head = path.read_bytes()[:8192]
+    if not head.strip():
+        raise DataError(f"{path}: the file is empty; give a CSV with a header row and one row per sample")
+    if b"\x00" in head:
+        raise DataError(f"{path}: looks like a binary file (NUL bytes); give a text CSV with a header row")
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        # a multi-byte character cut at the 8 kB boundary is fine; anything earlier is not text
+        if exc.start < len(head) - 4:
+            raise DataError(f"{path}: not UTF-8 text (byte {exc.start}); give a text CSV with a header row")
+    return head
+
+
+def _resolve_columns(path: Path, header: list[str], columns: Mapping[str, str] | None) -> dict[str, int]:
+    """Map each role to a column index of ``header``."""
+    chosen: dict[str, str] = {}
+    for key, col in (columns or {}).items():
+        role = ROLE_KEYS.get(str(key).strip().lower())
+        if role is None:
+            raise DataError(
+                f"{path}: unknown column role {key!r} in the column mapping; use one of "
+                f"{{{', '.join(sorted(set(ROLE_KEYS)))}}}"
+            )
+        if role in chosen:
+            raise DataError(f"{path}: role {role!r} mapped twice in the column mapping ({chosen[role]!r}, {col!r})")
+        chosen[role] = str(col).strip()
+    lower = {h.lower(): i for i, h in enumerate(header)}
+    index: dict[str, int] = {}
+    for role, synonyms in ROLES.items():
+        if role in chosen:
+            name = chosen[role]
+            if name in header:
+                index[role] = header.index(name)
+            elif name.lower() in lower:
+                index[role] = lower[name.lower()]
+            else:
+                raise DataError(
+                    f"{path}: missing column {name!r} (for {role}); the file has {header}; "
+                    "fix the header or the column mapping (e.g. --columns time=t,input=V1,output=V2)"
+                )
+            continue
+        for syn in synonyms:
+            if syn in lower:
+                index[role] = lower[syn]
+                break
+        else:
+            if role in REQUIRED_ROLES:
+                raise DataError(
+                    f"{path}: missing column {synonyms[0]!r} (the {role}); the file has {header}; "
+                    f"rename it or map it (e.g. --columns {role}=YOUR_NAME)"
+                )
+    used = {}
+    for role, i in index.items():
+        if i in used:
+            raise DataError(f"{path}: column {header[i]!r} used for both {used[i]} and {role}; map distinct columns")
+        used[i] = role
+    return index
+
+
+def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None, *,
+             nan_policy: str = "raise", delimiter: str | None = None) -> Record:
+    """Read a record from a CSV file with a header row (the format of ``contract.md``).
+
+    Parameters
+    ----------
+    path : the CSV file.
+    columns : role -> file column name, e.g. ``{"time": "t", "input": "V1", "output": "V2"}``.
+        Roles: ``time``, ``input`` (synonym ``displacement``), ``output`` (synonym ``force``),
+        ``velocity``, ``current``, ``voltage``. Unmapped roles use the default file columns
+        ``time``, ``displacement`` (or ``input``), ``force`` (or ``output``), ``velocity``,
+        ``current``, ``voltage`` (matched case-insensitively); the last three are optional.
+    units : role -> unit text, stored in the record (``{"input": "mm", "output": "N"}``).
+    nan_policy : ``"raise"`` or ``"omit"``; empty fields count as NaN.
+    delimiter : field separator; sniffed from the header (``,`` ``;`` tab) when None.
+
+    Raises
+    ------
+    DataError
+        One line naming the file and the problem: empty file, header only, binary file, missing
+        column, unparsable value (with its row and column), ragged row, or any :class:`Record`
+        validation failure.
+    """
+    path = Path(path)
+    head = _check_file(path)
+    if delimiter is None:
+        first = head.decode("utf-8", errors="replace").splitlines()[0]
+        delimiter = max([",", ";", "\t"], key=first.count) if any(c in first for c in ",;\t") else ","
+    with path.open("r", encoding="utf-8", errors="replace", newline="") as fh:
+        reader = csv.reader(fh, delimiter=delimiter)
+        header = next(reader, None)
+        header = [h.strip().strip('"').strip() for h in (header or [])]
+        while header and header[-1] == "":  # trailing delimiter, as in the Silverbox files
+            header.pop()
+        if not header:
+            raise DataError(f"{path}: the file is empty; give a CSV with a header row and one row per sample")
+        numeric_header = True
+        for h in header:
+            try:
+                float(h)
+            except ValueError:
+                numeric_header = False
+        if numeric_header:
+            raise DataError(
+                f"{path}: the first row {header} is numeric, not a header; add a header row naming the columns "
+                "(time,displacement,force)"
+            )
+        index = _resolve_columns(path, header, columns)
+        roles = list(index)
+        cols = [index[r] for r in roles]
+        need = max(cols) + 1
+        data: list[list[float]] = []
+        for row in reader:
+            line = reader.line_num
+            if not row or all(not f.strip() for f in row):
+                continue
+            if len(row) < need:
+                raise DataError(
+                    f"{path}: row {line} has {len(row)} field(s), column {header[max(cols)]!r} needs {need}; "
+                    "fix the row or remove it"
+                )
+            vals = []
+            for r, c in zip(roles, cols):
+                f = row[c].strip().strip('"')
+                if f == "":
+                    vals.append(math.nan)
+                    continue
+                try:
+                    vals.append(float(f))
+                except ValueError:
+                    raise DataError(
+                        f"{path}: row {line}, column {header[c]!r}: cannot read {f[:40]!r} as a number; "
+                        "fix the value (use '.' as decimal point) or remove the row"
+                    ) from None
+            data.append(vals)
+    if not data:
+        raise DataError(f"{path}: the file has a header but no data rows; add one row per sample")
+    arr = np.array(data, dtype=float)
+    sig = {r: arr[:, i] for i, r in enumerate(roles)}
+    scalars = {}
+    for r in ("current", "voltage"):
+        if r in sig:
+            v = sig[r][np.isfinite(sig[r])]
+            if v.size == 0:
+                scalars[r] = None
+            elif np.ptp(v) > 1e-9 * max(1.0, np.max(np.abs(v))):
+                raise DataError(
+                    f"{path}: column {header[index[r]]!r} ({r}) varies between {v.min():g} and {v.max():g}; "
+                    "a record is one test at a constant coil setting: split the file by its value"
+                )
+            else:
+                scalars[r] = float(v[0])
+    unit_map = {}
+    for key, u in (units or {}).items():
+        role = ROLE_KEYS.get(str(key).strip().lower())
+        if role is None:
+            raise DataError(f"unknown role {key!r} in units; use one of {{{', '.join(sorted(set(ROLE_KEYS)))}}}")
+        unit_map[_FIELD[role]] = str(u)
+    return Record(
+        t=sig["time"], d=sig["input"], y=sig["output"], d_dot=sig.get("velocity"),
+        current=scalars.get("current"), voltage=scalars.get("voltage"), units=unit_map,
+        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv"},
+        source=str(path), nan_policy=nan_policy,
+    )
+
+
+def write_csv(record: Record, path) -> Path:
+    """Write a record in the CSV format of ``contract.md`` (time, displacement, velocity, force[, current/voltage])."""
+    path = Path(path)
+    cols = {"time": record.t, "displacement": record.d}
+    if record.d_dot is not None:
+        cols["velocity"] = record.d_dot
+    cols["force"] = record.y
+    if record.current is not None:
+        cols["current"] = np.full(record.n_times, record.current)
+    if record.voltage is not None:
+        cols["voltage"] = np.full(record.n_times, record.voltage)
+    mat = np.column_stack(list(cols.values()))
+    np.savetxt(path, mat, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    return path
+
+
+# ---------------------------------------------------------------------------- MR damper, UTFSM (Quiroz 2022)
+_UTFSM_NAME = re.compile(r"^(?P<amp>\d+(?:x\d+)?)mm(?P<freq>\d+(?:x\d+)?)Hz(?P<cur>\d+(?:x\d+)?)A$")
+#: Coil currents (A) of the force columns 2..6 of ``validacion.mat``.
+UTFSM_VALIDATION_CURRENTS = (0.2, 0.4, 0.6, 0.8, 1.0)
+UTFSM_VALIDATION_DT = 0.001
+VELOCITY_CHOICES = ("file", "derive")
+
+
+def _number(text: str) -> float:
+    return float(text.replace("x", "."))
+
+
+def parse_utfsm_name(name: str) -> dict[str, float]:
+    """Amplitude (mm), frequency (Hz) and current (A) from a name such as ``25mm0x1Hz0x75A``."""
+    m = _UTFSM_NAME.match(Path(name).stem)
+    if not m:
+        raise DataError(
+            f"{name}: file name does not follow <amp>mm<freq>Hz<current>A (x = decimal point), e.g. 25mm0x1Hz0x75A.txt"
+        )
+    return {"amplitude_mm": _number(m["amp"]), "frequency_hz": _number(m["freq"]), "current_a": _number(m["cur"])}
+
+
+def load_mr_damper_utfsm(path, *, current: float | None = None, velocity: str = "file") -> Record:
+    """Read one test of the UTFSM MR damper data set (Quiroz 2022; see its SOURCE.md).
+
+    Two kinds of file:
+
+    - ``sinusoidal_preprocessed/<amp>mm<freq>Hz<current>A.txt``: whitespace-separated columns time (s),
+      displacement (mm, mean removed), velocity (mm/s), force (N, mean removed); the nominal amplitude,
+      frequency and the coil current come from the file name. The authors smoothed displacement and force
+      with the same moving average (a tenth of the period) and took the velocity as a one-sided difference of
+      the displacement, which lags by half a sample; ``velocity="derive"`` drops it and uses the record's
+      centred Savitzky–Golay derivative instead.
+    - ``earthquake_validation/validacion.mat``: variable ``data`` (64648, 6) at dt = 0.001 s: column 1 the
+      common displacement (mm), columns 2..6 the force (N) at 0.2, 0.4, 0.6, 0.8 and 1.0 A, all smoothed by a
+      0.3 s moving average. There is no time or velocity column: time is ``k * 0.001`` s and the velocity is
+      derived. ``current`` selects the force column and is required.
+
+    Parameters
+    ----------
+    path : one of the files above.
+    current : coil current (A) for the ``.mat`` file; one of 0.2, 0.4, 0.6, 0.8, 1.0.
+    velocity : ``"file"`` (use the file's velocity column) or ``"derive"``.
+
+    Raises
+    ------
+    DataError
+        A missing or unreadable file, a name that does not follow the pattern, an unknown current.
+    """
+    path = Path(path)
+    if velocity not in VELOCITY_CHOICES:
+        raise DataError(f"velocity must be one of {set(VELOCITY_CHOICES)}; got {velocity!r}")
+    if not path.is_file():
+        raise DataError(f"{path}: no such file; get the UTFSM MR damper data ({_OBTAIN})")
+    units = {"t": "s", "d": "mm", "d_dot": "mm/s", "y": "N"}
+    if path.suffix.lower() == ".mat":
+        from scipy.io import loadmat
+
+        try:
+            mat = loadmat(str(path))
+        except Exception as exc:  # scipy raises several types for a bad file
+            raise DataError(f"{path}: not a readable MATLAB file ({type(exc).__name__}: {exc})") from None
+        if "data" not in mat or np.ndim(mat["data"]) != 2 or mat["data"].shape[1] != 6:
+            raise DataError(f"{path}: expected a variable 'data' of shape (n, 6) (displacement + 5 forces)")
+        if current is None or not any(abs(float(current) - c) < 1e-9 for c in UTFSM_VALIDATION_CURRENTS):
+            raise DataError(
+                f"{path}: give current= one of {UTFSM_VALIDATION_CURRENTS} A to choose the force column; got {current}"
+            )
+        j = 1 + [abs(float(current) - c) < 1e-9 for c in UTFSM_VALIDATION_CURRENTS].index(True)
+        data = np.asarray(mat["data"], dtype=float)
+        t = np.arange(data.shape[0]) * UTFSM_VALIDATION_DT
+        return Record(
+            t=t, d=data[:, 0], y=data[:, j], current=float(current), units=units,
+            metadata={"dataset": "mr_damper_utfsm_quiroz2022", "kind": "earthquake", "column": j,
+                      "smoothing": "0.3 s moving average on displacement and force (authors' preprocessing)"},
+            source=str(path), name=f"validacion_{float(current):g}A",
+        )
+    info = parse_utfsm_name(path.name)
+    if current is not None and abs(float(current) - info["current_a"]) > 1e-9:
+        raise DataError(f"{path}: the file name says {info['current_a']:g} A but current={current} was given")
+    try:
+        raw = np.loadtxt(path, ndmin=2)
+    except ValueError as exc:
+        raise DataError(f"{path}: cannot read the numeric columns ({exc}); expected time, displacement, velocity, "
+                        "force separated by spaces") from None
+    if raw.shape[1] != 4:
+        raise DataError(f"{path}: expected 4 columns (time, displacement, velocity, force); found {raw.shape[1]}")
+    return Record(
+        t=raw[:, 0], d=raw[:, 1], y=raw[:, 3], d_dot=raw[:, 2] if velocity == "file" else None,
+        current=info["current_a"], units=units,
+        metadata={"dataset": "mr_damper_utfsm_quiroz2022", "kind": "sine", **info,
+                  "velocity": "file: one-sided difference of d (half-sample lag)" if velocity == "file"
+                  else "derived: centred Savitzky-Golay"},
+        source=str(path),
+    )
+
+
+def utfsm_sine_files(folder=None) -> list[Path]:
+    """The 30 ``sinusoidal_preprocessed`` files, sorted (default folder: under :func:`external_data_dir`)."""
+    folder = Path(folder) if folder is not None else (
+        external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed")
+    files = sorted(p for p in folder.glob("*.txt") if _UTFSM_NAME.match(p.stem))
+    if not files:
+        raise DataError(f"{folder}: no <amp>mm<freq>Hz<current>A.txt files; {_OBTAIN}")
+    return files
+
+
+# ---------------------------------------------------------------------------- Silverbox
+SILVERBOX_FS = 1e7 / 2**14
+#: Official split of SNLS80mV (0-based, half-open rows), from the nonlinear_benchmarks loader.
+SILVERBOX_PARTS: dict[str, tuple[int, int]] = {
+    "arrow_full": (100, 40575),
+    "arrow_no_extrapolation": (100, 32100),
+    "multisine_train": (40650, 40650 + 65062),
+    "multisine_test": (127400 - 21688, 127400),
+}
+
+
+def load_silverbox(path, *, part: str | None = None) -> Record:
+    """Read the Silverbox benchmark (input V1 -> ``d``, output V2 -> ``y``, volts).
+
+    Parameters
+    ----------
+    path : ``SNLS80mV.csv`` or ``Schroeder80mV.csv`` (header row, columns ``V1``, ``V2``).
+    part : a part of the official split of ``SNLS80mV.csv``: one of ``SILVERBOX_PARTS``
+        (``arrow_full``, ``arrow_no_extrapolation``, ``multisine_train``, ``multisine_test``),
+        or None for the whole file. Time is ``k / fs`` with fs = 1e7/2**14 Hz, k the file row.
+    """
+    path = Path(path)
+    if part is not None and part not in SILVERBOX_PARTS:
+        raise DataError(f"part must be one of {{{', '.join(SILVERBOX_PARTS)}}} or None; got {part!r}")
+    _check_file(path)
+    with path.open() as fh:
+        header = [h.strip().strip('"') for h in fh.readline().split(",")]
+    if "V1" not in header or "V2" not in header:
+        raise DataError(f"{path}: missing column 'V1' or 'V2' (header {header}); give a Silverbox CSV file")
+    cols = (header.index("V1"), header.index("V2"))
+    arr = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, ndmin=2)
+    k = np.arange(arr.shape[0])
+    if part is not None:
+        a, b = SILVERBOX_PARTS[part]
+        arr, k = arr[a:b], k[a:b]
+    return Record(
+        t=k / SILVERBOX_FS, d=arr[:, 0], y=arr[:, 1], units={"t": "s", "d": "V", "y": "V"},
+        metadata={"dataset": "silverbox", "part": part, "fs": SILVERBOX_FS, "first_row": int(k[0])},
+        source=str(path), name=f"{path.stem}" + (f"[{part}]" if part else ""),
+    )
