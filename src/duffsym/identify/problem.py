@@ -1,0 +1,216 @@
+"""An identification problem: a model, one or more records, and which parameters vary.
+
+Validated once, at construction. The defaults of ``contract.md`` are applied here and each is
+recorded with its reason:
+
+- ``A_f`` fixed to ``max|y|`` (over all records): the scaling symmetry :math:`x \\to s x` maps
+  :math:`(c_1, c_2, k_1, k_2, c_3, k_3, A_f)` to
+  :math:`(c_1/s,\\ c_1+c_2-c_1/s,\\ k_1/s,\\ k_1+k_2-k_1/s,\\ c_3 s^{n-1},\\ k_3 s^{n-1},\\ A_f s)` and leaves
+  the output unchanged, so ``A_f`` and the gains are not identifiable together; the paper fixes
+  ``A_f`` to the force peak.
+- ``k3`` fixed at 0: under a single-amplitude sine, ``k3`` trades against ``k1`` and ``k2`` along
+  a ridge of equal fit (Table 2 has ``k3 = 0`` throughout); several amplitudes free it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from duffsym.data.record import Record
+from duffsym.errors import DataError, ModelError
+
+REASON_AF = ("fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leaves the output unchanged, so A_f "
+             "and the gains are not identifiable together (the paper sets A_f to the force peak)")
+REASON_K3 = ("fixed at 0: under a single-amplitude sine k3 trades against k1 and k2 along a ridge of equal fit "
+             "(Table 2 has k3 = 0); free it (free=[..., 'k3']) with records at several amplitudes")
+REASON_HELD = "not listed in free; held at the model default {value:.6g}"
+
+
+def _as_records(records) -> tuple[Record, ...]:
+    if isinstance(records, Record):
+        return (records,)
+    out = tuple(records)
+    if not out:
+        raise DataError("a problem needs at least one record")
+    for i, r in enumerate(out):
+        if not isinstance(r, Record):
+            raise DataError(f"records[{i}] is a {type(r).__name__}, not a duffsym.data.Record; load it with read_csv")
+    return out
+
+
+def _per_record(name: str, value, records: tuple[Record, ...], dtype) -> tuple[np.ndarray, ...] | None:
+    """Normalise a per-sample array argument (one array, or one per record)."""
+    if value is None:
+        return None
+    if len(records) == 1 and not (isinstance(value, (list, tuple)) and len(value) == 1):
+        value = [value]
+    value = list(value)
+    if len(value) != len(records):
+        raise DataError(f"{name}: give one array per record ({len(records)}); got {len(value)}")
+    out = []
+    for i, (v, r) in enumerate(zip(value, records)):
+        a = np.array(v, dtype=dtype).reshape(-1)
+        if a.size != r.n_times:
+            raise DataError(f"{name}[{i}] has {a.size} values for record {r.name!r} of {r.n_times} samples; "
+                            "give one value per sample")
+        a.flags.writeable = False
+        out.append(a)
+    return tuple(out)
+
+
+@dataclass(frozen=True, eq=False, init=False)
+class Problem:
+    """A model, its records and the parameters to identify.
+
+    Parameters
+    ----------
+    model : the :class:`~duffsym.model.SymbolicModel` (the single source of the dynamics).
+    records : one :class:`~duffsym.data.Record` or a sequence; all share the parameters (each
+        record has its own state trajectory in the fit).
+    free : names of the parameters to identify. Default: every parameter not fixed.
+        Parameters neither free nor fixed are held at the model default (recorded).
+    fixed : name -> value of parameters held constant. Defaults (when a name is neither given in
+        ``free`` nor ``fixed``): ``A_f = max|y|`` and ``k3 = 0`` (see the module docstring).
+    bounds : name -> ``(lower, upper)``; default the model's ParamSpec bounds.
+    weights : per-sample non-negative weights of the squared output residuals (one array, or one per record).
+    mask : per-sample booleans, True where a sample leaves the objective (one array or one per record);
+        masked samples still obey the dynamics.
+    mask_info : description of how the mask was chosen (e.g. from :func:`auto_mask`), kept in the result.
+
+    Raises
+    ------
+    ModelError
+        Unknown parameter names, a name both free and fixed, non-finite fixed values, bounds
+        with ``lower >= upper``, no free parameter.
+    DataError
+        Bad records, weights or masks, or every sample masked.
+    """
+
+    model: object
+    records: tuple[Record, ...]
+    free: tuple[str, ...] = ()
+    fixed: Mapping[str, float] = field(default_factory=dict)
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    weights: tuple[np.ndarray, ...] = ()
+    mask: tuple[np.ndarray, ...] = ()
+    defaults_applied: Mapping[str, str] = field(default_factory=dict)
+    mask_info: Mapping[str, object] = field(default_factory=dict)
+
+    def __init__(self, model, records, *, free: Sequence[str] | None = None, fixed: Mapping[str, float] | None = None,
+                 bounds: Mapping[str, tuple[float, float]] | None = None, weights=None, mask=None,
+                 mask_info: Mapping[str, object] | None = None):
+        recs = _as_records(records)
+        names = list(model.param_names)
+        fixed_in = dict(fixed or {})
+        for label, group in (("fixed", fixed_in), ("bounds", dict(bounds or {}))):
+            unknown = sorted(set(group) - set(names))
+            if unknown:
+                raise ModelError(f"{label}: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
+        if free is not None:
+            if isinstance(free, str):
+                free = [free]
+            unknown = sorted(set(free) - set(names))
+            if unknown:
+                raise ModelError(f"free: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
+            both = sorted(set(free) & set(fixed_in))
+            if both:
+                raise ModelError(f"parameter(s) {both} are both free and fixed; choose one")
+        fixed_vals: dict[str, float] = {}
+        for k, v in fixed_in.items():
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                raise ModelError(f"fixed value of {k} must be a number; got {v!r}") from None
+            if not math.isfinite(v):
+                raise ModelError(f"fixed value of {k} must be finite; got {v}")
+            fixed_vals[k] = v
+        defaults: dict[str, str] = {}
+        requested = set(free or ()) | set(fixed_vals)
+        if "A_f" in names and "A_f" not in requested:
+            peak = max(float(np.max(np.abs(r.y))) for r in recs)
+            fixed_vals["A_f"] = peak
+            defaults["A_f"] = REASON_AF.format(value=peak)
+        if "k3" in names and "k3" not in requested:
+            fixed_vals["k3"] = 0.0
+            defaults["k3"] = REASON_K3
+        if free is None:
+            free_t = tuple(n for n in names if n not in fixed_vals)
+        else:
+            free_t = tuple(n for n in names if n in set(free))
+            for n in names:
+                if n not in free_t and n not in fixed_vals:
+                    fixed_vals[n] = model.param(n).default
+                    defaults[n] = REASON_HELD.format(value=fixed_vals[n])
+        if not free_t:
+            raise ModelError(f"no free parameter left for model {model.name}; list some in free=")
+        bnds: dict[str, tuple[float, float]] = {}
+        for n in free_t:
+            spec = model.param(n)
+            lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))
+            lo, hi = float(lo), float(hi)
+            if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+                raise ModelError(f"bounds of {n} must satisfy lower < upper; got ({lo}, {hi}); swap or widen them")
+            bnds[n] = (lo, hi)
+        w = _per_record("weights", weights, recs, float)
+        if w is not None:
+            for i, a in enumerate(w):
+                if not np.all(np.isfinite(a)) or np.any(a < 0):
+                    raise DataError(f"weights[{i}] must be finite and >= 0")
+        m = _per_record("mask", mask, recs, bool)
+        eff = [np.ones(r.n_times) for r in recs]
+        if w is not None:
+            eff = [e * a for e, a in zip(eff, w)]
+        if m is not None:
+            eff = [e * ~a for e, a in zip(eff, m)]
+        n_used = sum(int(np.count_nonzero(e)) for e in eff)
+        if n_used <= len(free_t):
+            raise DataError(
+                f"only {n_used} sample(s) left in the objective after weights/mask for {len(free_t)} free "
+                "parameter(s); mask fewer samples"
+            )
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "records", recs)
+        object.__setattr__(self, "free", free_t)
+        object.__setattr__(self, "fixed", dict(fixed_vals))
+        object.__setattr__(self, "bounds", bnds)
+        object.__setattr__(self, "weights", w or ())
+        object.__setattr__(self, "mask", m or ())
+        object.__setattr__(self, "defaults_applied", defaults)
+        object.__setattr__(self, "mask_info", dict(mask_info or {}))
+
+    # ------------------------------------------------------------------
+    def sample_weights(self, i: int) -> np.ndarray:
+        """Effective weight of each sample of record ``i`` (0 where masked)."""
+        w = np.ones(self.records[i].n_times)
+        if self.weights:
+            w = w * self.weights[i]
+        if self.mask:
+            w = w * ~self.mask[i]
+        return w
+
+    def masks(self) -> tuple[np.ndarray, ...]:
+        """Mask per record (all False when none was given)."""
+        return self.mask or tuple(np.zeros(r.n_times, dtype=bool) for r in self.records)
+
+    def full_params(self, free_values: Mapping[str, float] | Sequence[float]) -> dict[str, float]:
+        """All parameters by name from the free values and the fixed ones."""
+        if not isinstance(free_values, Mapping):
+            free_values = dict(zip(self.free, map(float, free_values)))
+        out = {}
+        for n in self.model.param_names:
+            out[n] = float(free_values[n]) if n in self.free else float(self.fixed[n])
+        return out
+
+    def summary(self) -> str:
+        lines = [f"problem: model {self.model.name}, {len(self.records)} record(s), "
+                 f"{sum(r.n_times for r in self.records)} samples"]
+        lines.append(f"  free:  {', '.join(self.free)}")
+        for k, v in self.fixed.items():
+            lines.append(f"  fixed: {k} = {v:g}" + (f"  ({self.defaults_applied[k]})" if k in self.defaults_applied else ""))
+        if self.mask:
+            n = sum(int(m.sum()) for m in self.mask)
+            lines.append(f"  mask:  {n} sample(s) out of the objective")
+        return "\n".join(lines)

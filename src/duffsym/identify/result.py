@@ -1,0 +1,199 @@
+"""The outcome of an identification, and its JSON form (``contract.md``)."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from duffsym.errors import DataError
+
+
+def _num(v):
+    """JSON-safe float (NaN/inf become None)."""
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+@dataclass(frozen=True, eq=False)
+class IdentificationResult:
+    """Identified parameters with their uncertainty, the fit quality and how the solver ended.
+
+    Attributes
+    ----------
+    model : model name; ``effects`` the effects applied to it; ``structural`` its structural integers.
+    params : every parameter by name (free and fixed).
+    free : names of the identified parameters; ``fixed`` the held ones with their values.
+    stderr : standard error of each free parameter (Laplace approximation, see :func:`~duffsym.identify.fit`).
+    covariance : (n_free, n_free) covariance of the free parameters, ordered as ``free``.
+    cost : final least-squares cost, sum of weighted squared output residuals of the collocation fit
+        (output units squared).
+    nrmse : free-run simulation error over all samples of all records, RMS(y - yhat) / RMS(y - mean y)
+        (pooled); ``r2 = 1 - nrmse**2``; ``nrmse_records`` per record; ``nrmse_objective`` over
+        the samples in the objective only (unmasked).
+    status, success, message : IPOPT's return status, whether it converged and the free run
+        succeeded, and a sentence for people.
+    n_iter : IPOPT iterations. ``timings``: seconds spent in ``build``, ``solve``, ``free_run``, ``stderr``.
+    mask : per record, True where a sample was left out of the objective. ``mask_info``: how it was chosen.
+    defaults_applied : name -> reason for each default the problem applied (``A_f``, ``k3``, ...).
+    x0 : per record, the fitted initial state. ``y_sim``: per record, the free-run output.
+    settings : solver tolerances and options used; ``versions`` of casadi/duffsym.
+    """
+
+    model: str
+    params: dict
+    free: tuple
+    fixed: dict
+    stderr: dict
+    covariance: np.ndarray
+    cost: float
+    nrmse: float
+    r2: float
+    status: str
+    success: bool
+    message: str
+    n_iter: int
+    timings: dict
+    mask: tuple = ()
+    defaults_applied: dict = field(default_factory=dict)
+    effects: tuple = ()
+    structural: dict = field(default_factory=dict)
+    nrmse_records: tuple = ()
+    nrmse_objective: float = math.nan
+    x0: tuple = ()
+    y_sim: tuple = ()
+    records: tuple = ()
+    mask_info: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+    versions: dict = field(default_factory=dict)
+    n_samples: int = 0
+
+    @property
+    def correlation(self) -> np.ndarray:
+        """Correlation matrix of the free parameters."""
+        s = np.sqrt(np.diag(self.covariance))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return self.covariance / np.outer(s, s)
+
+    def summary(self) -> str:
+        lines = [f"fit of {self.model}" + (f" + {', '.join(self.effects)}" if self.effects else "")
+                 + f": {self.status} ({'success' if self.success else 'FAILED'}), {self.n_iter} iterations, "
+                 f"build {self.timings.get('build', math.nan):.3g} s, solve {self.timings.get('solve', math.nan):.3g} s"]
+        if not self.success:
+            lines.append(f"  {self.message}")
+        lines.append(f"  free-run NRMSE {self.nrmse:.4g} (R2 {self.r2:.5g}) over {self.n_samples} samples; "
+                     f"cost {self.cost:.4g}")
+        for n, v in self.params.items():
+            if n in self.stderr:
+                se = self.stderr[n]
+                rel = f" ({abs(se / v):.2%})" if v != 0 and math.isfinite(se) else ""
+                lines.append(f"  {n:>6} = {v:12.6g} +/- {se:.3g}{rel}")
+            else:
+                why = self.defaults_applied.get(n, "fixed by the user")
+                lines.append(f"  {n:>6} = {v:12.6g}  fixed: {why}")
+        n = sum(int(np.sum(m)) for m in self.mask)
+        if n:
+            lines.append(f"  mask: {n} sample(s) out of the objective" + (f" ({self.mask_info})" if self.mask_info else ""))
+        return "\n".join(lines)
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON form of ``contract.md`` (plus details); arrays of samples are not included."""
+        return {
+            "model": self.model,
+            "effects": list(self.effects),
+            "structural": {k: int(v) for k, v in self.structural.items()},
+            "params": {k: float(v) for k, v in self.params.items()},
+            "stderr": {k: _num(v) for k, v in self.stderr.items()},
+            "nrmse": _num(self.nrmse),
+            "r2": _num(self.r2),
+            "status": self.status,
+            "success": bool(self.success),
+            "message": self.message,
+            "free": list(self.free),
+            "fixed": {k: float(v) for k, v in self.fixed.items()},
+            "defaults_applied": dict(self.defaults_applied),
+            "covariance": [[_num(v) for v in row] for row in np.asarray(self.covariance)],
+            "cost": _num(self.cost),
+            "nrmse_records": [_num(v) for v in self.nrmse_records],
+            "nrmse_objective": _num(self.nrmse_objective),
+            "n_iter": int(self.n_iter),
+            "timings": {k: float(v) for k, v in self.timings.items()},
+            "x0": [list(map(float, x)) for x in self.x0],
+            "records": list(self.records),
+            "n_masked": [int(np.sum(m)) for m in self.mask],
+            "mask_info": _jsonable(self.mask_info),
+            "n_samples": int(self.n_samples),
+            "settings": _jsonable(self.settings),
+            "versions": dict(self.versions),
+        }
+
+    def save(self, path) -> Path:
+        """Write the result as JSON (``contract.md``)."""
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False))
+        return path
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> "IdentificationResult":
+        """Rebuild a result from its JSON form (sample arrays and masks are not stored)."""
+        need = ("model", "params", "stderr", "nrmse", "status", "success")
+        missing = [k for k in need if k not in data]
+        if missing:
+            raise DataError(f"{source}: not a duffsym fit: missing key(s) {missing}; produce it with duffsym fit --out")
+
+        def f(v):
+            return math.nan if v is None else float(v)
+
+        free = tuple(data.get("free", [k for k in data["stderr"]]))
+        cov = data.get("covariance")
+        cov = np.array([[f(v) for v in row] for row in cov]) if cov else np.full((len(free), len(free)), np.nan)
+        nrmse = f(data["nrmse"])
+        return cls(
+            model=str(data["model"]), params={k: float(v) for k, v in data["params"].items()}, free=free,
+            fixed={k: float(v) for k, v in data.get("fixed", {}).items()},
+            stderr={k: f(v) for k, v in data["stderr"].items()}, covariance=cov, cost=f(data.get("cost")),
+            nrmse=nrmse, r2=f(data.get("r2", 1 - nrmse**2 if math.isfinite(nrmse) else None)),
+            status=str(data["status"]), success=bool(data["success"]), message=str(data.get("message", "")),
+            n_iter=int(data.get("n_iter", 0)), timings=dict(data.get("timings", {})),
+            defaults_applied=dict(data.get("defaults_applied", {})), effects=tuple(data.get("effects", ())),
+            structural=dict(data.get("structural", {})),
+            nrmse_records=tuple(f(v) for v in data.get("nrmse_records", ())),
+            nrmse_objective=f(data.get("nrmse_objective")), x0=tuple(tuple(x) for x in data.get("x0", ())),
+            records=tuple(data.get("records", ())), mask_info=dict(data.get("mask_info", {})),
+            settings=dict(data.get("settings", {})), versions=dict(data.get("versions", {})),
+            n_samples=int(data.get("n_samples", 0)),
+        )
+
+
+def load_result(path) -> IdentificationResult:
+    """Read a result saved by :meth:`IdentificationResult.save` (or ``duffsym fit --out``)."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file; give a fit saved with duffsym fit --out") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not valid JSON ({exc}); give a fit saved with duffsym fit --out") from None
+    if not isinstance(data, dict):
+        raise DataError(f"{path}: expected a JSON object (a duffsym fit)")
+    return IdentificationResult.from_dict(data, source=str(path))
+
+
+def _jsonable(obj):
+    if isinstance(obj, Mapping):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        return _num(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    return obj
