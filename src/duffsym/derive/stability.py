@@ -194,7 +194,7 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
         t_star = next(iter(sol))
     num, den = sp.fraction(sp.together(t_star))
     sign = sp.factor(num * den)  # sign(t*) = sign(num * den)
-    head = (f"x^{e0}*Q(x) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
+    head = (f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
             f"t* = {sp.sstr(t_star)}")
     both_zero = sp.And(_eq0(c0), _eq0(ce))
     if sp.sympify(e).is_even:
@@ -202,12 +202,12 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
         exists = sp.And(_ne0(ce), _gt(sign))
         text = (head + f"; {x}^{sp.sstr(e)} >= 0 (even exponent), so real roots +-(t*)^(1/{sp.sstr(e)}) exist "
                        f"iff t* > 0, i.e. {sp.sstr(sign)} > 0")
-        return RootAnalysis(sp.And(sp.Not(exists), sp.Not(both_zero)), (root, -root), exists, text)
+        return RootAnalysis(sp.And(sp.Not(exists), sp.Not(both_zero)).to_nnf(), (root, -root), exists, text)
     if sp.sympify(e).is_odd:
         root = sp.sign(t_star) * sp.Pow(sp.Abs(t_star), 1 / sp.sympify(e))
         exists = sp.And(_ne0(ce), _ne0(c0))
         text = head + f"; odd exponent: the real root sign(t*)|t*|^(1/{sp.sstr(e)}) exists whenever t* != 0"
-        return RootAnalysis(sp.And(sp.Not(exists), sp.Not(both_zero)), (root,), exists, text)
+        return RootAnalysis(sp.And(sp.Not(exists), sp.Not(both_zero)).to_nnf(), (root,), exists, text)
     return RootAnalysis(None, (), None, head + "; parity of the exponent unknown")
 
 
