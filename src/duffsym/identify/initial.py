@@ -80,7 +80,7 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
 
 
 def auto_mask(record: Record, *, force_band: float = 0.5) -> tuple[np.ndarray, dict]:
-    """Mask of the deadzone: the low-force stretch after each input velocity reversal (paper Fig. 8).
+    r"""Mask of the deadzone: the low-force stretch after each input velocity reversal (paper Fig. 8).
 
     Rule. A joint backlash lets the piston reverse and travel through the gap while the damper
     force stays near zero, so the force changes sign late. For every reversal of the input
@@ -93,8 +93,8 @@ def auto_mask(record: Record, *, force_band: float = 0.5) -> tuple[np.ndarray, d
     bias. The default band 0.5 (mask until the force has regained half its peak) also covers the
     recovery transient after the gap: on Table 2 0.4 V data (2 Hz, unit amplitude) with an input
     backlash of half-width 0.02 the RMS relative parameter error fell from 0.84 unmasked to 0.24,
-    against 0.56 with a band of 0.1 (half-width 0.05: 0.90 -> 0.56). The extent is reported: the median lag (samples and seconds), the median over stretches
-    of the largest :math:`|\dot d|/\max|\dot d|` inside (the velocity band of Fig. 8), the median
+    against 0.56 with a band of 0.1 (half-width 0.05: 0.90 -> 0.56). The extent is reported: the
+    median lag (samples and seconds), the median over stretches of the largest :math:`|\dot d|/\max|\dot d|` inside (the velocity band of Fig. 8), the median
     displacement width, and the masked fraction.
 
     Parameters
