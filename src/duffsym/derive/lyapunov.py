@@ -192,7 +192,7 @@ def _classify(mech: Mechanics, term: sp.Expr) -> DissipationTerm:
     if decided is not True:
         assumed = ()
     return DissipationTerm(
-        force=term, contribution=-tidy(coeff * power), coefficient=coeff, shape_nonnegative=decided,
+        force=term, contribution=sp.Mul(-1, coeff, power), coefficient=coeff, shape_nonnegative=decided,
         assumptions=assumed, condition=(coeff >= 0) if decided else None,
     )
 

@@ -282,6 +282,10 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     extra = ""
     if model.effects:
         extra = "; terms added by effects (" + ", ".join(model.effects) + ") appear in dV/dt as listed"
+    uncoupled = [str(z) for z in mech.extra_states if lya.coupling == 0 or not lya.coupling.has(z)]
+    if uncoupled:
+        extra += (f"; extra states {', '.join(uncoupled)} do not act on the mechanics, so V and dV/dt are "
+                  "unaffected (they are driven by it; their own stability is not analysed here)")
     if lya.coupling != 0:
         extra += (f"; coupling to extra states adds {sp.sstr(tidy(lya.v * lya.coupling))}, not sign-definite")
     items.append(ReportItem(
@@ -300,7 +304,8 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     reduced = sp.Eq(X_DDOT, _collected(-lya.restoring, signals).xreplace({lya.x: X}))
     conds = sc.named()
     inv_lines = [f"{{dV/dt = 0}}: x' = 0 when {sp.sstr(sc.v_dot_zero_set)}" if sc.v_dot_zero_set is not None
-                 else "{dV/dt = 0}: x' = 0 (dissipation positive for x' != 0)",
+                 else "{dV/dt = 0}: not decided symbolically (non-polynomial dissipation); "
+                      "stability_certificate checks W(x') > 0 numerically",
                  f"on x' = 0 (Eq. 10): {pr.text(reduced.lhs)} = {pr.text(reduced.rhs)}",
                  f"R(x) = 0 only at x = 0 iff {sp.sstr(sc.only_origin)}"]
     if sc.equilibria:

@@ -96,17 +96,26 @@ def _solve_scaling(model: SymbolicModel, scaled: tuple[sp.Symbol, ...]):
     new = {p.symbol: sp.Symbol(p.name + "_new", real=True) for p in model.params}
     unknowns = list(new.values())
     scale = {x: S * x for x in scaled}
-    equations: list[sp.Expr] = []
     pairs = [(e.xreplace(new).xreplace(scale), (S if x in scaled else 1) * e) for x, e in zip(states, model.rhs)]
     pairs.append((model.output.xreplace(new).xreplace(scale), model.output))
+    # non-polynomial factors first: f(arg') must equal f(arg), so match the arguments identically
+    arg_eqs: list[sp.Expr] = []
     for lhs, rhs in pairs:
-        # non-polynomial factors: f(arg') must equal f(arg) -> match the arguments identically
         for atom in _atoms_with(lhs, unknowns):
             for cand in rhs.atoms(sp.Function):
                 if cand.func == atom.func and len(cand.args) == len(atom.args):
                     for a_new, a_old in zip(atom.args, cand.args):
-                        equations += list(split_terms(sp.together(a_new - a_old).as_numer_denom()[0],
-                                                      signals).values())
+                        num = sp.together(a_new - a_old).as_numer_denom()[0]
+                        arg_eqs += list(split_terms(num, signals).values())
+    equations: list[sp.Expr] = list(arg_eqs)
+    if arg_eqs:
+        try:
+            arg_sol = sp.solve(arg_eqs, unknowns, dict=True)
+        except NotImplementedError:
+            arg_sol = []
+        if arg_sol:
+            pairs = [(lhs.subs(arg_sol[0]), rhs) for lhs, rhs in pairs]
+    for lhs, rhs in pairs:
         equations += list(split_terms(lhs - rhs, signals).values())
     equations = [e for e in {tidy(e) for e in equations} if e != 0]
     # an equation without unknowns (e.g. 1 - s from an output that sees the state) must hold by itself
