@@ -8,7 +8,7 @@ from duffsym.derive import derivation_report
 from duffsym.model import ParamSpec, duffing, duffing_like, get_model, mr_damper
 
 ORDER_MR = ["equation", "state_space", "normalization", "lyapunov_state", "lyapunov_energy",
-            "lyapunov_derivative", "invariant_set", "stability_conditions", "scaling_symmetry", "energy"]
+            "lyapunov_derivative", "invariant_set", "stability_conditions", "scaling_symmetry", "energy", "certificate_defaults"]
 
 x1, x2 = sp.symbols("x1 x2", real=True)
 c1, c2, c3, k1, k2, k3, A_f = sp.symbols("c1 c2 c3 k1 k2 k3 A_f", real=True)
@@ -47,9 +47,11 @@ def test_three_output_forms():
     for needle in ("[paper Eq. 6]", "[paper Eq. 10]", "gamma = c1 + c2", "A_f -> A_f/s", "x_ddot = "):
         assert needle in text, needle
     tex = rep.to_latex()
-    assert tex.count("\\begin{gather*}") == tex.count("\\end{gather*}") == len(rep.items)
+    assert tex.count("\\begin{gather*}") == tex.count("\\end{gather*}") == len(rep.items) - 1
+    assert tex.count("\\begin{verbatim}") == 1  # the certificate is prose
     assert tex.count("{") == tex.count("}")
     assert "\\dot{x}" in tex and "x_{dot}" not in tex
+    assert rep.item("certificate_defaults").data["holds"] is True  # defaults = Table 2, 0.4 V
     data = json.loads(json.dumps(rep.to_dict()))
     assert data["model"] == "mr-damper" and [i["key"] for i in data["items"]] == ORDER_MR
 

@@ -166,7 +166,11 @@ class LinearLoopArea:
     loop_area: sp.Expr
     closed_form: sp.Expr
     equal: bool
-    linear_params: dict[str, float]
+
+    def summary(self) -> str:
+        return (f"linear limit, d = a sin(omega t): H(s) = {sp.sstr(self.transfer)}\n"
+                f"  loop area = {sp.sstr(self.loop_area)}\n"
+                f"  A_f pi a^2 omega Re H(j omega) = {sp.sstr(self.closed_form)}  (equal: {self.equal})")
 
 
 def linear_loop_area(model: SymbolicModel) -> LinearLoopArea:
@@ -199,7 +203,7 @@ def linear_loop_area(model: SymbolicModel) -> LinearLoopArea:
     closed = gain * sp.pi * a**2 * w * sp.re(sp.expand_complex(H.subs(s, sp.I * w)))
     equal = sp.simplify(area - closed) == 0
     return LinearLoopArea(transfer=H, steady_state=sp.simplify(x_ss), loop_area=area, closed_form=sp.simplify(closed),
-                          equal=bool(equal), linear_params={})
+                          equal=bool(equal))
 
 
 # ----------------------------------------------------------------------------- numeric functions
@@ -277,7 +281,8 @@ class CycleEnergy:
 
 
 def _periodic_integral(t: np.ndarray, values: np.ndarray) -> float:
-    return float(np.trapz(values, t)) if hasattr(np, "trapz") else float(np.trapezoid(values, t))
+    trapezoid = getattr(np, "trapezoid", None) or np.trapz  # numpy >= 2 renamed trapz
+    return float(trapezoid(values, t))
 
 
 def cycle_energy(traj, period: float, model: SymbolicModel) -> CycleEnergy:

@@ -101,6 +101,8 @@ class DerivationReport:
             out.append(f"\\subsection*{{{i}. {_tex_escape(it.title)}{eq}}}")
             if it.latex:
                 out += ["\\begin{gather*}", it.latex, "\\end{gather*}"]
+            elif it.text:
+                out += ["\\begin{verbatim}", it.text, "\\end{verbatim}"]
             if it.note:
                 out.append(_tex_escape(it.note))
             out.append("")
@@ -368,5 +370,19 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
             "dV/dt is negative semi-definite); integration by parts (d x periodic) relates it to the loop area",
             {"balance": pr.text(eb.balance), "by_parts": pr.text(eb.by_parts_equation),
              "loop_area": pr.text(eb.loop_area_equation) if eb.loop_area_equation is not None else None}))
+    # 11. the certificate for the model's default parameters (numeric powers only)
+    if not any(isinstance(v, sp.Symbol) for _, v in model.structural):
+        from duffsym.derive.stability import stability_certificate
+
+        cert = stability_certificate(model, model.defaults())
+        values = ", ".join(f"{k} = {v:g}" for k, v in cert.params.items())
+        lines = [f"parameters: {values}"]
+        lines += [f"[{'ok' if c.holds else 'FAIL'}] {c.name}" + (f": {c.detail}" if c.detail else "")
+                  for c in cert.conditions]
+        items.append(ReportItem(
+            "certificate_defaults", "Stability certificate for the default parameters", "", "\n".join(lines),
+            "", cert.conclusion,
+            {"params": cert.params, "holds": cert.holds,
+             "conditions": {c.name: c.holds for c in cert.conditions}}))
     return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
                             items=tuple(items))

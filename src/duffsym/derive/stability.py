@@ -13,10 +13,14 @@ stability. Here the conditions are derived, for any parameter signs and for the 
   invariance needs :math:`\ddot x = -R(x) = 0`. The roots of :math:`R(x) = x^{e_0}Q(x)` are
   solved by putting :math:`t = x^{e}` in the two-term :math:`Q` and keeping the real roots of
   :math:`x^{e} = t^*` (two of them for even e and :math:`t^* > 0`, one for odd e).
+
+References
+----------
+H. K. Khalil, *Nonlinear Systems*, 3rd ed., Prentice Hall, 2002, Sect. 4.1–4.2 (Lyapunov's
+direct method, radial unboundedness, LaSalle's invariance principle).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -534,8 +538,9 @@ def _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_
 def _conclusion(ok: bool, conds, lin, extra_eq) -> str:
     if ok:
         return ("all conditions hold: V is a global Lyapunov function and, by LaSalle's invariance principle "
-                "(Eq. 10), the unforced origin is globally asymptotically stable; with a bounded input the "
-                "energy balance dV/dt = -W + F x' keeps the response bounded and dissipative")
+                "(Eq. 10), the unforced origin is globally asymptotically stable. With an input, dV/dt = -W + F x': "
+                "the input work is the only energy source, and over a periodic steady-state cycle it equals the "
+                "energy dissipated (duffsym.derive.energy)")
     broken = ", ".join(c.name for c in conds if not c.holds)
     unstable = bool(np.any(lin.real > 1e-12))
     tail = (" The linearization at the origin has an eigenvalue with positive real part: the origin is unstable."
