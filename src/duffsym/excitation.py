@@ -23,15 +23,22 @@ class Excitation:
     def channels(self, t, model) -> np.ndarray:
         """The model's input matrix ``(n_times, n_inputs)`` sampled at ``t``."""
         t = np.asarray(t, dtype=float)
-        cols = []
+        orders = []
         for ch in model.inputs:
             if ch.signal != self.signal:
                 raise DataError(
                     f"model {model.name} needs input signal {ch.signal!r}, the excitation provides "
                     f"{self.signal!r}; build the excitation with signal={ch.signal!r}"
                 )
-            cols.append(self.derivative(t, ch.order))
-        return np.column_stack(cols)
+            orders.append(ch.order)
+        return self._derivatives(t, orders)
+
+    def _derivatives(self, t: np.ndarray, orders: list[int]) -> np.ndarray:
+        """Columns ``(n_times, len(orders))`` of the derivatives of the given orders."""
+        U = np.empty((t.size, len(orders)))
+        for j, k in enumerate(orders):
+            U[:, j] = self.derivative(t, k)
+        return U
 
 
 def _check_positive(name, value):
@@ -62,6 +69,17 @@ class Sine(Excitation):
         arg = w * np.asarray(t, dtype=float) + self.phase
         # d^k/dt^k sin = w^k sin(arg + k pi/2)
         return self.amplitude * w**order * np.sin(arg + order * math.pi / 2)
+
+    def _derivatives(self, t, orders):
+        # one sine and one cosine serve every order: d^k sin = w^k (sin, cos, -sin, -cos)[k % 4]
+        w = 2 * math.pi * self.frequency
+        arg = w * t + self.phase
+        base = (np.sin(arg), np.cos(arg))
+        U = np.empty((t.size, len(orders)))
+        for j, k in enumerate(orders):
+            sign = -1.0 if k % 4 >= 2 else 1.0
+            np.multiply(base[k % 2], sign * self.amplitude * w**k, out=U[:, j])
+        return U
 
 
 @dataclass(frozen=True)
