@@ -222,31 +222,42 @@ def _substep_setting(substeps) -> int:
 
 
 def _radau(model, t, U, x0, p, hold, rtol, atol, blowup):
-    """Reference: scipy Radau over each sample interval (the input is smooth within one)."""
-    from scipy.integrate import solve_ivp
+    """Reference: scipy's Radau restarted at each sample (the input is smooth within an interval,
+    not across samples), each interval starting with the step size the previous one ended with."""
+    from scipy.integrate import Radau
 
-    from duffsym.codegen.numpy_rhs import numpy_model
+    from duffsym.codegen.numpy_rhs import scalar_model
 
-    nm = numpy_model(model)
+    sm = scalar_model(model)
     X = np.full((t.size, model.n_states), np.nan)
     X[0] = x0
     x = x0.copy()
     status, fail = 0, -1
+    first_step = None
     for k in range(t.size - 1):
         t0, t1 = t[k], t[k + 1]
-        u0, u1 = U[k], U[k + 1]
+        u0 = U[k]
+        g = np.zeros_like(u0) if hold else (U[k + 1] - u0) / (t1 - t0)
 
-        def u_at(tt, u0=u0, u1=u1, t0=t0, t1=t1):
-            return u0 if hold else u0 + (tt - t0) / (t1 - t0) * (u1 - u0)
+        def fun(tt, xx, u0=u0, g=g, t0=t0):
+            return sm.rhs(xx, u0 + (tt - t0) * g, p)
 
-        sol = solve_ivp(lambda tt, xx: nm.rhs(xx, u_at(tt), p), (t0, t1), x, method="Radau",
-                        jac=lambda tt, xx: nm.jac_states(xx, u_at(tt), p), rtol=rtol, atol=atol)
-        if not sol.success or not np.all(np.abs(sol.y[:, -1]) <= blowup):
+        def jac(tt, xx, u0=u0, g=g, t0=t0):
+            return sm.jac_states(xx, u0 + (tt - t0) * g, p)
+
+        step = None if first_step is None else min(first_step, t1 - t0)
+        solver = Radau(fun, t0, x, t1, jac=jac, rtol=rtol, atol=atol, first_step=step)
+        while solver.status == "running":
+            solver.step()
+        if solver.status != "finished" or not np.all(np.abs(solver.y) <= blowup):
             status, fail = 1, k + 1
             break
-        x = sol.y[:, -1]
+        first_step = solver.h_abs if np.isfinite(solver.h_abs) and solver.h_abs > 0 else None
+        x = solver.y.copy()
         X[k + 1] = x
-    Y = np.asarray(nm.output(X, U, p), dtype=float).copy()
+    from duffsym.codegen.numpy_rhs import numpy_model
+
+    Y = np.asarray(numpy_model(model).output(X, U, p), dtype=float).copy()
     return X, Y, status, fail
 
 

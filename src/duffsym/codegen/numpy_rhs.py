@@ -72,3 +72,35 @@ def numpy_model(model: SymbolicModel) -> NumpyModel:
         _jx=sp.lambdify(args, jx.tolist(), modules="numpy", cse=True),
         _jp=sp.lambdify(args, jp.tolist(), modules="numpy", cse=True),
     )
+
+
+@dataclass(frozen=True)
+class ScalarModel:
+    """Right-hand side and state Jacobian for one point, with little call overhead.
+
+    ``rhs(x, u, p)`` returns ``(n_states,)`` and ``jac_states(x, u, p)`` ``(n_states, n_states)``
+    for 1-D ``x, u, p``; used by the Radau reference, which calls them thousands of times.
+    """
+
+    model: SymbolicModel
+    _rhs: Callable
+    _jx: Callable
+
+    def rhs(self, x, u, p) -> np.ndarray:
+        return np.array(self._rhs(*x, *u, *p), dtype=float)
+
+    def jac_states(self, x, u, p) -> np.ndarray:
+        return np.array(self._jx(*x, *u, *p), dtype=float)
+
+
+@lru_cache(maxsize=64)
+def scalar_model(model: SymbolicModel) -> ScalarModel:
+    """Generate the one-point functions of ``model`` (math module first, NumPy for the rest)."""
+    check_numeric_structure(model)
+    args = [*model.states, *model.input_symbols, *model.param_symbols]
+    modules = ["math", "numpy"]
+    return ScalarModel(
+        model=model,
+        _rhs=sp.lambdify(args, list(model.rhs), modules=modules, cse=True),
+        _jx=sp.lambdify(args, state_jacobian(model).tolist(), modules=modules, cse=True),
+    )
