@@ -391,3 +391,19 @@ def test_bad_options(small):
         simulate_batch(model, np.ones((3, 6)), t, exc)
     with pytest.raises(ModelError, match="non-finite entries in row"):
         simulate_batch(model, np.full((2, 7), np.nan), t, exc)
+
+
+def test_bad_integrator_options(small):
+    model, t, exc = small
+    p = table2_params(0.4)
+    with pytest.raises(ModelError, match=r"h_lambda must be in \(0, 2.5\]"):
+        simulate(model, p, t, exc, h_lambda=3.0)
+    with pytest.raises(ModelError, match="max_substeps must be a positive integer"):
+        simulate(model, p, t, exc, max_substeps=0)
+    with pytest.raises(ModelError, match="blowup must be a positive number"):
+        simulate(model, p, t, exc, blowup=-1.0)
+    P = np.tile(model.param_vector(p), (3, 1))
+    with pytest.raises(ModelError, match=r"x0 must be finite with shape \(2,\) or \(3, 2\).*got shape \(2, 2\)"):
+        simulate_batch(model, P, t, exc, x0=np.zeros((2, 2)))
+    with pytest.raises(ModelError, match="reconstruction must be one of"):
+        simulate_batch(model, P, t, exc, reconstruction="spline")

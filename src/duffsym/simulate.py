@@ -187,10 +187,9 @@ def simulate(
     t = check_time(t)
     p = model.param_vector(params)
     U = input_matrix(model, t, inputs)
-    x0 = np.zeros(model.n_states) if x0 is None else np.asarray(x0, dtype=float).reshape(-1)
-    if x0.size != model.n_states or not np.all(np.isfinite(x0)):
-        raise ModelError(f"x0 must hold {model.n_states} finite values (states {model.state_names}); got {x0}")
+    x0 = _initial_state(model, x0)
     fixed = _substep_setting(substeps)
+    _check_integrator_options(h_lambda, max_substeps, blowup)
     if method == "rk4":
         from duffsym.codegen.compiled import compiled_module
 
@@ -211,6 +210,24 @@ def simulate(
     if on_failure == "raise":
         traj.raise_for_status()
     return traj
+
+
+def _initial_state(model, x0) -> np.ndarray:
+    if x0 is None:
+        return np.zeros(model.n_states)
+    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    if x0.size != model.n_states or not np.isfinite(x0).all():
+        raise ModelError(f"x0 must hold {model.n_states} finite values (states {model.state_names}); got {x0}")
+    return x0
+
+
+def _check_integrator_options(h_lambda, max_substeps, blowup) -> None:
+    if not (isinstance(h_lambda, (int, float, np.floating)) and 0 < h_lambda <= 2.5):
+        raise ModelError(f"h_lambda must be in (0, 2.5] (RK4 is unstable beyond h*rho = 2.785); got {h_lambda!r}")
+    if isinstance(max_substeps, bool) or not isinstance(max_substeps, (int, np.integer)) or max_substeps < 1:
+        raise ModelError(f"max_substeps must be a positive integer; got {max_substeps!r}")
+    if not (isinstance(blowup, (int, float, np.floating)) and blowup > 0):
+        raise ModelError(f"blowup must be a positive number (a state magnitude); got {blowup!r}")
 
 
 def _substep_setting(substeps) -> int:
@@ -286,14 +303,25 @@ def simulate_batch(model: SymbolicModel, params: np.ndarray, t, inputs, *, x0=No
     from duffsym.codegen.compiled import compiled_module
 
     t = check_time(t)
+    if reconstruction not in RECONSTRUCTIONS:
+        raise ModelError(f"reconstruction must be one of {set(RECONSTRUCTIONS)}; got {reconstruction!r}")
     P = np.atleast_2d(np.asarray(params, dtype=float))
-    if P.shape[1] != model.n_params:
+    if P.ndim != 2 or P.shape[1] != model.n_params:
         raise ModelError(f"params must have shape (n_sets, {model.n_params}) for {model.param_names}; got {P.shape}")
     if not np.all(np.isfinite(P)):
         raise ModelError(f"params has non-finite entries in row(s) {np.flatnonzero(~np.isfinite(P).all(1))[:5]}")
     U = input_matrix(model, t, inputs)
-    X0 = np.zeros((P.shape[0], model.n_states)) if x0 is None else np.broadcast_to(
-        np.asarray(x0, dtype=float), (P.shape[0], model.n_states)).copy()
+    _check_integrator_options(h_lambda, max_substeps, blowup)
+    if x0 is None:
+        X0 = np.zeros((P.shape[0], model.n_states))
+    else:
+        X0 = np.asarray(x0, dtype=float)
+        if X0.shape not in ((model.n_states,), (P.shape[0], model.n_states)) or not np.isfinite(X0).all():
+            raise ModelError(
+                f"x0 must be finite with shape ({model.n_states},) or ({P.shape[0]}, {model.n_states}) "
+                f"(states {model.state_names}); got shape {X0.shape}"
+            )
+        X0 = np.ascontiguousarray(np.broadcast_to(X0, (P.shape[0], model.n_states)))
     Y = np.empty((P.shape[0], t.size))
     status = np.zeros(P.shape[0], dtype=np.int64)
     fail = np.zeros(P.shape[0], dtype=np.int64)

@@ -37,7 +37,7 @@ def _stiffness(x, u, p, J):
     return spectral_radius(J)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def integrate(t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y, M):
     """Integrate from x0 over the sample times t with inputs U (n_times, n_inputs).
 

@@ -22,7 +22,7 @@ from duffsym.codegen._printing import check_numeric_structure, state_jacobian
 from duffsym.model.core import SymbolicModel
 
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
-_GENERATOR_VERSION = "6"
+_GENERATOR_VERSION = "7"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
 #: dependency chain of each stage (~30 % faster); no "nnan"/"ninf", so the blow-up test on
 #: non-finite states stays valid.
@@ -92,7 +92,7 @@ def _scalar_rk4(model: SymbolicModel, printer: _Printer) -> list[str]:
         f"    return ({', '.join(outs)},)",
         "",
         "",
-        f"@njit(cache=True, fastmath={_FASTMATH})",
+        "@njit(cache=True, inline=\"always\", fastmath=FASTMATH)",
         "def _advance(x, U, k, p, dt, m, hold, xo):",
         "    h = dt / m",
         *[f"    {v} = p[{j}]" for j, v in enumerate(ps)],
@@ -142,6 +142,7 @@ def generate_source(model: SymbolicModel) -> str:
         f"N_STATES = {n}",
         f"N_INPUTS = {model.n_inputs}",
         f"N_PARAMS = {model.n_params}",
+        f"FASTMATH = {_FASTMATH}",
         "",
         "",
         "@njit(cache=True, inline=\"always\")",
