@@ -120,7 +120,7 @@ def fit(
     linear_solver: str = "mumps",
     degree: int = 3,
     print_level: int = 0,
-    expand: bool = True,
+    expand: bool = False,
     compute_stderr: bool = True,
     ipopt_options: Mapping[str, object] | None = None,
 ) -> IdentificationResult:
@@ -135,7 +135,8 @@ def fit(
     linear_solver : IPOPT's linear solver (``"mumps"`` ships with CasADi).
     degree : degree of the Legendre collocation polynomial in each sample interval.
     print_level : IPOPT verbosity (0 silent).
-    expand : expand the CasADi graph to scalar form (faster evaluation, slower build).
+    expand : expand the CasADi graph to scalar form (faster evaluation per iteration, but a build
+        several times slower; off by default so the build stays linear and short).
     compute_stderr : compute standard errors (Laplace) after the fit.
     ipopt_options : extra IPOPT options.
 
@@ -195,11 +196,8 @@ def fit(
     nx, nu = model.n_states, model.n_inputs
     free_idx = [model.param_names.index(n) for n in free]
     p_scale = np.array([model.param(n).typical_scale for n in free])
-    theta = ca.MX.sym("theta", len(free))
-    p_parts = []
-    for j, n in enumerate(model.param_names):
-        p_parts.append(theta[free.index(n)] * p_scale[free.index(n)] if n in free else ca.MX(problem.fixed[n]))
-    p_sym = ca.vertcat(*p_parts)
+    n_free = len(free)
+    theta = ca.MX.sym("theta", n_free)
 
     tau, C, D = collocation_coefficients(degree, "legendre")
     K = degree
@@ -224,12 +222,10 @@ def fit(
     uo = ca.SX.sym("u", nu)
     out_scaled = ca.Function("out", [xo, uo, ps, sx], [out_fn(xo * sx, uo, ps)])
 
-    w_parts, lbw, ubw, w0 = [theta], [], [], []
-    for j, n in enumerate(free):
-        lo, hi = problem.bounds[n]
-        lbw.append(lo / p_scale[j])
-        ubw.append(hi / p_scale[j])
-        w0.append(start[n] / p_scale[j])
+    lo_s = np.array([problem.bounds[n][0] for n in free]) / p_scale
+    hi_s = np.array([problem.bounds[n][1] for n in free]) / p_scale
+    th0 = np.array([start[n] for n in free]) / p_scale
+    w_parts, lbw, ubw, w0 = [theta], list(lo_s), list(hi_s), list(th0)
     g_parts, obj = [], 0
     y_all = np.concatenate([np.asarray(r.y) for r in problem.records])
     y_norm = float(np.sqrt(np.mean(y_all**2))) or 1.0
@@ -244,11 +240,23 @@ def fit(
         S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
         Xs = ca.MX.sym(f"X{i}", nx, N)
         Xc = ca.MX.sym(f"Xc{i}", nx, K * (N - 1))
+        # One copy of the free parameters per sample, tied to theta by linear constraints: every
+        # interval then depends on its own variables only, so the Hessian has no dense rows and
+        # CasADi builds it in time linear in N (shared parameters made the build quadratic).
+        Pl = ca.MX.sym(f"P{i}", n_free, N)
+        rows = []
+        for n in model.param_names:
+            if n in free:
+                j = free.index(n)
+                rows.append(Pl[j, :] * p_scale[j])
+            else:
+                rows.append(ca.DM.ones(1, N) * problem.fixed[n])
+        P_all = ca.vertcat(*rows)
         h = np.diff(np.asarray(rec.t))
         m = interval.map(N - 1)
-        coll, xend = m(Xs[:, :-1], Xc, U[:-1].T, U[1:].T, h[None, :], p_sym, S)
-        g_parts += [ca.vec(coll), ca.vec(xend - Xs[:, 1:])]
-        y_hat = out_scaled.map(N)(Xs, U.T, p_sym, S)
+        coll, xend = m(Xs[:, :-1], Xc, U[:-1].T, U[1:].T, h[None, :], P_all[:, :-1], S)
+        g_parts += [ca.vec(coll), ca.vec(xend - Xs[:, 1:]), ca.vec(Pl - ca.repmat(theta, 1, N))]
+        y_hat = out_scaled.map(N)(Xs, U.T, P_all, S)
         wts = problem.sample_weights(i)
         r = (y_hat - np.asarray(rec.y)[None, :]) / y_norm
         obj = obj + 0.5 * ca.sum2(r**2 * wts[None, :])
@@ -257,13 +265,13 @@ def fit(
         Xc0 = np.empty((nx, K * (N - 1)))
         for j in range(K):
             Xc0[:, j::K] = ((1 - tau[j + 1]) * Xs0[:-1] + tau[j + 1] * Xs0[1:]).T
-        w_parts += [ca.vec(Xs), ca.vec(Xc)]
+        w_parts += [ca.vec(Xs), ca.vec(Xc), ca.vec(Pl)]
         n_var = nx * N + nx * K * (N - 1)
-        w0 += list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F"))
-        lbw += [-np.inf] * n_var
-        ubw += [np.inf] * n_var
+        w0 += list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F")) + list(np.tile(th0, N))
+        lbw += [-np.inf] * (n_var + n_free * N)
+        ubw += [np.inf] * (n_var + n_free * N)
         layout.append((offset, N, S))
-        offset += n_var
+        offset += n_var + n_free * N
         U_list.append(U)
         X_init_list.append(X_init)
     w = ca.vertcat(*w_parts)
@@ -325,7 +333,6 @@ def fit(
 
     # ------------------------------------------------------------------ standard errors
     t_se = time.perf_counter()
-    n_free = len(free)
     cov = np.full((n_free, n_free), np.nan)
     if compute_stderr and ok_runs:
         cov = _laplace_covariance(problem, params, x0s, U_list, y_sims)
