@@ -407,3 +407,15 @@ def test_bad_integrator_options(small):
         simulate_batch(model, P, t, exc, x0=np.zeros((2, 2)))
     with pytest.raises(ModelError, match="reconstruction must be one of"):
         simulate_batch(model, P, t, exc, reconstruction="spline")
+
+
+def test_repeated_excitation_inputs_are_fresh_and_equal(small):
+    """simulate() remembers the sampled excitation; each trajectory still owns its input array."""
+    model, t, exc = small
+    p = table2_params(0.4)
+    a = simulate(model, p, t, exc)
+    a.u[:] = 0.0  # a user mutating one result must not change the next
+    b = simulate(model, p, t, Sine(1.0, 2.0))
+    np.testing.assert_array_equal(b.u, Sine(1.0, 2.0).channels(t, model))
+    c = simulate(model, p, t, Sine(1.0, 2.5))
+    assert not np.allclose(c.u, b.u)

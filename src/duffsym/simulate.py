@@ -96,7 +96,7 @@ def input_matrix(model: SymbolicModel, t: np.ndarray,
                  inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray) -> np.ndarray:
     """The model's input matrix ``(n_times, n_inputs)`` from an excitation, a mapping or an array."""
     if isinstance(inputs, Excitation):
-        U = inputs.channels(t, model)
+        return _excitation_matrix(model, t, inputs)
     elif isinstance(inputs, Mapping):
         cols = []
         for ch in model.inputs:
@@ -128,6 +128,35 @@ def input_matrix(model: SymbolicModel, t: np.ndarray,
         i, j = bad[0]
         raise DataError(f"input {model.inputs[j].name} is not finite at index {i} (t={t[i]:g} s); clean the input")
     return np.ascontiguousarray(U)
+
+
+_EXCITATION_CACHE: dict = {}
+_EXCITATION_CACHE_SIZE = 16
+
+
+def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> np.ndarray:
+    """``exc.channels(t, model)``, checked, remembered for repeated calls with the same excitation and
+    times (fits and samplers simulate one input thousands of times; the sines cost ~20 us)."""
+    try:
+        key = (exc, tuple(c.order for c in model.inputs), t.tobytes())
+        hit = _EXCITATION_CACHE.get(key)
+    except TypeError:  # an unhashable user-defined excitation
+        key, hit = None, None
+    if hit is not None:
+        return hit.copy()
+    U = np.ascontiguousarray(exc.channels(t, model), dtype=float)
+    if U.shape != (t.size, model.n_inputs):
+        raise DataError(f"excitation {type(exc).__name__} gave inputs of shape {U.shape}; "
+                        f"expected ({t.size}, {model.n_inputs}); fix its channels()")
+    if not np.isfinite(U).all():
+        i, j = np.argwhere(~np.isfinite(U))[0]
+        raise DataError(f"excitation {type(exc).__name__}: input {model.inputs[j].name} is not finite at "
+                        f"index {i} (t={t[i]:g} s); check its parameters")
+    if key is not None:
+        if len(_EXCITATION_CACHE) >= _EXCITATION_CACHE_SIZE:
+            _EXCITATION_CACHE.pop(next(iter(_EXCITATION_CACHE)))
+        _EXCITATION_CACHE[key] = U.copy()
+    return U
 
 
 def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup):
