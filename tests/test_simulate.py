@@ -159,7 +159,7 @@ def test_linear_forced_steady_state_matches_transfer_function(freq):
 
 
 # ------------------------------------------------------------------- (c) properties
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=8, deadline=None, derandomize=True)
 @given(
     scale=st.floats(0.5, 1.5),
     amplitude=st.floats(0.1, 1.5),
@@ -184,7 +184,7 @@ def _duffing_energy(x, alpha, beta):
     return 0.5 * x[:, 1] ** 2 + 0.5 * alpha * x[:, 0] ** 2 + 0.25 * beta * x[:, 0] ** 4
 
 
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=8, deadline=None, derandomize=True)
 @given(alpha=st.floats(0.5, 5.0), beta=st.floats(0.0, 5.0), x0=st.floats(-2.0, 2.0), v0=st.floats(-2.0, 2.0))
 def test_duffing_energy_conserved_without_damping_and_force(alpha, beta, x0, v0):
     model = duffing()
