@@ -73,6 +73,17 @@ def test_noise_free_recovery_from_random_starts(clean_record):
     assert res3.success and max(errs.values()) < 2e-4 and errs["c3"] < 1e-4
 
 
+def test_multistart_builds_once_and_all_starts_agree():
+    rec = synthetic_record(MODEL, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=1.5, noise=0.02, rng=4)
+    res = fit(Problem(MODEL, rec, fixed={"A_f": TRUTH["A_f"]}), n_starts=6, rng=5)
+    assert res.success and res.settings["n_starts"] == 6 and res.settings["starts_converged"] == 6
+    costs = np.array(res.settings["start_costs"])
+    assert np.ptp(costs) < 1e-8 * costs.min()  # states start from the data: every start finds the same optimum
+    assert res.cost == pytest.approx(costs.min(), rel=1e-12)
+    with pytest.raises(Exception, match="n_starts must be a positive integer"):
+        fit(Problem(MODEL, rec), n_starts=0)
+
+
 def test_default_af_recovers_symmetry_invariant_combinations(clean_record):
     problem = Problem(MODEL, clean_record)
     assert set(problem.defaults_applied) == {"A_f", "k3"}
