@@ -3,9 +3,11 @@
 With the paper's Table 2 values (n = 5, c3 ~ 300) the local stiffness at peak velocity puts a
 single RK4 step of dt = 0.005 s past its stability limit, so the number of RK4 substeps per
 sample interval is chosen from the spectral radius of the state Jacobian (generated from the
-model): :math:`h\\,\\rho(J) \\le` ``h_lambda``. A step whose end state is much stiffer than its
-start is redone with more substeps. Blow-up (non-finite or huge states) and excessive stiffness
-stop the run and are reported.
+model): :math:`h\\,\\rho(J) \\le` ``h_lambda`` at both ends of the interval. The count is
+predicted from the stiffness at the start, extrapolated along its trend over the previous
+interval; a step whose end state is stiffer than the count allows is redone with more substeps
+(an under-resolved step under-estimates the stiffness, as at an impulsive start). Blow-up
+(non-finite or huge states) and excessive stiffness stop the run and are reported.
 """
 from __future__ import annotations
 
