@@ -46,6 +46,8 @@ class Trajectory:
     params : parameter values by name
     success, status, message : outcome (status one of ``"ok"``, ``"blow-up"``, ``"too stiff"``)
     substeps : (n_times - 1,) RK4 substeps used per sample interval (empty for Radau)
+    failed_at : index of the first failed sample, or -1
+    input_names, state_names, output_name : the model's channel names (columns of u, x; y)
     """
 
     model: str
@@ -60,6 +62,9 @@ class Trajectory:
     method: str
     substeps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     failed_at: int = -1
+    input_names: tuple[str, ...] = ()
+    state_names: tuple[str, ...] = ()
+    output_name: str = "y"
 
     def raise_for_status(self) -> "Trajectory":
         """Raise :class:`SimulationError` if the simulation failed; return self otherwise."""
@@ -237,7 +242,9 @@ def simulate(
     message = "ok" if st == 0 else _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
     traj = Trajectory(model=model.name, t=t, x=X, y=Y, u=U, params=dict(zip(model.param_names, p.tolist())),
                       success=st == 0,
-                      status=STATUS_MESSAGES[st], message=message, method=method, substeps=subs, failed_at=idx)
+                      status=STATUS_MESSAGES[st], message=message, method=method, substeps=subs, failed_at=idx,
+                      input_names=tuple(c.name for c in model.inputs), state_names=model.state_names,
+                      output_name=model.output_name)
     if on_failure == "raise":
         traj.raise_for_status()
     return traj
