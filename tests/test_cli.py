@@ -81,3 +81,34 @@ def test_console_script_reports_without_traceback(tmp_path):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert "n must be odd" in proc.stderr
+
+
+def test_derive_json_reproduces_eq13_and_eq9(capsys):
+    """`duffsym derive --json` for the MR damper: Eq. 13's A and f, and Eq. 9's dV/dt, against the paper's."""
+    import sympy as sp
+
+    code, out, err = run(["derive", "--model", "mr-damper", "--n", "5", "--json"], capsys)
+    assert code == 0
+    items = {it["key"]: it for it in json.loads(out)["items"]}
+    c1, c2, c3, k1, k2, k3, x1, x2 = sp.symbols("c1 c2 c3 k1 k2 k3 x1 x2", real=True)
+    loc = {str(s): s for s in (c1, c2, c3, k1, k2, k3, x1, x2)}
+    A = sp.Matrix(sp.sympify(items["state_space"]["data"]["A"], locals=loc))
+    assert sp.simplify(A - sp.Matrix([[0, 1], [-(k1 + k2), -(c1 + c2)]])) == sp.zeros(2, 2)
+    v_dot = sp.sympify(items["lyapunov_derivative"]["data"]["V_dot"], locals=loc)
+    gamma, delta = c1 + c2, c3
+    assert sp.simplify(v_dot - (-gamma * x2**2 - delta * x2**6)) == 0
+    mapping = items["normalization"]["data"]["mapping"]
+    assert sp.simplify(sp.sympify(mapping["gamma"], locals=loc) - (c1 + c2)) == 0
+    assert sp.simplify(sp.sympify(mapping["alpha"], locals=loc) - (k1 + k2)) == 0
+
+
+def test_derive_latex_and_text(capsys):
+    code, out, _ = run(["derive", "--model", "duffing-like", "--n", "3", "--latex"], capsys)
+    assert code == 0 and r"\dot{x}" in out and r"\delta" in out
+    code, out, _ = run(["derive", "--model", "duffing-like", "--n", "3"], capsys)
+    import sympy as sp
+
+    line = re.search(r"dV/dt \(unforced\) = (.+)", out).group(1)
+    gamma, delta, x2 = sp.symbols("gamma delta x2", real=True)
+    derived = sp.sympify(line, locals={"gamma": gamma, "delta": delta, "x2": x2})
+    assert code == 0 and sp.simplify(derived - (-gamma * x2**2 - delta * x2**4)) == 0  # Eq. 7 with n = 3
