@@ -2,14 +2,16 @@
 :func:`fit` (direct collocation + IPOPT) into an :class:`IdentificationResult`.
 
 :func:`initial_guess` implements the paper's tuning procedure (Fig. 4) as a small grid search;
-:func:`auto_mask` finds the deadzone of a joint backlash (Fig. 8) in the data.
+:func:`auto_mask` finds the deadzone of a joint backlash (Fig. 8) in the data; :func:`validate`
+simulates a fit on another record (Fig. 9).
 """
 from duffsym.identify.collocation import collocation_coefficients, fit, initial_states
 from duffsym.identify.initial import TUNING_STEPS, auto_mask, initial_guess
 from duffsym.identify.problem import Problem
 from duffsym.identify.result import IdentificationResult, load_result
+from duffsym.identify.validation import ValidationResult, model_from_result, validate
 
 __all__ = [
     "Problem", "fit", "IdentificationResult", "load_result", "initial_guess", "auto_mask", "initial_states",
-    "collocation_coefficients", "TUNING_STEPS",
+    "collocation_coefficients", "TUNING_STEPS", "validate", "ValidationResult", "model_from_result",
 ]

@@ -100,13 +100,31 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         if i == iv:
             from scipy.integrate import cumulative_trapezoid
 
-            x1 = cumulative_trapezoid(xi, t, initial=0.0)
-            # the integral of a noisy or offset velocity drifts; the fluid mass does not
-            x1 = x1 - np.polyval(np.polyfit(t - t[0], x1, 1), t - t[0])
-            X[:, ip] = x1
+            X[:, ip] = _remove_drift(cumulative_trapezoid(xi, t, initial=0.0), t, record)
         elif i == ip:
             X[:, iv] = np.gradient(xi, t)
     return X
+
+
+def _remove_drift(x: np.ndarray, t: np.ndarray, record) -> np.ndarray:
+    """Remove the drift and mean of an integrated signal, without biting into its periodic part.
+
+    The integral of a noisy or offset velocity drifts; the fluid mass does not. A straight-line
+    fit would also remove part of a sine (a sine over whole periods correlates with t), so the
+    slope is taken from the means over the first and the last input period, and the mean over
+    whole periods is removed.
+    """
+    try:
+        period = record.period
+    except (IndexError, ZeroDivisionError, ValueError):
+        period = t[-1] - t[0]
+    n_p = int(np.searchsorted(t, t[0] + period))
+    if 0 < n_p and 2 * n_p <= t.size:
+        slope = (np.mean(x[-n_p:]) - np.mean(x[:n_p])) / (np.mean(t[-n_p:]) - np.mean(t[:n_p]))
+        x = x - slope * (t - t[0])
+        n_whole = max(1, int((t[-1] - t[0]) // period)) * n_p
+        return x - np.mean(x[: min(n_whole, t.size)])
+    return x - np.mean(x)
 
 
 def _input_matrix(model, record) -> np.ndarray:
