@@ -211,3 +211,29 @@ def test_validate_saved_fit_on_another_frequency(tmp_path, clean_record):
     # a wrong parameter set is visibly worse
     wrong = IdentificationResult.from_dict({**back.to_dict(), "params": {**back.params, "c3": 2 * TRUTH["c3"]}})
     assert validate(wrong, other).nrmse > 50 * val.nrmse
+
+
+def test_per_voltage_parameters_in_one_fit(tmp_path):
+    """Three Table 2 rows fitted together, one parameter set per voltage: each row recovered
+    (up to the per-group scaling symmetry, since A_f is fixed per group to the group's max|y|)."""
+    from duffsym.identify import validate
+
+    volts = (0.2, 0.4, 0.8)
+    recs = [synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0)
+            .replace(voltage=v) for v in volts]
+    problem = Problem(MODEL, recs, groups="voltage", per_group=FREE)
+    assert problem.slot_names[:3] == ("c1[0.2V]", "c1[0.4V]", "c1[0.8V]") and len(problem.slots) == 15
+    res = fit(problem, degree=5)
+    assert res.success and set(res.group_params) == {"0.2V", "0.4V", "0.8V"}
+    for v, rec in zip(volts, recs):
+        truth = table2_params(v)
+        got = res.params_for(f"{v:g}V")
+        assert got["A_f"] == pytest.approx(np.max(np.abs(rec.y)))
+        assert max(rel_errors(got, symmetric(truth, got["A_f"] / truth["A_f"])).values()) < 1e-4
+        assert res.stderr[f"c3[{v:g}V]"] > 0
+    back = load_result(res.save(tmp_path / "fit.json"))
+    assert back.group_params == res.group_params
+    val = validate(back, recs[2])  # picks the 0.8V parameters from the record's voltage
+    assert val.nrmse < 1e-3
+    with pytest.raises(DataError, match="this fit has groups"):
+        back.params_for("0.3V")

@@ -207,36 +207,50 @@ def fit(
     free = problem.free
     t_build = time.perf_counter()
     # ------------------------------------------------------------------ initial parameter values
-    start = {}
+    slots = problem.slots
+    slot_names = problem.slot_names
+    n_slots = len(slots)
+    start: dict[str, float] = {}
     if x0 is not None:
         if isinstance(x0, Mapping):
-            unknown = sorted(set(x0) - set(model.param_names))
+            unknown = sorted(set(x0) - set(model.param_names) - set(slot_names))
             if unknown:
                 raise ModelError(f"x0: unknown parameter(s) {unknown}; known: {list(model.param_names)}")
-            start = {k: float(v) for k, v in x0.items() if k in free}
+            for sn, (n, lab) in zip(slot_names, slots):
+                if sn in x0:
+                    start[sn] = float(x0[sn])
+                elif n in x0:
+                    start[sn] = float(x0[n])
         else:
             vals = np.asarray(x0, dtype=float).reshape(-1)
-            if vals.size != len(free):
-                raise ModelError(f"x0 must give {len(free)} values ordered as free={list(free)}; got {vals.size}")
-            start = dict(zip(free, map(float, vals)))
-    if len(start) < len(free):
-        guess = initial_guess(problem.records[0], model, fixed=problem.fixed)
-        start = {**{k: guess[k] for k in free}, **start}
-    for k, v in start.items():
-        lo, hi = problem.bounds[k]
+            if vals.size != n_slots:
+                raise ModelError(f"x0 must give {n_slots} values ordered as {list(slot_names)}; got {vals.size}")
+            start = dict(zip(slot_names, map(float, vals)))
+    if len(start) < n_slots:
+        guesses = {}
+        for sn, (n, lab) in zip(slot_names, slots):
+            if sn in start:
+                continue
+            i = problem.labels.index(lab) if lab is not None else 0
+            if i not in guesses:
+                fixed_i = {k: problem.fixed_value(i, k) for k in problem.fixed}
+                guesses[i] = initial_guess(problem.records[i], model, fixed=fixed_i)
+            start[sn] = guesses[i][n]
+    for sn, (n, lab) in zip(slot_names, slots):
+        lo, hi = problem.bounds[n]
+        v = start[sn]
         if not math.isfinite(v):
-            raise ModelError(f"x0: initial value of {k} must be finite; got {v}")
+            raise ModelError(f"x0: initial value of {sn} must be finite; got {v}")
         if not lo <= v <= hi:
-            raise ModelError(f"x0: initial value of {k} = {v:g} is outside its bounds [{lo:g}, {hi:g}]; move it inside")
-    p_start = np.array([problem.full_params(start)[n] for n in model.param_names])
+            raise ModelError(f"x0: initial value of {sn} = {v:g} is outside its bounds [{lo:g}, {hi:g}]; move it inside")
 
     # ------------------------------------------------------------------ symbols and scaling
     rhs_fn, out_fn = casadi_functions(model)
     nx, nu = model.n_states, model.n_inputs
-    free_idx = [model.param_names.index(n) for n in free]
-    p_scale = np.array([model.param(n).typical_scale for n in free])
     n_free = len(free)
-    theta = ca.MX.sym("theta", n_free)
+    p_scale_free = np.array([model.param(n).typical_scale for n in free])
+    p_scale = np.array([model.param(n).typical_scale for n, _ in slots])
+    theta = ca.MX.sym("theta", n_slots)
 
     tau, C, D = collocation_coefficients(degree, "legendre")
     K = degree
@@ -261,19 +275,21 @@ def fit(
     uo = ca.SX.sym("u", nu)
     out_scaled = ca.Function("out", [xo, uo, ps, sx], [out_fn(xo * sx, uo, ps)])
 
-    lo_s = np.array([problem.bounds[n][0] for n in free]) / p_scale
-    hi_s = np.array([problem.bounds[n][1] for n in free]) / p_scale
-    th0 = np.array([start[n] for n in free]) / p_scale
+    lo_s = np.array([problem.bounds[n][0] for n, _ in slots]) / p_scale
+    hi_s = np.array([problem.bounds[n][1] for n, _ in slots]) / p_scale
+    th0 = np.array([start[sn] for sn in slot_names]) / p_scale
     w_parts, lbw, ubw, w0 = [theta], list(lo_s), list(hi_s), list(th0)
     g_parts, obj = [], 0
     y_all = np.concatenate([np.asarray(r.y) for r in problem.records])
     y_norm = float(np.sqrt(np.mean(y_all**2))) or 1.0
     layout = []
     U_list, X_init_list = [], []
-    offset = len(free)
+    offset = n_slots
     for i, rec in enumerate(problem.records):
         N = rec.n_times
         U = _input_matrix(model, rec)
+        sidx = problem.slot_index(i)
+        p_start = np.array([problem.record_params(i, start)[n] for n in model.param_names])
         X_init = initial_states(model, rec, p_start)
         S = np.maximum(np.max(np.abs(X_init), axis=0), 1e-3 * max(1.0, float(np.max(np.abs(X_init)))))
         S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
@@ -288,14 +304,14 @@ def fit(
         for n in model.param_names:
             if n in free:
                 j = free.index(n)
-                rows.append(Pl[j, :] * p_scale[j])
+                rows.append(Pl[j, :] * p_scale_free[j])
             else:
-                rows.append(ca.DM.ones(1, N) * problem.fixed[n])
+                rows.append(ca.DM.ones(1, N) * problem.fixed_value(i, n))
         P_all = ca.vertcat(*rows)
         h = np.diff(np.asarray(rec.t))
         m = interval.map(N - 1)
         coll, xend = m(Xs[:, :-1], Xc, U[:-1].T, U[1:].T, h[None, :], P_all[:, :-1], S)
-        g_parts += [ca.vec(coll), ca.vec(xend - Xs[:, 1:]), Pl[:, 0] - theta, ca.vec(Pl[:, 1:] - Pl[:, :-1])]
+        g_parts += [ca.vec(coll), ca.vec(xend - Xs[:, 1:]), Pl[:, 0] - theta[sidx], ca.vec(Pl[:, 1:] - Pl[:, :-1])]
         y_hat = out_scaled.map(N)(Xs, U.T, P_all, S)
         wts = problem.sample_weights(i)
         r = (y_hat - np.asarray(rec.y)[None, :]) / y_norm
@@ -307,7 +323,7 @@ def fit(
             Xc0[:, j::K] = ((1 - tau[j + 1]) * Xs0[:-1] + tau[j + 1] * Xs0[1:]).T
         w_parts += [ca.vec(Xs), ca.vec(Xc), ca.vec(Pl)]
         n_var = nx * N + nx * K * (N - 1)
-        w0 += list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F")) + list(np.tile(th0, N))
+        w0 += list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F")) + list(np.tile(th0[sidx] * p_scale[sidx] / p_scale_free, N))
         lbw += [-np.inf] * (n_var + n_free * N)
         ubw += [np.inf] * (n_var + n_free * N)
         layout.append((offset, N, S, offset + n_var))
@@ -333,9 +349,10 @@ def fit(
     runs = []
     for th in starts:
         w_start = w0.copy()
-        w_start[:n_free] = th
-        for off, N, S, p_off in layout:
-            w_start[p_off: p_off + n_free * N] = np.tile(th, N)
+        w_start[:n_slots] = th
+        for i, (off, N, S, p_off) in enumerate(layout):
+            sidx = problem.slot_index(i)
+            w_start[p_off: p_off + n_free * N] = np.tile(th[sidx] * p_scale[sidx] / p_scale_free, N)
         runs.append(_solve(solver, w_start, lbw, ubw, max_iter))
     ok = [r for r in runs if r[1]]
     best = min(ok, key=lambda r: r[4]) if ok else runs[0]
@@ -344,8 +361,9 @@ def fit(
         message += f"; best of {n_starts} starts ({len(ok)} converged)"
     solve = time.perf_counter() - t_solve
 
-    theta_opt = w_opt[: len(free)] * p_scale
-    params = problem.full_params(dict(zip(free, map(float, theta_opt))))
+    slot_values = dict(zip(slot_names, map(float, w_opt[:n_slots] * p_scale)))
+    rec_params = [problem.record_params(i, slot_values) for i in range(len(problem.records))]
+    params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
     x0s = []
     for off, N, S, p_off in layout:
         x0s.append(tuple(float(v) for v in w_opt[off: off + nx] * S))
@@ -353,7 +371,7 @@ def fit(
 
     # ------------------------------------------------------------------ free run
     t_free = time.perf_counter()
-    free_run = [_free_run(model, params, rec, U, x) for rec, U, x in zip(problem.records, U_list, x0s)]
+    free_run = [_free_run(model, rp, rec, U, x) for rp, rec, U, x in zip(rec_params, problem.records, U_list, x0s)]
     t_free = time.perf_counter() - t_free
     y_sims = tuple(fr[0] for fr in free_run)
     ok_runs = all(fr[1] for fr in free_run)
@@ -374,11 +392,11 @@ def fit(
 
     # ------------------------------------------------------------------ standard errors
     t_se = time.perf_counter()
-    cov = np.full((n_free, n_free), np.nan)
+    cov = np.full((n_slots, n_slots), np.nan)
     if compute_stderr and ok_runs:
-        cov = _laplace_covariance(problem, params, x0s, U_list, y_sims)
+        cov = _laplace_covariance(problem, rec_params, x0s, U_list, y_sims)
     stderr = {n: float(math.sqrt(cov[j, j])) if np.isfinite(cov[j, j]) and cov[j, j] >= 0 else math.nan
-              for j, n in enumerate(free)}
+              for j, n in enumerate(slot_names)}
     t_se = time.perf_counter() - t_se
 
     import casadi
@@ -386,7 +404,7 @@ def fit(
     import duffsym
 
     return IdentificationResult(
-        model=model.name, params=params, free=tuple(free), fixed=dict(problem.fixed), stderr=stderr,
+        model=model.name, params=params, free=tuple(slot_names), fixed=dict(problem.fixed), stderr=stderr,
         covariance=cov, cost=cost, nrmse=nrmse, r2=1 - nrmse**2 if math.isfinite(nrmse) else -math.inf,
         status=status, success=success, message=message, n_iter=n_iter,
         timings={"build": build, "solve": solve, "free_run": t_free, "stderr": t_se},
@@ -401,7 +419,27 @@ def fit(
                   "start_costs": [r[4] * 2 * y_norm**2 for r in runs], "y_norm": y_norm},
         versions={"casadi": casadi.__version__, "duffsym": getattr(duffsym, "__version__", "?")},
         n_samples=int(sum(r.n_times for r in problem.records)),
+        group_params={lab: problem.record_params(problem.labels.index(lab), slot_values)
+                      for lab in problem.group_order},
+        groups=tuple(problem.labels) if problem.group_order else (),
     )
+
+
+def _grouped_params(problem, slot_values) -> dict[str, float]:
+    """Shared values by name, per-group values as ``name[label]``, per-group fixed values likewise."""
+    out = {}
+    for n in problem.model.param_names:
+        if n in problem.free and n not in problem.per_group:
+            out[n] = slot_values[n]
+        elif n in problem.per_group:
+            for lab in problem.group_order:
+                out[f"{n}[{lab}]"] = slot_values[f"{n}[{lab}]"]
+        elif any(k == n for k, _ in problem.group_fixed):
+            for lab in problem.group_order:
+                out[f"{n}[{lab}]"] = problem.group_fixed.get((n, lab), problem.fixed[n])
+        else:
+            out[n] = problem.fixed[n]
+    return out
 
 
 def _solve(solver, w_start, lbw, ubw, max_iter):
@@ -463,35 +501,35 @@ def _free_run(model, params, record, U, x0):
     return np.asarray(traj.y, dtype=float), traj.success, traj.message
 
 
-def _laplace_covariance(problem, params, x0s, U_list, y_sims) -> np.ndarray:
-    """Gauss–Newton covariance of the free parameters (initial states marginalised)."""
+def _laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
+    """Gauss–Newton covariance of the identified values (slots), initial states marginalised."""
     from duffsym.simulate import simulate
 
     model = problem.model
-    free = problem.free
-    n_free = len(free)
+    slots = problem.slots
+    n_slots = len(slots)
     nx = model.n_states
     n_rec = len(problem.records)
-    n_cols = n_free + nx * n_rec
+    n_cols = n_slots + nx * n_rec
     blocks, resid, weights = [], [], []
-    for i, (rec, U, x0, ysim) in enumerate(zip(problem.records, U_list, x0s, y_sims)):
+    for i, (rec, U, x0, params) in enumerate(zip(problem.records, U_list, x0s, rec_params)):
         chans = {c.name: U[:, j] for j, c in enumerate(model.inputs)}
         t = np.asarray(rec.t)
         # a fixed substep count keeps the discretisation the same while differencing
         ref = simulate(model, params, t, chans, x0=x0, on_failure="return")
         if not ref.success:
-            return np.full((n_free, n_free), np.nan)
+            return np.full((n_slots, n_slots), np.nan)
         n_sub = int(min(max(int(ref.substeps.max()), 1) * 2, 200))
         base = simulate(model, params, t, chans, x0=x0, substeps=n_sub, on_failure="return")
         Jb = np.zeros((rec.n_times, n_cols))
-        for j, n in enumerate(free):
+        for j in sorted(set(problem.slot_index(i))):
+            n = slots[j][0]
             step = 1e-6 * max(abs(params[n]), model.param(n).typical_scale)
             ys = []
             for sgn in (1, -1):
                 p = dict(params)
                 p[n] = params[n] + sgn * step
-                tr = simulate(model, p, t, chans, x0=x0, substeps=n_sub, on_failure="return")
-                ys.append(tr.y)
+                ys.append(simulate(model, p, t, chans, x0=x0, substeps=n_sub, on_failure="return").y)
             Jb[:, j] = (ys[0] - ys[1]) / (2 * step)
         x0v = np.asarray(x0, dtype=float)
         for s in range(nx):
@@ -501,7 +539,7 @@ def _laplace_covariance(problem, params, x0s, U_list, y_sims) -> np.ndarray:
                 xx = x0v.copy()
                 xx[s] += sgn * step
                 ys.append(simulate(model, params, t, chans, x0=xx, substeps=n_sub, on_failure="return").y)
-            Jb[:, n_free + nx * i + s] = (ys[0] - ys[1]) / (2 * step)
+            Jb[:, n_slots + nx * i + s] = (ys[0] - ys[1]) / (2 * step)
         blocks.append(Jb)
         resid.append(np.asarray(rec.y) - base.y)
         weights.append(problem.sample_weights(i))
@@ -510,31 +548,25 @@ def _laplace_covariance(problem, params, x0s, U_list, y_sims) -> np.ndarray:
     wv = np.concatenate(weights)
     used = wv > 0
     if not np.all(np.isfinite(J[used])):
-        return np.full((n_free, n_free), np.nan)
-    n_used = int(np.count_nonzero(used))
-    dof = n_used - n_cols
+        return np.full((n_slots, n_slots), np.nan)
+    dof = int(np.count_nonzero(used)) - n_cols
     if dof <= 0:
-        return np.full((n_free, n_free), np.nan)
+        return np.full((n_slots, n_slots), np.nan)
     sigma2 = float(np.sum(wv * r**2)) / dof
     H = J[used].T @ (wv[used, None] * J[used])
     # column scaling keeps the inversion well conditioned when parameters differ by decades
     d = np.sqrt(np.diag(H))
     d = np.where(d > 0, d, 1.0)
     Hs = H / np.outer(d, d)
-    try:
-        cond = np.linalg.cond(Hs)
-        if not np.isfinite(cond) or cond > 1e14:
-            raise np.linalg.LinAlgError(f"condition number {cond:.3g}")
-        inv = np.linalg.inv(Hs)
-    except np.linalg.LinAlgError as exc:
-        warnings.warn(f"the Gauss-Newton Hessian is singular ({exc}): some free parameters are not identifiable "
-                      "from these records; their standard errors are set to inf", ConvergenceWarning, stacklevel=3)
-        inv = np.linalg.pinv(Hs)
-        cov = sigma2 * inv / np.outer(d, d)
-        bad = np.abs(np.linalg.eigh(Hs)[0]) < 1e-14 * np.max(np.abs(Hs))
-        out = cov[:n_free, :n_free].copy()
-        if bad.any():
-            np.fill_diagonal(out, np.inf)
-        return out
-    cov = sigma2 * inv / np.outer(d, d)
-    return cov[:n_free, :n_free]
+    cond = np.linalg.cond(Hs)
+    if np.isfinite(cond) and cond <= 1e14:
+        return (sigma2 * np.linalg.inv(Hs) / np.outer(d, d))[:n_slots, :n_slots]
+    warnings.warn(f"the Gauss-Newton Hessian is singular (condition number {cond:.3g}): some free parameters are "
+                  "not identifiable from these records; their standard errors are set to inf",
+                  ConvergenceWarning, stacklevel=3)
+    out = (sigma2 * np.linalg.pinv(Hs) / np.outer(d, d))[:n_slots, :n_slots]
+    w_eig, v_eig = np.linalg.eigh(Hs)
+    weak = np.abs(v_eig[:n_slots, np.abs(w_eig) < 1e-14 * np.max(np.abs(w_eig))]).sum(axis=1) > 1e-6
+    out[weak, :] = np.inf
+    out[:, weak] = np.inf
+    return out

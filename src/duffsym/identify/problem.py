@@ -41,6 +41,26 @@ def _as_records(records) -> tuple[Record, ...]:
     return out
 
 
+def _group_labels(groups, records: tuple[Record, ...]) -> tuple[str, ...]:
+    if groups is None:
+        return ("",) * len(records)
+    if isinstance(groups, str):
+        if groups not in ("current", "voltage"):
+            raise DataError(f"groups must be 'current', 'voltage' or one label per record; got {groups!r}")
+        unit = "A" if groups == "current" else "V"
+        out = []
+        for i, r in enumerate(records):
+            v = getattr(r, groups)
+            if v is None:
+                raise DataError(f"groups={groups!r}: record {i} ({r.name!r}) has no {groups}; set it or give labels")
+            out.append(f"{v:g}{unit}")
+        return tuple(out)
+    labels = tuple(str(g) for g in groups)
+    if len(labels) != len(records):
+        raise DataError(f"groups: give one label per record ({len(records)}); got {len(labels)}")
+    return labels
+
+
 def _per_record(name: str, value, records: tuple[Record, ...], dtype) -> tuple[np.ndarray, ...] | None:
     """Normalise a per-sample array argument (one array, or one per record)."""
     if value is None:
@@ -79,6 +99,11 @@ class Problem:
     mask : per-sample booleans, True where a sample leaves the objective (one array or one per record);
         masked samples still obey the dynamics.
     mask_info : description of how the mask was chosen (e.g. from :func:`auto_mask`), kept in the result.
+    groups : ``"current"`` or ``"voltage"`` (group the records by that value) or one label per record;
+        with ``per_group`` the named free parameters get one value per group (e.g. the current
+        dependence of Table 2 in one fit), the others stay shared. With groups, the default
+        ``A_f`` is fixed per group to the group's ``max|y|``.
+    per_group : free parameters identified once per group.
 
     Raises
     ------
@@ -98,11 +123,17 @@ class Problem:
     mask: tuple[np.ndarray, ...] = ()
     defaults_applied: Mapping[str, str] = field(default_factory=dict)
     mask_info: Mapping[str, object] = field(default_factory=dict)
+    labels: tuple[str, ...] = ()
+    group_order: tuple[str, ...] = ()
+    per_group: tuple[str, ...] = ()
+    group_fixed: Mapping[tuple[str, str], float] = field(default_factory=dict)
+    slots: tuple[tuple[str, str | None], ...] = ()
 
     def __init__(self, model, records, *, free: Sequence[str] | None = None, fixed: Mapping[str, float] | None = None,
                  bounds: Mapping[str, tuple[float, float]] | None = None, weights=None, mask=None,
-                 mask_info: Mapping[str, object] | None = None):
+                 mask_info: Mapping[str, object] | None = None, groups=None, per_group: Sequence[str] = ()):
         recs = _as_records(records)
+        labels = _group_labels(groups, recs)
         names = list(model.param_names)
         fixed_in = dict(fixed or {})
         for label, group in (("fixed", fixed_in), ("bounds", dict(bounds or {}))):
@@ -129,10 +160,18 @@ class Problem:
             fixed_vals[k] = v
         defaults: dict[str, str] = {}
         requested = set(free or ()) | set(fixed_vals)
+        group_fixed: dict[tuple[str, str], float] = {}
         if "A_f" in names and "A_f" not in requested:
             peak = max(float(np.max(np.abs(r.y))) for r in recs)
             fixed_vals["A_f"] = peak
             defaults["A_f"] = REASON_AF.format(value=peak)
+            if groups is not None:
+                for lab in dict.fromkeys(labels):
+                    gp = max(float(np.max(np.abs(r.y))) for r, lr in zip(recs, labels) if lr == lab)
+                    group_fixed[("A_f", lab)] = gp
+                defaults["A_f"] = REASON_AF.format(value=peak).replace(
+                    f"fixed to max|y| = {peak:.6g}", "fixed per group to the group's max|y| ("
+                    + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
         if "k3" in names and "k3" not in requested:
             fixed_vals["k3"] = 0.0
             defaults["k3"] = REASON_K3
@@ -146,6 +185,15 @@ class Problem:
                     defaults[n] = REASON_HELD.format(value=fixed_vals[n])
         if not free_t:
             raise ModelError(f"no free parameter left for model {model.name}; list some in free=")
+        per_group = (per_group,) if isinstance(per_group, str) else tuple(per_group)
+        if per_group and groups is None:
+            raise ModelError("per_group needs groups= ('current', 'voltage' or one label per record)")
+        not_free = sorted(set(per_group) - set(free_t))
+        if not_free:
+            raise ModelError(f"per_group parameter(s) {not_free} are not free; free: {list(free_t)}")
+        order = tuple(dict.fromkeys(labels))
+        slots = [(n, None) for n in free_t if n not in per_group]
+        slots += [(n, lab) for n in free_t if n in per_group for lab in order]
         bnds: dict[str, tuple[float, float]] = {}
         for n in free_t:
             spec = model.param(n)
@@ -180,8 +228,40 @@ class Problem:
         object.__setattr__(self, "mask", m or ())
         object.__setattr__(self, "defaults_applied", defaults)
         object.__setattr__(self, "mask_info", dict(mask_info or {}))
+        object.__setattr__(self, "labels", labels)
+        object.__setattr__(self, "group_order", order if groups is not None else ())
+        object.__setattr__(self, "per_group", tuple(n for n in free_t if n in per_group))
+        object.__setattr__(self, "group_fixed", group_fixed)
+        object.__setattr__(self, "slots", tuple(slots))
 
     # ------------------------------------------------------------------
+    @property
+    def slot_names(self) -> tuple[str, ...]:
+        """Names of the identified values: ``name`` when shared, ``name[label]`` per group."""
+        return tuple(n if lab is None else f"{n}[{lab}]" for n, lab in self.slots)
+
+    def slot_index(self, i: int) -> list[int]:
+        """For record ``i``, the slot index of each free parameter (ordered as ``free``)."""
+        lab = self.labels[i]
+        out = []
+        for n in self.free:
+            key = (n, lab if n in self.per_group else None)
+            out.append(self.slots.index(key))
+        return out
+
+    def fixed_value(self, i: int, name: str) -> float:
+        """Value of fixed parameter ``name`` for record ``i`` (per-group defaults included)."""
+        return float(self.group_fixed.get((name, self.labels[i]), self.fixed[name]))
+
+    def record_params(self, i: int, slot_values) -> dict[str, float]:
+        """Every parameter of record ``i`` by name, from the slot values (mapping or sequence)."""
+        if not isinstance(slot_values, Mapping):
+            slot_values = dict(zip(self.slot_names, map(float, slot_values)))
+        idx = dict(zip(self.free, self.slot_index(i)))
+        names = self.slot_names
+        return {n: float(slot_values[names[idx[n]]]) if n in idx else self.fixed_value(i, n)
+                for n in self.model.param_names}
+
     def sample_weights(self, i: int) -> np.ndarray:
         """Effective weight of each sample of record ``i`` (0 where masked)."""
         w = np.ones(self.records[i].n_times)

@@ -70,6 +70,16 @@ class IdentificationResult:
     settings: dict = field(default_factory=dict)
     versions: dict = field(default_factory=dict)
     n_samples: int = 0
+    group_params: dict = field(default_factory=dict)
+    groups: tuple = ()
+
+    def params_for(self, group: str | None = None) -> dict:
+        """Every parameter by name for one group (``None`` for a fit without groups)."""
+        if not self.group_params:
+            return dict(self.params)
+        if group not in self.group_params:
+            raise DataError(f"this fit has groups {sorted(self.group_params)}; choose one (got {group!r})")
+        return dict(self.group_params[group])
 
     @property
     def correlation(self) -> np.ndarray:
@@ -92,7 +102,7 @@ class IdentificationResult:
                 rel = f" ({abs(se / v):.2%})" if v != 0 and math.isfinite(se) else ""
                 lines.append(f"  {n:>6} = {v:12.6g} +/- {se:.3g}{rel}")
             else:
-                why = self.defaults_applied.get(n, "fixed by the user")
+                why = self.defaults_applied.get(n.split("[")[0], "fixed by the user")
                 lines.append(f"  {n:>6} = {v:12.6g}  fixed: {why}")
         n = sum(int(np.sum(m)) for m in self.mask)
         if n:
@@ -129,6 +139,8 @@ class IdentificationResult:
             "n_samples": int(self.n_samples),
             "settings": _jsonable(self.settings),
             "versions": dict(self.versions),
+            "group_params": {g: {k: float(v) for k, v in p.items()} for g, p in self.group_params.items()},
+            "groups": list(self.groups),
         }
 
     def save(self, path) -> Path:
@@ -166,6 +178,8 @@ class IdentificationResult:
             records=tuple(data.get("records", ())), mask_info=dict(data.get("mask_info", {})),
             settings=dict(data.get("settings", {})), versions=dict(data.get("versions", {})),
             n_samples=int(data.get("n_samples", 0)),
+            group_params={g: {k: float(v) for k, v in p.items()} for g, p in data.get("group_params", {}).items()},
+            groups=tuple(data.get("groups", ())),
         )
 
 

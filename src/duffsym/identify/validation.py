@@ -66,7 +66,7 @@ def model_from_result(result: IdentificationResult):
     return model
 
 
-def validate(result: IdentificationResult, record: Record, model=None) -> ValidationResult:
+def validate(result: IdentificationResult, record: Record, model=None, *, group: str | None = None) -> ValidationResult:
     """Simulate the fitted model on ``record``'s input and compare with its output.
 
     The initial state is not measured: it is started from the data as in the fit
@@ -78,12 +78,18 @@ def validate(result: IdentificationResult, record: Record, model=None) -> Valida
     result : a fit (from :func:`~duffsym.identify.fit` or :func:`~duffsym.identify.load_result`).
     record : the record to validate on.
     model : the fitted model; rebuilt from ``result`` when None.
+    group : for a fit with groups, the group whose parameters to use; by default the record's
+        current (``"0.5A"``) or voltage (``"0.4V"``) label.
     """
     from duffsym.identify.collocation import _input_matrix, initial_states
     from duffsym.simulate import simulate
 
     model = model if model is not None else model_from_result(result)
-    p = model.param_vector(result.params)
+    if result.group_params and group is None:
+        for value, unit in ((record.current, "A"), (record.voltage, "V")):
+            if value is not None and f"{value:g}{unit}" in result.group_params:
+                group = f"{value:g}{unit}"
+    p = model.param_vector(result.params_for(group))
     U = _input_matrix(model, record)
     x0 = _estimate_x0(model, p, record, U, initial_states(model, record, p)[0])
     traj = simulate(model, p, np.asarray(record.t), {c.name: U[:, j] for j, c in enumerate(model.inputs)},
