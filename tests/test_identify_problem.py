@@ -105,3 +105,20 @@ def test_fit_arguments_checked(rec):
         fit(p, [1.0, 2.0])
     with pytest.raises(ModelError, match="degree must be a positive integer"):
         fit(p, degree=0)
+
+
+def test_group_arguments_checked(rec):
+    with pytest.raises(DataError, match="groups must be 'current', 'voltage' or one label per record"):
+        Problem(MODEL, rec, groups="temperature")
+    with pytest.raises(DataError, match="record 0 .* has no current"):
+        Problem(MODEL, rec, groups="current")
+    with pytest.raises(DataError, match=r"give one label per record \(2\); got 3"):
+        Problem(MODEL, [rec, rec], groups=["a", "b", "c"])
+    with pytest.raises(ModelError, match="per_group needs groups="):
+        Problem(MODEL, rec, per_group=["c3"])
+    with pytest.raises(ModelError, match=r"per_group parameter\(s\) \['k3'\] are not free"):
+        Problem(MODEL, [rec, rec], groups=["a", "b"], per_group=["k3"])
+    p = Problem(MODEL, [rec, rec.replace(current=0.5)], groups=["lo", "hi"], per_group=["c3"])
+    assert p.slot_names == ("c1", "c2", "k1", "k2", "c3[lo]", "c3[hi]")
+    assert p.slot_index(1) == [0, 1, 5, 2, 3]  # free order c1, c2, c3, k1, k2
+    assert p.fixed_value(1, "A_f") == pytest.approx(np.max(np.abs(rec.y)))
