@@ -192,6 +192,11 @@ def cmd_reproduce(args) -> int:
 
 
 # ---------------------------------------------------------------------------------------- parser
+def _add_model_arguments(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--model", default="mr-damper", help="model name (see `duffsym models`; default mr-damper)")
+    s.add_argument("--n", type=int, default=None, help="the odd power n (default: the model's, 5 for mr-damper)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from duffsym import __version__
 
@@ -208,8 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("derive", help="the paper's derivations for a model: state space, Lyapunov, invariant set, "
                        "stability conditions, scaling symmetry")
-    s.add_argument("--model", default="mr-damper", help="model name (see `duffsym models`; default mr-damper)")
-    s.add_argument("--n", type=int, default=None, help="the odd power n (default: the model's, 5 for mr-damper)")
+    _add_model_arguments(s)
     fmt = s.add_mutually_exclusive_group()
     fmt.add_argument("--latex", action="store_true", help="print LaTeX")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
@@ -217,8 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("simulate", help="simulate a model under an excitation; CSV (time, displacement, velocity, "
                        "force) and an optional loop plot")
-    s.add_argument("--model", default="mr-damper", help="model name (default mr-damper)")
-    s.add_argument("--n", type=int, default=None, help="the odd power n")
+    _add_model_arguments(s)
     s.add_argument("--voltage", type=float, default=None, help="use the Table 2 row of this voltage (V)")
     s.add_argument("--param", action="append", metavar="NAME=VALUE", help="set parameters (repeat or comma-separate); "
                    "others keep their defaults")

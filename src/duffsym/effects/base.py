@@ -30,12 +30,15 @@ class Effect:
     def apply(self, model: SymbolicModel) -> SymbolicModel:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def _check_not_applied(self, model: SymbolicModel) -> None:
+        if self.name in model.effects:
+            raise ModelError(f"effect {self.name} is already applied to model {model.name}")
+
     def _require_mechanical(self, model: SymbolicModel) -> tuple[sp.Symbol, sp.Symbol]:
         if model.position is None or model.velocity is None:
             raise ModelError(f"effect {self.name} needs a mechanical model (position and velocity states); "
                              f"model {model.name} has none")
-        if self.name in model.effects:
-            raise ModelError(f"effect {self.name} is already applied to model {model.name}")
+        self._check_not_applied(model)
         return model.position, model.velocity
 
 
@@ -59,8 +62,7 @@ class ForceOffset(Effect):
     signature: str = "residual mean is non-zero; d–y loop shifted vertically"
 
     def apply(self, model: SymbolicModel) -> SymbolicModel:
-        if self.name in model.effects:
-            raise ModelError(f"effect {self.name} is already applied to model {model.name}")
+        self._check_not_applied(model)
         y0 = ParamSpec(f"{self.prefix}y0", "y_{0}", 0.0, -1e9, 1e9, unit="output unit",
                        description="force offset")
         return model.extend(effect=self.name, params=(y0,), output_add=y0.symbol)
@@ -99,8 +101,7 @@ class OutputLag(Effect):
     signature: str = "residual ~ -tau * dy/dt: largest where the force changes fastest"
 
     def apply(self, model: SymbolicModel) -> SymbolicModel:
-        if self.name in model.effects:
-            raise ModelError(f"effect {self.name} is already applied to model {model.name}")
+        self._check_not_applied(model)
         tau = ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, 1e-6, 10.0, unit="s", description="lag time constant")
         z = sp.Symbol("z_lag", real=True)
         return model.extend(effect=self.name, params=(tau,), states=((z, (model.output - z) / tau.symbol),), output=z)
