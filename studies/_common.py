@@ -1,0 +1,112 @@
+"""Helpers shared by the studies: provenance, derived files, quoted numbers, figure saving, CLI."""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from contextlib import contextmanager
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+import paths
+
+
+def git_sha() -> str | None:
+    """The checkout's commit (with ``-dirty`` if the tree has changes), or ``None`` without git."""
+    try:
+        root = str(paths.repo_root())
+        sha = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True,
+                             timeout=10).stdout.strip()
+        if not sha:
+            return None
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, timeout=10).stdout.strip()
+        return sha + ("-dirty" if dirty else "")
+    except (OSError, subprocess.SubprocessError):
+        return None
+
+
+def provenance(cfg) -> dict:
+    """Config, git SHA and versions of the packages a study depends on."""
+    import matplotlib
+    import scipy
+    import sympy as sp
+
+    import duffsym
+
+    return dict(config=asdict(cfg), git_sha=git_sha(), python=sys.version.split()[0],
+                versions=dict(duffsym=duffsym.__version__, numpy=np.__version__, sympy=sp.__version__,
+                              scipy=scipy.__version__, matplotlib=matplotlib.__version__))
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def write_derived(study: str, arrays: dict[str, np.ndarray], meta: dict) -> list[Path]:
+    """Write ``data/derived/<study>.npz`` (arrays) and ``<study>.json`` (metadata); return the paths."""
+    out = paths.derived_dir()
+    out.mkdir(parents=True, exist_ok=True)
+    npz, js = out / f"{study}.npz", out / f"{study}.json"
+    np.savez_compressed(npz, **{k: np.asarray(v) for k, v in arrays.items()})
+    js.write_text(json.dumps(_jsonable(meta), indent=2) + "\n")
+    return [npz, js]
+
+
+def read_derived(study: str) -> tuple[dict[str, np.ndarray], dict]:
+    """Read what :func:`write_derived` wrote (the only input of a study's ``plot``)."""
+    out = paths.derived_dir()
+    npz, js = out / f"{study}.npz", out / f"{study}.json"
+    if not npz.is_file() or not js.is_file():
+        raise FileNotFoundError(f"{npz} or {js} is missing; run `python studies/{study}.py` (compute) first")
+    with np.load(npz) as f:
+        arrays = {k: f[k] for k in f.files}
+    return arrays, json.loads(js.read_text())
+
+
+def write_number(study: str, name: str, text: str) -> Path:
+    """Write one quoted number (or a small LaTeX snippet) to ``paper/output/<study>_<name>.tex``."""
+    out = paths.output_dir()
+    out.mkdir(parents=True, exist_ok=True)
+    p = out / f"{study}_{name}.tex"
+    p.write_text(text.rstrip("\n") + "%\n" if "\n" not in text.strip() else text.rstrip("\n") + "\n")
+    return p
+
+
+@contextmanager
+def style():
+    """The studies' matplotlib style, Agg backend, no global rcParams changes."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    with plt.style.context(str(paths.STYLE)):
+        yield plt
+
+
+def save(fig, study: str, panel: str) -> Path:
+    """Save ``fig`` as ``paper/figures/<study>_<panel>.png`` and close it."""
+    from duffsym.plot import save_figure
+
+    return save_figure(fig, paths.figures_dir() / f"{study}_{panel}.png")
+
+
+def parse_args(argv, description: str) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=description)
+    p.add_argument("--smoke", action="store_true", help="small settings for CI (a few seconds)")
+    p.add_argument("--plot-only", action="store_true", help="redraw the figures from data/derived only")
+    return p.parse_args(argv)
