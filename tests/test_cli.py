@@ -112,3 +112,64 @@ def test_derive_latex_and_text(capsys):
     gamma, delta, x2 = sp.symbols("gamma delta x2", real=True)
     derived = sp.sympify(line, locals={"gamma": gamma, "delta": delta, "x2": x2})
     assert code == 0 and sp.simplify(derived - (-gamma * x2**2 - delta * x2**4)) == 0  # Eq. 7 with n = 3
+
+
+@pytest.fixture(scope="module")
+def table2_csv(tmp_path_factory):
+    """A noise-free record of Table 2's 0.4 V row written by `duffsym simulate` (4 periods at 2 Hz, dt 0.005)."""
+    path = tmp_path_factory.mktemp("fit") / "t2.csv"
+    assert main(["simulate", "--voltage", "0.4", "--periods", "4", "--out", str(path)]) == 0
+    return path
+
+
+def test_fit_recovers_symmetry_invariant_combinations(table2_csv, tmp_path, capsys):
+    """A_f is fixed to max|y|, so the fit lands on the scaling-symmetric image of the truth:
+    c1*A_f, k1*A_f, c1 + c2, k1 + k2 and c3/A_f^4 (n = 5) are what the data determine."""
+    out = tmp_path / "fit.json"
+    code, stdout, err = run(["fit", str(table2_csv), "--out", str(out), "--json", "--quiet"], capsys)
+    assert code == 0, err
+    d = json.loads(stdout)
+    assert list(d)[:7] == ["model", "effects", "params", "stderr", "nrmse", "status", "success"]
+    assert d["success"] and d["nrmse"] < 1e-3 and d["effects"] == []
+    p, t = d["params"], TABLE2[0.4]
+    assert p["k3"] == 0.0 and "k3" not in d["stderr"]
+    for got, want in [(p["c1"] * p["A_f"], t["c1"] * t["A_f"]), (p["k1"] * p["A_f"], t["k1"] * t["A_f"]),
+                      (p["c1"] + p["c2"], t["c1"] + t["c2"]), (p["k1"] + p["k2"], t["k1"] + t["k2"]),
+                      (p["c3"] / p["A_f"] ** 4, t["c3"] / t["A_f"] ** 4)]:
+        assert got == pytest.approx(want, rel=2e-3)
+    code, stdout, err = run(["validate", str(out), str(table2_csv), "--json"], capsys)
+    v = json.loads(stdout)
+    assert code == 0 and v["nrmse"] < 1e-3 and v["rmse"] < 1e-3
+
+
+def test_fit_with_an_unknown_effect_lists_the_catalogue(table2_csv, capsys):
+    code, _, err = run(["fit", str(table2_csv), "--add", "gremlins"], capsys)
+    assert code == 2 and "unknown effect(s) ['gremlins']; choose from {" in err
+
+
+def _bad_files(folder):
+    t = np.arange(401) * 0.005
+    rows = np.column_stack([t, np.sin(4 * np.pi * t), np.cos(4 * np.pi * t)])
+    files = {"empty": b"", "header": b"time,displacement,force\n", "binary": bytes(range(256)) * 4}
+    nan, unsorted = rows.copy(), rows.copy()
+    nan[50, 2] = np.nan
+    unsorted[[10, 11]] = unsorted[[11, 10]]
+    for name, data, header in [("nan", nan, "time,displacement,force"), ("unsorted", unsorted, "time,displacement,force"),
+                               ("missing", rows[:, :2], "time,displacement"), ("short", rows[:10], "time,displacement,force")]:
+        path = folder / f"{name}.csv"
+        np.savetxt(path, data, delimiter=",", header=header, comments="")
+    for name, raw in files.items():
+        (folder / f"{name}.csv").write_bytes(raw)
+    return folder
+
+
+@pytest.mark.parametrize("name, message", [
+    ("empty", "the file is empty"), ("header", "header but no data rows"), ("nan", "NaN/inf values in y"),
+    ("unsorted", "strictly increasing"), ("missing", "missing column 'force'"), ("short", "too few samples"),
+    ("binary", "binary file"),
+])
+def test_fit_bad_files_exit_2_with_one_line(name, message, tmp_path, capsys):
+    folder = _bad_files(tmp_path)
+    code, out, err = run(["fit", str(folder / f"{name}.csv")], capsys)
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and message in err and "Traceback" not in err

@@ -169,6 +169,133 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------------------- fit / validate
+def _parse_mapping(text: str | None, what: str) -> dict[str, str]:
+    out: dict[str, str] = {}
+    for part in (text or "").split(","):
+        if not part:
+            continue
+        if "=" not in part:
+            raise CLIError(f"{what} {part!r} must look like ROLE=NAME (e.g. time=t,input=V1,output=V2)")
+        key, value = part.split("=", 1)
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _read_record(args, path):
+    from duffsym.data import read_csv
+
+    return read_csv(path, columns=_parse_mapping(args.columns, "--columns") or None,
+                    units=_parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy)
+
+
+def _fit_model(args):
+    from duffsym.model.library import get_model
+
+    model = get_model(args.model, args.n)
+    effects = [e.strip() for e in (args.add or "").split(",") if e.strip()]
+    if effects:
+        from duffsym.effects import CATALOGUE, apply_effects
+
+        unknown = [e for e in effects if e not in CATALOGUE]
+        if unknown:
+            raise CLIError(f"unknown effect(s) {unknown}; choose from {{{', '.join(sorted(CATALOGUE))}}}")
+        model = apply_effects(model, [CATALOGUE[e] for e in effects])
+    return model
+
+
+def cmd_fit(args) -> int:
+    import numpy as np
+
+    from duffsym.identify import Problem, auto_mask, fit
+
+    record = _read_record(args, args.data)
+    model = _fit_model(args)
+    fixed = _parse_assignments(args.fix, "--fix")
+    if args.af != "max":
+        try:
+            fixed["A_f"] = float(args.af)
+        except ValueError:
+            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
+    mask, mask_info = None, None
+    if args.mask == "auto":
+        mask, mask_info = auto_mask(record)
+    elif args.mask not in (None, "none"):
+        mask_path = Path(args.mask)
+        if not mask_path.is_file():
+            raise CLIError(f"--mask {args.mask}: no such file; give none, auto or a file of 0/1 per sample")
+        try:
+            mask = np.loadtxt(mask_path, dtype=float).astype(bool).reshape(-1)
+        except ValueError as exc:
+            raise CLIError(f"--mask {args.mask}: not a column of 0/1 values ({exc})") from None
+        mask_info = {"rule": f"user mask from {args.mask}"}
+    problem = Problem(model, record, fixed=fixed, mask=mask, mask_info=mask_info)
+    if not args.quiet:
+        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
+             f"({record.t.size} samples)")
+    result = fit(problem, n_starts=args.starts, rng=args.seed)
+    if args.out:
+        result.save(args.out)
+    if args.plot:
+        _plot_fit(result, record, model, args.plot)
+    if args.json:
+        _emit_json(_contract_fields(result.to_dict()))
+    else:
+        print(result.summary())
+    if not result.success:
+        _err(f"duffsym fit: the fit did not succeed: {result.status}: {result.message}")
+        return 1
+    return 0
+
+
+def _contract_fields(d: dict) -> dict:
+    """The fit JSON with the contract's keys first (model, effects, params, stderr, nrmse, status, success)."""
+    head = ("model", "effects", "params", "stderr", "nrmse", "status", "success")
+    return {**{k: d[k] for k in head if k in d}, **{k: v for k, v in d.items() if k not in head}}
+
+
+def _plot_fit(result, record, model, path) -> None:
+    import numpy as np
+
+    from duffsym.plot.loops import save_figure
+    from duffsym.simulate import Trajectory
+
+    names = tuple(c.name for c in model.inputs)
+    chans = record.inputs_for(model)
+    u = np.column_stack([chans[n] for n in names])
+    y_sim = np.asarray(result.y_sim[0], dtype=float)
+    common = dict(model=model.name, t=record.t, x=np.zeros((record.t.size, 0)), u=u, params=result.params,
+                  success=True, status="ok", message="ok", method="data", input_names=names)
+    measured = Trajectory(y=np.asarray(record.y, dtype=float), **common)
+    fitted = Trajectory(y=y_sim, **common)
+    from duffsym.plot.loops import plot_loops
+
+    fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g})"],
+                     styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)])
+    if result.mask and np.any(result.mask[0]):
+        m = np.asarray(result.mask[0], dtype=bool)
+        axes = fig.axes
+        axes[0].plot(u[m, 0], record.y[m], ".", color="tab:red", ms=2, label="masked")
+        if len(axes) > 1 and u.shape[1] > 1:
+            axes[1].plot(u[m, 1], record.y[m], ".", color="tab:red", ms=2)
+        axes[0].legend(fontsize="small")
+    save_figure(fig, path)
+
+
+def cmd_validate(args) -> int:
+    from duffsym.identify import load_result, validate
+
+    result = load_result(args.fit)
+    record = _read_record(args, args.data)
+    val = validate(result, record)
+    d = val.to_dict()
+    if args.json:
+        _emit_json(d)
+    else:
+        print(f"validation of {args.fit} on {args.data}: NRMSE {d['nrmse']:.4f}, RMSE {d['rmse']:.6g}")
+    return 0
+
+
 # ---------------------------------------------------------------------------------------- reproduce
 def _find_studies(start: Path) -> Path | None:
     for folder in (start, *start.parents):
@@ -195,6 +322,14 @@ def cmd_reproduce(args) -> int:
 def _add_model_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--model", default="mr-damper", help="model name (see `duffsym models`; default mr-damper)")
     s.add_argument("--n", type=int, default=None, help="the odd power n (default: the model's, 5 for mr-damper)")
+
+
+def _add_file_arguments(s: argparse.ArgumentParser) -> None:
+    s.add_argument("--columns", help="map roles to the file's columns, e.g. time=t,input=V1,output=V2 "
+                   "(roles: time, displacement/input, force/output, velocity, current, voltage)")
+    s.add_argument("--units", help="record units, e.g. input=mm,output=N")
+    s.add_argument("--nan-policy", choices=("raise", "omit"), default="raise",
+                   help="samples with NaN/inf: raise an error (default) or omit them (with a warning)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -240,6 +375,32 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--plot", help="loop plot file (PNG/PDF)")
     s.add_argument("--json", action="store_true", help="print a JSON summary on stdout (needs --out for the data)")
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
+    s.add_argument("data", help="CSV with a header: time, displacement, force (+ velocity, current); see --columns")
+    _add_model_arguments(s)
+    s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed (repeat or "
+                   "comma-separate); k3 = 0 by default (not identifiable from one sine amplitude)")
+    s.add_argument("--af", default="max", help="A_f: 'max' (= max|y|, the paper's choice; the scaling symmetry makes "
+                   "it unidentifiable) or a value")
+    s.add_argument("--mask", default="none", help="none, auto (the deadzone after velocity reversals, paper Fig. 8) "
+                   "or a file with one 0/1 per sample (1 = leave out of the objective)")
+    s.add_argument("--add", help="effects to add to the model, comma-separated (see duffsym.effects)")
+    s.add_argument("--starts", type=int, default=1, help="multistart: number of starts (default 1)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
+    _add_file_arguments(s)
+    s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
+    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF)")
+    s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
+    s.add_argument("--quiet", action="store_true", help="no progress messages")
+    s.set_defaults(func=cmd_fit)
+
+    s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
+    s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
+    s.add_argument("data", help="CSV record to validate on")
+    _add_file_arguments(s)
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_validate)
 
     s = sub.add_parser("reproduce", help="run the studies and regenerate every figure and number")
     s.add_argument("--smoke", action="store_true", help="quick run with small settings (for CI)")
