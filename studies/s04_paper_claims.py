@@ -238,8 +238,9 @@ def _tex_escape(s: str) -> str:
 
 
 def main(argv=None) -> int:
-    from paths import DERIVED, OUTPUT
+    import paths
 
+    DERIVED, OUTPUT = paths.derived_dir(), paths.output_dir()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--smoke", action="store_true", help="same as the full run (it takes seconds)")
     parser.parse_args(argv)
