@@ -1,0 +1,446 @@
+"""Study s06 — the Duffing-like MR damper model fitted to a real MR damper (UTFSM, Quiroz 2022).
+
+Data: ``external_data_dir() / "mr_damper_utfsm_quiroz2022"`` (see its SOURCE.md; never copied into
+the repository): 30 preprocessed sinusoid tests, six amplitude/frequency pairs (2 mm 5 Hz, 5 mm 3 Hz,
+10 mm 1 Hz, 25 mm 0.1/0.25/0.5 Hz) x five coil currents (0, 0.25, 0.5, 0.75, 1 A), and an
+earthquake-type record at 0.2–1 A. Displacement in mm, force in N.
+
+Fit. Every test is fitted alone with the default :class:`duffsym.identify.Problem` of ``mr_damper(5)``
+(c1, c2, c3, k1, k2 free; ``k3 = 0``; ``A_f = max|y|`` of the test) by direct collocation + IPOPT.
+The velocity is the record's centred Savitzky–Golay derivative of the displacement
+(``velocity="derive"``; the file's column is a one-sided difference, half a sample late, which is
+4.5 degrees of phase at 5 Hz and 200 samples/s), computed at the full rate.
+
+Decimation. The long records (1 kHz at 1 and 3 Hz; 2000 samples per period at 0.1 Hz) are
+decimated by taking every q-th sample, q = max(1, floor(fs / (f * samples_per_period))) with
+``Config.samples_per_period = 200``: 10 mm 1 Hz q = 5, 25 mm 0.1 Hz q = 10, 0.25 Hz q = 4,
+0.5 Hz q = 2, 3 Hz and 5 Hz q = 1 (the 5 Hz tests have only 40 samples per period). The authors
+already smoothed displacement and force with a moving average of a tenth of the period, which
+removes what such decimation could alias. The decimated records keep all their periods.
+
+Validation (the paper's Fig. 9, on real data). Each fit is simulated free-run
+(:func:`duffsym.identify.validate`) on the five other amplitude/frequency tests at the same current
+(all currents are done; the 0 A and 1 A ones are the ones quoted), and the 1 A fits on the
+earthquake-type record at 1 A (the record exists at 0.2, 0.4, 0.6, 0.8, 1 A only, so 1 A is the only
+current it shares with the sinusoid tests; it is decimated by 5 to 200 samples/s after deriving the
+velocity at 1 kHz). Its 0.3 s moving average (authors' preprocessing) limits its bandwidth.
+
+Diagnostics, to say where the model fits poorly: for every fit, the NRMSE split into the samples near
+a velocity reversal (|d'| < 0.25 max|d'|) and the others (each normalised by the std of the whole
+record), and, as a reference, the NRMSE of a linear viscous + spring model y = c d' + k d fitted by
+linear least squares.
+
+Files: ``data/derived/s06_real_mr_damper.{npz,json}``, figures ``paper/figures/s06_real_mr_damper_params.png``
+(parameters vs current), ``..._loops.png`` (measured vs fitted loops, incl. the worst test),
+``..._nrmse.png`` (the NRMSE table as a map), numbers ``paper/output/s06_*.tex``.
+If the data folder is absent, the study prints how to get it and exits 0 without outputs.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as C  # noqa: E402
+
+STUDY = "s06_real_mr_damper"
+TAG = "s06"
+DATASET = "mr_damper_utfsm_quiroz2022"
+FREE = ("c1", "c2", "c3", "k1", "k2")
+LATEX = dict(c1=r"c_1", c2=r"c_2", c3=r"c_3", k1=r"k_1", k2=r"k_2", A_f=r"A_f")
+TESTS = ("2mm5Hz", "5mm3Hz", "10mm1Hz", "25mm0x5Hz", "25mm0x25Hz", "25mm0x1Hz")
+CURRENTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+@dataclass(frozen=True)
+class Config:
+    """Settings of study s06.
+
+    tests : amplitude/frequency prefixes of the file names. currents : coil currents, A.
+    samples_per_period : decimation target (see the module docstring).
+    reversal_band : |d'| / max|d'| below which a sample counts as "near a reversal" in the diagnostics.
+    earthquake : validate the 1 A fits on the earthquake-type record.
+    """
+
+    tests: tuple[str, ...] = TESTS
+    currents: tuple[float, ...] = CURRENTS
+    samples_per_period: int = 200
+    reversal_band: float = 0.25
+    earthquake: bool = True
+
+    @classmethod
+    def smoke(cls) -> "Config":
+        """Two tests at two currents (the short 5 Hz test and the 0.25 Hz test decimated to 100 samples per period; 0 and 1 A)."""
+        return cls(tests=("2mm5Hz", "25mm0x25Hz"), currents=(0.0, 1.0), samples_per_period=100)
+
+    def summary(self) -> str:
+        return (f"s06 config: {len(self.tests)} tests x {len(self.currents)} currents, decimation to about "
+                f"{self.samples_per_period} samples per period, earthquake validation {self.earthquake}")
+
+
+def data_folder() -> Path | None:
+    """The data set's folder, or None when no external data folder exists."""
+    from duffsym.data import external_data_dir
+    from duffsym.errors import DataError
+
+    try:
+        return external_data_dir() / DATASET
+    except DataError:
+        return None
+
+
+def _file_name(test: str, current: float) -> str:
+    return f"{test}{f'{current:g}'.replace('.', 'x')}A"
+
+
+def _cur_label(current: float) -> str:
+    return f"{current:g}A"
+
+
+def _decimate(rec, q: int, name: str):
+    """Every q-th sample of ``rec`` with its (full-rate) velocity."""
+    from duffsym.data import Record
+
+    v = np.asarray(rec.velocity())
+    return Record(t=np.asarray(rec.t)[::q], d=np.asarray(rec.d)[::q], y=np.asarray(rec.y)[::q], d_dot=v[::q],
+                  current=rec.current, units=dict(rec.units), metadata={**rec.metadata, "decimation": q},
+                  source=rec.source, name=name)
+
+
+def load_test(test: str, current: float, cfg: Config):
+    """The decimated record of one sinusoid test, and its decimation factor."""
+    from duffsym.data import load_mr_damper_utfsm
+
+    name = _file_name(test, current)
+    path = data_folder() / "sinusoidal_preprocessed" / f"{name}.txt"
+    rec = load_mr_damper_utfsm(path, velocity="derive")
+    f = rec.metadata["frequency_hz"]
+    q = max(1, int(math.floor(1.0 / (rec.dt * f * cfg.samples_per_period))))
+    return _decimate(rec, q, name), q, rec.n_times
+
+
+def _split_nrmse(y, y_hat, v, band) -> tuple[float, float]:
+    """NRMSE (normalised by std of the whole record) near reversals (|v| < band max|v|) and elsewhere."""
+    y, y_hat, v = map(np.asarray, (y, y_hat, v))
+    s = float(np.std(y))
+    near = np.abs(v) < band * np.max(np.abs(v))
+    f = lambda m: float(np.sqrt(np.mean((y[m] - y_hat[m]) ** 2)) / s) if m.any() else math.nan  # noqa: E731
+    return f(near), f(~near)
+
+
+def _viscous_nrmse(rec) -> tuple[float, float, float]:
+    """NRMSE of y = c d' + k d by linear least squares, with c and k."""
+    y, d, v = np.asarray(rec.y), np.asarray(rec.d), np.asarray(rec.velocity())
+    A = np.column_stack([v, d])
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ coef
+    return float(np.sqrt(np.mean(r**2)) / np.std(y)), float(coef[0]), float(coef[1])
+
+
+def invariants(p: dict, n: int = 5) -> dict:
+    """Combinations unchanged by the scaling symmetry x -> s x (comparable across tests with different A_f)."""
+    return {"c1*A_f": p["c1"] * p["A_f"], "c1+c2": p["c1"] + p["c2"], "c3/A_f^4": p["c3"] / p["A_f"] ** (n - 1),
+            "k1*A_f": p["k1"] * p["A_f"], "k1+k2": p["k1"] + p["k2"]}
+
+
+def compute(cfg: Config) -> dict:
+    """Fit every test, cross-validate, write the derived files; return the metadata."""
+    from duffsym.data import load_mr_damper_utfsm
+    from duffsym.identify import Problem, fit, validate
+    from duffsym.model import mr_damper
+
+    t_all = time.perf_counter()
+    model = mr_damper(5)
+    arrays: dict[str, np.ndarray] = {}
+    fits, results, records = {}, {}, {}
+    for cur in cfg.currents:
+        for test in cfg.tests:
+            t0 = time.perf_counter()
+            rec, q, n_raw = load_test(test, cur, cfg)
+            t_load = time.perf_counter() - t0
+            res = fit(Problem(model, rec))
+            wall = time.perf_counter() - t0
+            key = rec.name
+            v = np.asarray(rec.velocity())
+            near, far = _split_nrmse(rec.y, res.y_sim[0], v, cfg.reversal_band)
+            visc, c_visc, k_visc = _viscous_nrmse(rec)
+            at_bound = [k for k in FREE if math.isclose(res.params[k], model.param(k).lower, abs_tol=1e-5)
+                        or math.isclose(res.params[k], model.param(k).upper, rel_tol=1e-6)]
+            fits[key] = dict(
+                test=test, current=cur, amplitude_mm=rec.metadata["amplitude_mm"],
+                frequency_hz=rec.metadata["frequency_hz"], n_raw=n_raw, decimation=q, n_samples=rec.n_times,
+                dt=rec.dt, periods=rec.duration * rec.metadata["frequency_hz"],
+                params={k: res.params[k] for k in (*FREE, "A_f")}, stderr={k: res.stderr[k] for k in FREE},
+                invariants=invariants(res.params), nrmse=res.nrmse, success=res.success, status=res.status,
+                n_iter=res.n_iter, timings=res.timings, wall_s=wall, load_s=t_load, nrmse_near_reversal=near,
+                nrmse_elsewhere=far, nrmse_viscous=visc, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
+                peak_force=float(np.max(np.abs(rec.y))), peak_velocity=float(np.max(np.abs(v))),
+            )
+            results[key], records[key] = res, rec
+            for name, a in (("t", rec.t), ("d", rec.d), ("v", v), ("y", rec.y), ("y_fit", res.y_sim[0])):
+                arrays[f"{key}_{name}"] = np.asarray(a)
+            print(f"  {key:>16}: n {rec.n_times:5d} (q {q:2d}), NRMSE {res.nrmse:.3f} ({res.status}), "
+                  f"near reversals {near:.3f}, elsewhere {far:.3f}, viscous {visc:.3f}, {wall:.1f} s", flush=True)
+    t_fits = time.perf_counter() - t_all
+
+    # cross-validation at the same current
+    t0 = time.perf_counter()
+    cross = {}
+    for cur in cfg.currents:
+        keys = [k for k, f in fits.items() if f["current"] == cur]
+        for a in keys:
+            for b in keys:
+                if a == b:
+                    continue
+                vr = validate(results[a], records[b], model=model)
+                cross[f"{a}->{b}"] = dict(fit=a, record=b, current=cur, nrmse=vr.nrmse, success=vr.success,
+                                          own_nrmse=fits[b]["nrmse"])
+    earthquake = {}
+    eq_path = data_folder() / "earthquake_validation" / "validacion.mat"
+    if cfg.earthquake and 1.0 in cfg.currents and eq_path.is_file():
+        full = load_mr_damper_utfsm(eq_path, current=1.0)
+        eq = _decimate(full, 5, "validacion_1A")
+        arrays["eq_t"], arrays["eq_d"], arrays["eq_y"] = np.asarray(eq.t), np.asarray(eq.d), np.asarray(eq.y)
+        for key, f in fits.items():
+            if f["current"] != 1.0:
+                continue
+            vr = validate(results[key], eq, model=model)
+            earthquake[key] = dict(nrmse=vr.nrmse, success=vr.success)
+            arrays[f"eq_{key}"] = np.asarray(vr.y_sim)
+            print(f"  earthquake 1 A with the fit of {key}: NRMSE {vr.nrmse:.3f}", flush=True)
+    t_val = time.perf_counter() - t0
+    total = time.perf_counter() - t_all
+    meta = dict(study=STUDY, **C.provenance(cfg), fits=fits, cross=cross, earthquake=earthquake,
+                timing=dict(fits_s=t_fits, validation_s=t_val, total_s=total),
+                data=str(data_folder()), free=list(FREE))
+    files = C.write_derived(STUDY, arrays, meta)
+    return dict(meta=meta, files=files)
+
+
+def read() -> tuple[dict, dict]:
+    """The derived files, with the non-finite NRMSEs (stored as null in JSON) back as inf."""
+    arrays, meta = C.read_derived(STUDY)
+    for group in (meta["fits"], meta["cross"], meta["earthquake"]):
+        for entry in group.values():
+            for k, v in entry.items():
+                if k.startswith("nrmse") and v is None:
+                    entry[k] = math.inf
+    return arrays, meta
+
+
+def _by_current(meta, cur):
+    return {k: f for k, f in meta["fits"].items() if f["current"] == cur}
+
+
+def plot(results: dict | None = None) -> list:
+    """Parameters vs current, loops of a few tests (incl. the worst), NRMSE map; from the derived files only."""
+    arrays, meta = read()
+    fits, cfg = meta["fits"], meta["config"]
+    currents = [c for c in cfg["currents"] if _by_current(meta, c)]
+    files = []
+    with C.style() as plt:
+        # ---------------------------------------------------------------- parameters vs current
+        raw = (*FREE, "A_f")
+        inv = ("c1*A_f", "c1+c2", "c3/A_f^4", "k1*A_f", "k1+k2")
+        fig, axs = plt.subplots(2, 6, figsize=(11.0, 4.4))
+        for row, names, getter in ((0, raw, lambda f, n: f["params"][n]), (1, inv, lambda f, n: f["invariants"][n])):
+            for j, n in enumerate(names):
+                ax = axs[row, j]
+                med, lo, hi = [], [], []
+                for c in currents:
+                    vals = np.array([getter(f, n) for f in _by_current(meta, c).values()])
+                    ax.plot(np.full(vals.size, c), vals, ".", color="0.6", ms=3)
+                    med.append(np.median(vals))
+                    lo.append(np.min(vals))
+                    hi.append(np.max(vals))
+                ax.plot(currents, med, "o-", color="C0", ms=4, lw=1.2)
+                ax.fill_between(currents, lo, hi, color="C0", alpha=0.12, lw=0)
+                ax.set_title(f"${LATEX.get(n, n)}$" if n in LATEX else n.replace("A_f", "$A_f$"), fontsize=8)
+                ax.set_yscale("symlog" if min(lo) <= 0 else "log", **({"linthresh": 1e-2} if min(lo) <= 0 else {}))
+                if row == 1:
+                    ax.set_xlabel("current (A)")
+        axs[1, 5].axis("off")
+        axs[1, 5].text(0.0, 0.5, "top: fitted values ($A_f$ = max|y|\nof each test); bottom: combinations\n"
+                       "invariant under the scaling\nsymmetry $x \\to s x$.\nBlue: median over the tests at\n"
+                       "that current; band: min–max;\ngrey: each test.", fontsize=7, va="center")
+        fig.suptitle("Real MR damper (UTFSM): fitted parameters vs coil current (mm, N, s)", fontsize=9)
+        files.append(C.save(fig, STUDY, "params"))
+
+        # ---------------------------------------------------------------- loops of a few tests
+        ranked = sorted(fits, key=lambda k: fits[k]["nrmse"])
+        chosen = [ranked[-1], ranked[0]]
+        for want in ("10mm1Hz0A", "10mm1Hz1A", "25mm0x1Hz1A", "2mm5Hz1A", "2mm5Hz0A", "25mm0x25Hz1A"):
+            if want in fits and want not in chosen and len(chosen) < 6:
+                chosen.append(want)
+        for k in ranked[::-1]:
+            if len(chosen) >= 4:
+                break
+            if k not in chosen:
+                chosen.append(k)
+        fig, axs = plt.subplots(2, len(chosen), figsize=(2.1 * len(chosen) + 0.6, 4.8), squeeze=False)
+        for j, key in enumerate(chosen):
+            f = fits[key]
+            t, d, v, y, yf = (arrays[f"{key}_{n}"] for n in ("t", "d", "v", "y", "y_fit"))
+            n_per = int(round(1.0 / (f["frequency_hz"] * f["dt"])))
+            sl = slice(max(0, t.size - 2 * n_per), None)  # the last two periods
+            for r, (x, lab) in enumerate(((d, "d (mm)"), (v, r"$\dot d$ (mm/s)"))):
+                ax = axs[r, j]
+                ax.plot(x[sl], y[sl], ".", color="0.55", ms=1.5)
+                ax.plot(x[sl], yf[sl], color="C0", lw=1.0)
+                ax.set_xlabel(lab)
+            tag = " (worst)" if key == ranked[-1] else (" (best)" if key == ranked[0] else "")
+            axs[0, j].set_title(f"{key}{tag}\nNRMSE {f['nrmse']:.3f}", fontsize=8)
+        axs[0, 0].set_ylabel("force (N)")
+        axs[1, 0].set_ylabel("force (N)")
+        fig.suptitle("Real MR damper: measured (grey) vs fitted free run (blue), last two periods", fontsize=9)
+        files.append(C.save(fig, STUDY, "loops"))
+
+        # ---------------------------------------------------------------- NRMSE map
+        tests = [t for t in cfg["tests"] if any(f["test"] == t for f in fits.values())]
+        M = np.full((len(tests), len(currents)), np.nan)
+        for f in fits.values():
+            M[tests.index(f["test"]), currents.index(f["current"])] = f["nrmse"]
+        fig, ax = plt.subplots(figsize=(4.6, 3.4))
+        im = ax.imshow(M, cmap="viridis_r", vmin=0, vmax=max(0.2, float(np.nanmax(M))), aspect="auto")
+        for i in range(M.shape[0]):
+            for j in range(M.shape[1]):
+                ax.text(j, i, f"{M[i, j]:.3f}", ha="center", va="center", fontsize=7,
+                        color="w" if M[i, j] > 0.6 * max(0.2, float(np.nanmax(M))) else "k")
+        ax.set_xticks(range(len(currents)), [f"{c:g} A" for c in currents])
+        ax.set_yticks(range(len(tests)), [t.replace("x", ".").replace("mm", " mm ") for t in tests])
+        fig.colorbar(im, ax=ax, label="free-run NRMSE")
+        ax.set_title("NRMSE of each fit on its own test", fontsize=9)
+        files.append(C.save(fig, STUDY, "nrmse"))
+
+        # ---------------------------------------------------------------- earthquake
+        if "eq_t" in arrays and meta["earthquake"]:
+            best = min(meta["earthquake"], key=lambda k: meta["earthquake"][k]["nrmse"])
+            worst = max(meta["earthquake"], key=lambda k: meta["earthquake"][k]["nrmse"])
+            fig, ax = plt.subplots(figsize=(7.2, 2.8))
+            ax.plot(arrays["eq_t"], arrays["eq_y"], color="0.55", lw=1.0, label="measured, 1 A")
+            for k, c in ((best, "C0"), (worst, "C1")):
+                ax.plot(arrays["eq_t"], arrays[f"eq_{k}"], color=c, lw=0.8,
+                        label=f"fit of {k}: NRMSE {meta['earthquake'][k]['nrmse']:.3f}")
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel("force (N)")
+            ax.legend(fontsize=7, loc="upper right")
+            ax.set_title("Earthquake-type record at 1 A: free run of sinusoid fits (best and worst)", fontsize=9)
+            files.append(C.save(fig, STUDY, "earthquake"))
+    return files
+
+
+def nrmse_table(meta: dict) -> str:
+    fits, cfg = meta["fits"], meta["config"]
+    currents = [c for c in cfg["currents"] if _by_current(meta, c)]
+    lines = []
+    for t in cfg["tests"]:
+        cells = []
+        for c in currents:
+            f = fits.get(_file_name(t, c))
+            cells.append(f"{f['nrmse']:.3f}" if f else "--")
+        lines.append(t.replace("x", ".").replace("mm", " mm ") + " & " + " & ".join(cells) + " \\\\")
+    return ("\\begin{tabular}{l" + "r" * len(currents) + "}\n\\hline\ntest & "
+            + " & ".join(f"{c:g} A" for c in currents) + " \\\\\n\\hline\n" + "\n".join(lines)
+            + "\n\\hline\n\\end{tabular}\n")
+
+
+def write_numbers(meta: dict) -> list:
+    fits = meta["fits"]
+    nr = np.array([f["nrmse"] for f in fits.values()])
+    worst = max(fits, key=lambda k: fits[k]["nrmse"])
+    out = [C.write_number(TAG, "nrmse_table", nrmse_table(meta)),
+           C.write_number(TAG, "nrmse_median", f"{np.median(nr):.3f}"),
+           C.write_number(TAG, "nrmse_max", f"{np.max(nr):.3f}"),
+           C.write_number(TAG, "worst_test", worst),
+           C.write_number(TAG, "n_below_010", f"{int(np.sum(nr <= 0.10))}"),
+           C.write_number(TAG, "n_tests", f"{nr.size}"),
+           C.write_number(TAG, "total_time", f"{meta['timing']['total_s']:.0f}")]
+    for cur in (0.0, 1.0):
+        cv = [c["nrmse"] for c in meta["cross"].values() if c["current"] == cur]
+        if cv:
+            out.append(C.write_number(TAG, f"cross_median_{cur:g}A".replace(".", "p"), f"{np.median(cv):.3f}"))
+    if meta["earthquake"]:
+        eq = [e["nrmse"] for e in meta["earthquake"].values()]
+        out.append(C.write_number(TAG, "earthquake_best", f"{min(eq):.3f}"))
+        out.append(C.write_number(TAG, "earthquake_median", f"{np.median(eq):.3f}"))
+    return out
+
+
+def verdict(meta: dict) -> str:
+    """Where the model fits poorly, with the numbers behind each statement."""
+    fits = meta["fits"]
+    ks = list(fits)
+    near = np.array([fits[k]["nrmse_near_reversal"] for k in ks])
+    far = np.array([fits[k]["nrmse_elsewhere"] for k in ks])
+    parts = [f"over the {len(ks)} fits the error near velocity reversals (|d'| < "
+             f"{meta['config']['reversal_band']:g} max|d'|) is median {np.nanmedian(near):.3f} against "
+             f"{np.nanmedian(far):.3f} elsewhere (larger in {int(np.sum(near > far))}/{len(ks)})"]
+    zero = [f for f in fits.values() if f["current"] == 0.0]
+    if zero:
+        parts.append("at 0 A a linear viscous+spring model y = c d' + k d reaches NRMSE median "
+                     f"{np.median([f['nrmse_viscous'] for f in zero]):.3f} vs {np.median([f['nrmse'] for f in zero]):.3f} "
+                     "for the fitted model")
+    high = [f for f in fits.values() if f["current"] == max(f2["current"] for f2 in fits.values())]
+    if high:
+        parts.append(f"at {high[0]['current']:g} A the viscous model reaches "
+                     f"{np.median([f['nrmse_viscous'] for f in high]):.3f} (the damper is far from viscous there)")
+    bound = sorted({k for f in fits.values() for k in f["at_bound"]})
+    if bound:
+        n_b = sum(1 for f in fits.values() if f["at_bound"])
+        parts.append(f"in {n_b}/{len(ks)} fits some parameter sits on its bound ({', '.join(bound)})")
+    return "; ".join(parts) + "."
+
+
+def summarize(meta: dict) -> str:
+    fits = meta["fits"]
+    nr = {k: f["nrmse"] for k, f in fits.items()}
+    worst = max(nr, key=nr.get)
+    best = min(nr, key=nr.get)
+    lines = [f"s06: {len(nr)} fits, NRMSE median {np.median(list(nr.values())):.3f}, best {best} "
+             f"{nr[best]:.3f}, worst {worst} {nr[worst]:.3f}; {sum(v <= 0.10 for v in nr.values())}/{len(nr)} "
+             f"at or below 0.10; all converged: {all(f['success'] for f in fits.values())}."]
+    lines.append("NRMSE table (rows test, columns current):")
+    lines.append(nrmse_table(meta).replace("\\\\", "").replace("\\hline", "").replace("&", " "))
+    for cur in sorted({c["current"] for c in meta["cross"].values()}):
+        cv = [c["nrmse"] for c in meta["cross"].values() if c["current"] == cur]
+        lines.append(f"cross-validation at {cur:g} A: NRMSE median {np.median(cv):.3f}, max {np.max(cv):.3f} "
+                     f"over {len(cv)} (fit, other test) pairs")
+    if meta["earthquake"]:
+        eq = {k: v["nrmse"] for k, v in meta["earthquake"].items()}
+        lines.append("earthquake record at 1 A: " + ", ".join(f"{k} {v:.3f}" for k, v in eq.items()))
+    lines.append("where the model fits poorly: " + verdict(meta))
+    tm = meta["timing"]
+    lines.append(f"time: fits {tm['fits_s']:.1f} s, validation {tm['validation_s']:.1f} s, total {tm['total_s']:.1f} s")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    args = C.parse_args(argv, __doc__.splitlines()[0])
+    cfg = Config.smoke() if args.smoke else Config()
+    folder = data_folder()
+    if not args.plot_only and (folder is None or not (folder / "sinusoidal_preprocessed").is_dir()):
+        where = folder if folder is not None else "../shared/data/external/" + DATASET
+        print(f"s06: skipped: the real MR damper data are not at {where}. Get them from "
+              "https://github.com/DanielMaurelE/vRTHS_AMBC_MRdamper (commit 08753ff, MIT licence; see "
+              "SOURCE.md of the dataset for the paths) into that folder, or point DUFFSYM_EXTERNAL_DATA "
+              "(see duffsym.data.external_data_dir) at the folder holding it. No outputs written.")
+        return 0
+    t0 = time.perf_counter()
+    if not args.plot_only:
+        print(cfg.summary(), flush=True)
+        compute(cfg)
+    _, meta = read()
+    files = plot() + write_numbers(meta)
+    print(summarize(meta))
+    print(f"s06: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
