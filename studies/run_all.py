@@ -1,0 +1,64 @@
+"""Run every study in order: ``python studies/run_all.py [--smoke]`` (what ``duffsym reproduce`` calls).
+
+Each study's ``main`` is called in turn (``--smoke`` is passed through); one line per study gives
+its status, wall time and the files it wrote. A failing study is reported with its traceback and the
+others still run; the exit status is 1 if any study failed, else 0.
+"""
+from __future__ import annotations
+
+import importlib
+import sys
+import time
+import traceback
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import paths  # noqa: E402
+
+STUDIES = ("s01_fig3_duffing_like", "s02_fig6_table1", "s03_table2_loops")
+
+
+def _outputs_since(start: float, prefixes: tuple[str, ...]) -> list[str]:
+    """Files named ``<prefix>...`` under the output folders modified since ``start`` (epoch seconds)."""
+    found = []
+    for folder in (paths.derived_dir(), paths.figures_dir(), paths.output_dir()):
+        if folder.is_dir():
+            for f in sorted(folder.iterdir()):
+                if f.is_file() and f.name.startswith(prefixes) and f.stat().st_mtime >= start - 1e-3:
+                    found.append(str(f.relative_to(paths.output_root())))
+    return found
+
+
+def main(argv=None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    unknown = [a for a in argv if a != "--smoke"]
+    if unknown:
+        print(f"run_all.py: unknown argument(s) {unknown}; the only option is --smoke", file=sys.stderr)
+        return 2
+    failed, lines = [], []
+    for name in STUDIES:
+        t_wall, t0 = time.time(), time.perf_counter()
+        try:
+            mod = importlib.import_module(name)
+            rc = mod.main(argv)
+            ok = rc in (0, None)
+        except Exception:  # report and go on with the other studies
+            traceback.print_exc()
+            ok = False
+        dt = time.perf_counter() - t0
+        files = _outputs_since(t_wall, (name, name[:3] + "_"))
+        line = f"{name}: {'ok' if ok else 'FAILED'} in {dt:.1f} s; {len(files)} files: {', '.join(files)}"
+        lines.append(line)
+        print(line, flush=True)
+        if not ok:
+            failed.append(name)
+    print("\n".join(["", "summary:"] + lines))
+    if failed:
+        print(f"run_all.py: {len(failed)} of {len(STUDIES)} studies failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
