@@ -19,8 +19,11 @@ seconds (the exact time depends on the integrator, so it is not a property of th
 panel shows the last full period before the failure, dotted, and the legend says so.
 
 Outputs: ``data/derived/s02_fig6_table1.{npz,json}`` (per set: certificate, status, peak |y|,
-orientation and area of the d'–y loop, slope at y = 0, periodicity residual), figure
-``paper/figures/s02_fig6_table1_fig6.png``, numbers ``paper/output/s02_*.tex``.
+orientation and area of the d'–y loop, d–y loop area = work done on the damper per cycle, slope at
+y = 0, periodicity residual), figure ``paper/figures/s02_fig6_table1_fig6.png``, numbers
+``paper/output/s02_*.tex`` (``table``, ``n_uncertified``, ``uncertified``, ``peak_range_k``,
+``peak_range_c``, ``clockwise``, ``negative_work``, ``escape``, ``failed``). Orientation is the sign of
+∮ y dd' over the loop (net, for a loop that crosses itself).
 """
 from __future__ import annotations
 
@@ -215,11 +218,12 @@ def write_numbers(meta: dict) -> list:
         peak = f"{r['peak']:.3f}" if "peak" in r else "--"
         orient = {"clockwise": "cw", "counterclockwise": "ccw"}.get(r.get("orientation_vy"), "--")
         status = r["status"] if r["status"] == "ok" else f"{r['status']} ($t = {r['failed_at_time']:.0f}$\\,s)"
+        area = f"{r['area_dy']:.2f}" if "area_dy" in r else "--"
         lines.append(f"({r['panel']}) & ${LATEX[r['param']]} = {r['value']:g}$ & {r['gamma']:g} & {r['alpha']:g} & "
-                     f"{r['beta']:g} & {paper} & {cert} & {peak} & {orient} & {status} \\\\")
-    table = ("\\begin{tabular}{llrrrccrcl}\n\\hline\n"
+                     f"{r['beta']:g} & {paper} & {cert} & {peak} & {area} & {orient} & {status} \\\\")
+    table = ("\\begin{tabular}{llrrrccrrcl}\n\\hline\n"
              "panel & set & $\\gamma$ & $\\alpha$ & $\\beta$ & all $>0$ & certified & peak $|y|$ & "
-             "$\\dot d$--$y$ loop & simulation \\\\\n\\hline\n" + "\n".join(lines) + "\n\\hline\n\\end{tabular}\n")
+             "$\\oint y\\,\\mathrm{d}d$ & $\\dot d$--$y$ loop & simulation \\\\\n\\hline\n" + "\n".join(lines) + "\n\\hline\n\\end{tabular}\n")
     out.append(C.write_number(TAG, "table", table))
     unc = [r for r in rows if not r["certified"]]
     out.append(C.write_number(TAG, "n_uncertified", f"{len(unc)}"))
@@ -229,6 +233,14 @@ def write_numbers(meta: dict) -> list:
         return f"{min(ps):.2f}--{max(ps):.2f}"
     out.append(C.write_number(TAG, "peak_range_k", peak_range(("k1", "k2", "k3"))))
     out.append(C.write_number(TAG, "peak_range_c", peak_range(("c1", "c2", "c3", "n"))))
+    cw = [r for r in rows if r.get("orientation_vy") == "clockwise" and r["status"] == "ok"]
+    out.append(C.write_number(TAG, "clockwise", ", ".join(f"${LATEX[r['param']]} = {r['value']:g}$" for r in cw)
+                              or "none"))
+    neg = [r for r in rows if r.get("area_dy", 0.0) < 0 and r["status"] == "ok"]
+    out.append(C.write_number(TAG, "negative_work", ", ".join(
+        f"${LATEX[r['param']]} = {r['value']:g}$ (${r['area_dy']:.2f}$)" for r in neg) or "none"))
+    esc = [r for r in rows if r.get("escape_time") is not None]
+    out.append(C.write_number(TAG, "escape", ", ".join(f"{r['escape_time']:.0f}" for r in esc) or "--"))
     failed = [r for r in rows if r["status"] != "ok"]
     out.append(C.write_number(TAG, "failed", ", ".join(
         f"${LATEX[r['param']]} = {r['value']:g}$ ({r['status']} at $t = {r['failed_at_time']:.0f}$\\,s)"
