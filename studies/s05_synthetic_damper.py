@@ -15,6 +15,18 @@ sine and on a band-limited random record (rms 0.5, up to 3 Hz), both *without* b
 the same 2 % noise (the paper's Fig. 9: fit at one frequency, check on others). NRMSE is
 RMS(y - yhat) / std(y) against the noisy record; its floor is the noise, about 0.02.
 
+Result (full run, seed 2024). Masking cuts the RMS relative error of (c1, c2, c3, k1, k2) by a
+factor 1.9–3.7 (median 2.9) over the seven rows, from 0.48–0.93 to 0.23–0.37: short of the factor 3
+on four rows. What remains is one direction: c1 and c3 are both about 35 % low in every masked fit
+(while c3/c1 is within 3 % of the truth, against up to 17 % unmasked) and their standard errors are
+about 2 %, so the truth is outside 3 s.e. there. Our reading: in the force plateaus the balance
+c1 d' ~ c3 x'^5 fixes c3/c1, and only the speed of the force reversal fixes their common scale;
+the backlash delays the reversal, and the mask removes most of the reversal, so the scale comes from
+the tail of a delayed transition and stays biased. Neither a wider force band (0.7–0.9) nor cutting
+the dynamics at each masked stretch (separate records with their own initial states) removed it in
+a side experiment on the 0.4 V row. The standard errors do not cover this model error (backlash is
+not in the model).
+
 Files: ``data/derived/s05_synthetic_damper.{npz,json}``, figures ``paper/figures/s05_synthetic_damper_loops.png``
 (measured vs fitted d–y and d'–y loops at 0, 0.4, 0.8 V, masked samples marked),
 ``..._errors.png`` (parameter errors masked vs unmasked), ``..._validation.png``; numbers
@@ -140,6 +152,9 @@ def compute(cfg: Config) -> dict:
             within_3se_plain=int(sum(abs(plain.params[k] - truth[k]) < 3 * plain.stderr[k] for k in FREE)),
         )
         row["ratio"] = row["plain"]["rms_error"] / row["masked"]["rms_error"]
+        for fname, res in (("plain", plain), ("masked", masked)):
+            # the plateau balance c1 d' ~ c3 x'^5 fixes c3/c1; only the speed of the force reversal fixes their scale
+            row[fname]["c3_over_c1_error"] = (res.params["c3"] / res.params["c1"]) / (truth["c3"] / truth["c1"]) - 1
         rows.append(row)
         for name, a in (("t", rec.t), ("d", rec.d), ("v", rec.velocity()), ("y", rec.y),
                         ("y_clean", rec.metadata["clean_y"]), ("y_plain", plain.y_sim[0]),
@@ -246,6 +261,10 @@ def write_numbers(meta: dict) -> list:
     out.append(C.write_number(TAG, "ratio_min", f"{np.min(ratios):.1f}"))
     out.append(C.write_number(TAG, "err_masked_median", f"{np.median([r['masked']['rms_error'] for r in rows]):.3f}"))
     out.append(C.write_number(TAG, "err_plain_median", f"{np.median([r['plain']['rms_error'] for r in rows]):.3f}"))
+    out.append(C.write_number(TAG, "c3c1_err_masked_max",
+                              f"{max(abs(r['masked']['c3_over_c1_error']) for r in rows):.3f}"))
+    out.append(C.write_number(TAG, "c3c1_err_plain_max",
+                              f"{max(abs(r['plain']['c3_over_c1_error']) for r in rows):.3f}"))
     for v in ("sine", "random"):
         out.append(C.write_number(TAG, f"val_{v}_max",
                                   f"{max(r['validation'][f'masked_{v}']['nrmse'] for r in rows):.3f}"))
@@ -259,7 +278,11 @@ def summarize(meta: dict) -> str:
     val = "; ".join(f"{r['key']} sine {r['validation']['masked_sine']['nrmse']:.3f} / "
                     f"random {r['validation']['masked_random']['nrmse']:.3f}" for r in rows)
     ratios = [r["ratio"] for r in rows]
-    return (f"s05: RMS relative error of c1,c2,c3,k1,k2, unmasked -> masked: {per}. Ratio median "
+    c31 = ", ".join(f"{r['key']} {r['masked']['c3_over_c1_error']:+.3f}/{r['plain']['c3_over_c1_error']:+.3f}"
+                    for r in rows)
+    c1e = ", ".join(f"{r['masked']['rel_error']['c1']:+.2f}" for r in rows)
+    return (f"s05: relative error of c3/c1 masked/unmasked: {c31}; of c1 (masked): {c1e}. "
+            f"RMS relative error of c1,c2,c3,k1,k2, unmasked -> masked: {per}. Ratio median "
             f"{np.median(ratios):.1f}, min {np.min(ratios):.1f}. Masked-fit validation NRMSE: {val}. "
             f"Truth within 3 s.e. (masked): {sum(r['within_3se_masked'] for r in rows)}/{len(FREE) * len(rows)}, "
             f"(unmasked): {sum(r['within_3se_plain'] for r in rows)}/{len(FREE) * len(rows)}.")
