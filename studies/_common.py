@@ -82,7 +82,9 @@ def write_number(study: str, name: str, text: str) -> Path:
     out = paths.output_dir()
     out.mkdir(parents=True, exist_ok=True)
     p = out / f"{study}_{name}.tex"
-    p.write_text(text.rstrip("\n") + "%\n" if "\n" not in text.strip() else text.rstrip("\n") + "\n")
+    text = text.strip("\n")
+    # a one-line value ends with "%" so that \input leaves no space after it; a table is written as is
+    p.write_text(text + ("\n" if "\n" in text else "%\n"))
     return p
 
 
@@ -106,6 +108,7 @@ def save(fig, study: str, panel: str) -> Path:
 
 
 def parse_args(argv, description: str) -> argparse.Namespace:
+    """The command line of every study: ``--smoke`` and ``--plot-only``."""
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--smoke", action="store_true", help="small settings for CI (a few seconds)")
     p.add_argument("--plot-only", action="store_true", help="redraw the figures from data/derived only")
