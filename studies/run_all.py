@@ -1,6 +1,7 @@
 """Run every study in order: ``python studies/run_all.py [--smoke]`` (what ``duffsym reproduce`` calls).
 
-Each study's ``main`` is called in turn (``--smoke`` is passed through); one line per study gives
+The studies are the files ``studies/sNN_<name>.py``, run in order of NN. Each study's ``main`` is
+called in turn (``--smoke`` is passed through); one line per study gives
 its status, wall time and the files it wrote. A failing study is reported with its traceback and the
 others still run; the exit status is 1 if any study failed, else 0.
 """
@@ -16,7 +17,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import paths  # noqa: E402
 
-STUDIES = ("s01_fig3_duffing_like", "s02_fig6_table1", "s03_table2_loops")
+#: every ``studies/sNN_<name>.py`` in order of NN (each has ``main(argv)`` taking ``--smoke``)
+STUDIES = tuple(sorted(p.stem for p in Path(__file__).resolve().parent.glob("s[0-9][0-9]_*.py")))
 
 
 def _outputs_since(start: float, prefixes: tuple[str, ...]) -> list[str]:
