@@ -66,6 +66,9 @@ class Config:
     samples_per_period : decimation target (see the module docstring).
     reversal_band : |d'| / max|d'| below which a sample counts as "near a reversal" in the diagnostics.
     earthquake : validate the 1 A fits on the earthquake-type record.
+    joint : also fit all tests of each current together (shared parameters), decimated to
+        ``joint_samples_per_period``. loo_currents : currents at which each test is also predicted by
+        a joint fit of the *other* tests (leave-one-out; needs at least 3 tests).
     """
 
     tests: tuple[str, ...] = TESTS
@@ -73,11 +76,14 @@ class Config:
     samples_per_period: int = 200
     reversal_band: float = 0.25
     earthquake: bool = True
+    joint: bool = True
+    joint_samples_per_period: int = 100
+    loo_currents: tuple[float, ...] = (0.0, 1.0)
 
     @classmethod
     def smoke(cls) -> "Config":
         """Two tests at two currents (the short 5 Hz test and the 0.25 Hz test decimated to 100 samples per period; 0 and 1 A)."""
-        return cls(tests=("2mm5Hz", "25mm0x25Hz"), currents=(0.0, 1.0), samples_per_period=100)
+        return cls(tests=("2mm5Hz", "25mm0x25Hz"), currents=(0.0, 1.0), samples_per_period=100, loo_currents=())
 
     def summary(self) -> str:
         return (f"s06 config: {len(self.tests)} tests x {len(self.currents)} currents, decimation to about "
@@ -143,6 +149,18 @@ def _viscous_nrmse(rec) -> tuple[float, float, float]:
     return float(np.sqrt(np.mean(r**2)) / np.std(y)), float(coef[0]), float(coef[1])
 
 
+def _friction_index(y, v, lo: float = 0.05, hi: float = 0.15) -> float:
+    """Median |y| / max|y| over the samples with lo < |v|/max|v| < hi.
+
+    About (lo + hi)/2 = 0.1 for a linear viscous damper, near 1 for Coulomb friction (the force
+    reaches its plateau right after a reversal).
+    """
+    y, v = np.abs(np.asarray(y)), np.abs(np.asarray(v))
+    r = v / np.max(v)
+    sel = (r > lo) & (r < hi)
+    return float(np.median(y[sel]) / np.max(y)) if sel.any() else math.nan
+
+
 def invariants(p: dict, n: int = 5) -> dict:
     """Combinations unchanged by the scaling symmetry x -> s x (comparable across tests with different A_f)."""
     return {"c1*A_f": p["c1"] * p["A_f"], "c1+c2": p["c1"] + p["c2"], "c3/A_f^4": p["c3"] / p["A_f"] ** (n - 1),
@@ -170,6 +188,7 @@ def compute(cfg: Config) -> dict:
             v = np.asarray(rec.velocity())
             near, far = _split_nrmse(rec.y, res.y_sim[0], v, cfg.reversal_band)
             visc, c_visc, k_visc = _viscous_nrmse(rec)
+            fric = _friction_index(rec.y, v)
             at_bound = [k for k in FREE if math.isclose(res.params[k], model.param(k).lower, abs_tol=1e-5)
                         or math.isclose(res.params[k], model.param(k).upper, rel_tol=1e-6)]
             fits[key] = dict(
@@ -179,7 +198,7 @@ def compute(cfg: Config) -> dict:
                 params={k: res.params[k] for k in (*FREE, "A_f")}, stderr={k: res.stderr[k] for k in FREE},
                 invariants=invariants(res.params), nrmse=res.nrmse, success=res.success, status=res.status,
                 n_iter=res.n_iter, timings=res.timings, wall_s=wall, load_s=t_load, nrmse_near_reversal=near,
-                nrmse_elsewhere=far, nrmse_viscous=visc, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
+                nrmse_elsewhere=far, nrmse_viscous=visc, friction_index=fric, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
                 peak_force=float(np.max(np.abs(rec.y))), peak_velocity=float(np.max(np.abs(v))),
             )
             results[key], records[key] = res, rec
@@ -201,7 +220,7 @@ def compute(cfg: Config) -> dict:
                 vr = validate(results[a], records[b], model=model)
                 cross[f"{a}->{b}"] = dict(fit=a, record=b, current=cur, nrmse=vr.nrmse, success=vr.success,
                                           own_nrmse=fits[b]["nrmse"])
-    earthquake = {}
+    earthquake, eq = {}, None
     eq_path = data_folder() / "earthquake_validation" / "validacion.mat"
     if cfg.earthquake and 1.0 in cfg.currents and eq_path.is_file():
         full = load_mr_damper_utfsm(eq_path, current=1.0)
@@ -215,9 +234,43 @@ def compute(cfg: Config) -> dict:
             arrays[f"eq_{key}"] = np.asarray(vr.y_sim)
             print(f"  earthquake 1 A with the fit of {key}: NRMSE {vr.nrmse:.3f}", flush=True)
     t_val = time.perf_counter() - t0
+
+    # joint fits per current (all tests share the parameters) and leave-one-out prediction
+    t0 = time.perf_counter()
+    joint, loo = {}, {}
+    if cfg.joint:
+        jcfg = Config(samples_per_period=cfg.joint_samples_per_period)
+        for cur in cfg.currents:
+            recs = [load_test(t, cur, jcfg)[0] for t in cfg.tests]
+            t1 = time.perf_counter()
+            res = fit(Problem(model, recs))
+            lab = _cur_label(cur)
+            joint[lab] = dict(current=cur, params={k: res.params[k] for k in (*FREE, "A_f")},
+                              stderr={k: res.stderr[k] for k in FREE}, invariants=invariants(res.params),
+                              nrmse=res.nrmse, nrmse_records=dict(zip([r.name for r in recs], res.nrmse_records)),
+                              n_samples=res.n_samples, success=res.success, status=res.status,
+                              wall_s=time.perf_counter() - t1)
+            print(f"  joint fit at {lab}: {res.n_samples} samples, NRMSE {res.nrmse:.3f} "
+                  f"(per test {', '.join(f'{v:.3f}' for v in res.nrmse_records)}), {joint[lab]['wall_s']:.1f} s",
+                  flush=True)
+            if eq is not None and cur == 1.0:
+                vr = validate(res, eq, model=model)
+                joint[lab]["earthquake_nrmse"] = vr.nrmse
+                arrays["eq_joint"] = np.asarray(vr.y_sim)
+                print(f"  earthquake 1 A with the joint 1 A fit: NRMSE {vr.nrmse:.3f}", flush=True)
+            if cur in cfg.loo_currents and len(recs) >= 3:
+                for i, held in enumerate(recs):
+                    others = [r for j, r in enumerate(recs) if j != i]
+                    r_loo = fit(Problem(model, others))
+                    vr = validate(r_loo, records[held.name], model=model)
+                    loo[held.name] = dict(current=cur, nrmse=vr.nrmse, success=vr.success and r_loo.success,
+                                          fit_nrmse=r_loo.nrmse, own_nrmse=fits[held.name]["nrmse"])
+                    print(f"    leave-one-out {held.name}: predicted NRMSE {vr.nrmse:.3f} (own fit "
+                          f"{fits[held.name]['nrmse']:.3f})", flush=True)
+    t_joint = time.perf_counter() - t0
     total = time.perf_counter() - t_all
     meta = dict(study=STUDY, **C.provenance(cfg), fits=fits, cross=cross, earthquake=earthquake,
-                timing=dict(fits_s=t_fits, validation_s=t_val, total_s=total),
+                joint=joint, loo=loo, timing=dict(fits_s=t_fits, validation_s=t_val, joint_s=t_joint, total_s=total),
                 data=str(data_folder()), free=list(FREE))
     files = C.write_derived(STUDY, arrays, meta)
     return dict(meta=meta, files=files)
@@ -226,10 +279,10 @@ def compute(cfg: Config) -> dict:
 def read() -> tuple[dict, dict]:
     """The derived files, with the non-finite NRMSEs (stored as null in JSON) back as inf."""
     arrays, meta = C.read_derived(STUDY)
-    for group in (meta["fits"], meta["cross"], meta["earthquake"]):
+    for group in (meta["fits"], meta["cross"], meta["earthquake"], meta.get("joint", {}), meta.get("loo", {})):
         for entry in group.values():
             for k, v in entry.items():
-                if k.startswith("nrmse") and v is None:
+                if ("nrmse" in k) and v is None:
                     entry[k] = math.inf
     return arrays, meta
 
@@ -242,6 +295,7 @@ def plot(results: dict | None = None) -> list:
     """Parameters vs current, loops of a few tests (incl. the worst), NRMSE map; from the derived files only."""
     arrays, meta = read()
     fits, cfg = meta["fits"], meta["config"]
+    joint = meta.get("joint", {})
     currents = [c for c in cfg["currents"] if _by_current(meta, c)]
     files = []
     with C.style() as plt:
@@ -252,23 +306,32 @@ def plot(results: dict | None = None) -> list:
         for row, names, getter in ((0, raw, lambda f, n: f["params"][n]), (1, inv, lambda f, n: f["invariants"][n])):
             for j, n in enumerate(names):
                 ax = axs[row, j]
-                med, lo, hi = [], [], []
+                med, lo, hi, allv = [], [], [], []
                 for c in currents:
                     vals = np.array([getter(f, n) for f in _by_current(meta, c).values()])
+                    allv += list(vals)
                     ax.plot(np.full(vals.size, c), vals, ".", color="0.6", ms=3)
                     med.append(np.median(vals))
-                    lo.append(np.min(vals))
-                    hi.append(np.max(vals))
-                ax.plot(currents, med, "o-", color="C0", ms=4, lw=1.2)
-                ax.fill_between(currents, lo, hi, color="C0", alpha=0.12, lw=0)
+                    lo.append(np.percentile(vals, 25))
+                    hi.append(np.percentile(vals, 75))
+                ax.plot(currents, med, "o-", color="C0", ms=4, lw=1.2, label="median of single-test fits")
+                ax.fill_between(currents, lo, hi, color="C0", alpha=0.15, lw=0)
+                jv = [(j["current"], getter(j, n)) for j in joint.values()]
+                if jv:
+                    ax.plot(*zip(*jv), "s--", color="C3", ms=3.5, lw=1.0, label="joint fit of all tests")
                 ax.set_title(f"${LATEX.get(n, n)}$" if n in LATEX else n.replace("A_f", "$A_f$"), fontsize=8)
-                ax.set_yscale("symlog" if min(lo) <= 0 else "log", **({"linthresh": 1e-2} if min(lo) <= 0 else {}))
+                pos = [abs(v) for v in allv if v != 0]
+                if min(allv) <= 0:
+                    ax.set_yscale("symlog", linthresh=max(1e-3, 0.1 * float(np.median(pos))) if pos else 1.0)
+                else:
+                    ax.set_yscale("log")
                 if row == 1:
                     ax.set_xlabel("current (A)")
         axs[1, 5].axis("off")
         axs[1, 5].text(0.0, 0.5, "top: fitted values ($A_f$ = max|y|\nof each test); bottom: combinations\n"
                        "invariant under the scaling\nsymmetry $x \\to s x$.\nBlue: median over the tests at\n"
-                       "that current; band: min–max;\ngrey: each test.", fontsize=7, va="center")
+                       "that current; band: 25–75 %;\ngrey: each test; red: one fit\nof all tests of that current.",
+                       fontsize=7, va="center")
         fig.suptitle("Real MR damper (UTFSM): fitted parameters vs coil current (mm, N, s)", fontsize=9)
         files.append(C.save(fig, STUDY, "params"))
 
@@ -288,7 +351,8 @@ def plot(results: dict | None = None) -> list:
             f = fits[key]
             t, d, v, y, yf = (arrays[f"{key}_{n}"] for n in ("t", "d", "v", "y", "y_fit"))
             n_per = int(round(1.0 / (f["frequency_hz"] * f["dt"])))
-            sl = slice(max(0, t.size - 2 * n_per), None)  # the last two periods
+            mid = t.size // 2
+            sl = slice(max(0, mid - n_per), mid + n_per)  # two periods in the middle (the ends ramp)
             for r, (x, lab) in enumerate(((d, "d (mm)"), (v, r"$\dot d$ (mm/s)"))):
                 ax = axs[r, j]
                 ax.plot(x[sl], y[sl], ".", color="0.55", ms=1.5)
@@ -298,7 +362,7 @@ def plot(results: dict | None = None) -> list:
             axs[0, j].set_title(f"{key}{tag}\nNRMSE {f['nrmse']:.3f}", fontsize=8)
         axs[0, 0].set_ylabel("force (N)")
         axs[1, 0].set_ylabel("force (N)")
-        fig.suptitle("Real MR damper: measured (grey) vs fitted free run (blue), last two periods", fontsize=9)
+        fig.suptitle("Real MR damper: measured (grey) vs fitted free run (blue), two periods mid-record", fontsize=9)
         files.append(C.save(fig, STUDY, "loops"))
 
         # ---------------------------------------------------------------- NRMSE map
@@ -327,10 +391,14 @@ def plot(results: dict | None = None) -> list:
             for k, c in ((best, "C0"), (worst, "C1")):
                 ax.plot(arrays["eq_t"], arrays[f"eq_{k}"], color=c, lw=0.8,
                         label=f"fit of {k}: NRMSE {meta['earthquake'][k]['nrmse']:.3f}")
+            if "eq_joint" in arrays and "1A" in joint:
+                ax.plot(arrays["eq_t"], arrays["eq_joint"], color="C3", lw=0.8,
+                        label=f"joint fit of all 1 A tests: NRMSE {joint['1A']['earthquake_nrmse']:.3f}")
+            ax.set_ylim(-1.6 * np.max(np.abs(arrays["eq_y"])), 1.6 * np.max(np.abs(arrays["eq_y"])))
             ax.set_xlabel("t (s)")
             ax.set_ylabel("force (N)")
             ax.legend(fontsize=7, loc="upper right")
-            ax.set_title("Earthquake-type record at 1 A: free run of sinusoid fits (best and worst)", fontsize=9)
+            ax.set_title("Earthquake-type record at 1 A: free run of sinusoid fits (best and worst single-test, joint)", fontsize=9)
             files.append(C.save(fig, STUDY, "earthquake"))
     return files
 
@@ -350,6 +418,25 @@ def nrmse_table(meta: dict) -> str:
             + "\n\\hline\n\\end{tabular}\n")
 
 
+def cross_table(meta: dict, current: float) -> str | None:
+    """LaTeX table of the free-run NRMSE of each fit (rows) on each test (columns) at one current."""
+    cfg = meta["config"]
+    tests = [t for t in cfg["tests"] if _file_name(t, current) in meta["fits"]]
+    if len(tests) < 2:
+        return None
+    head = " & ".join(t.replace("x", ".").replace("mm", " mm ") for t in tests)
+    lines = []
+    for a in tests:
+        cells = []
+        for b in tests:
+            ka, kb = _file_name(a, current), _file_name(b, current)
+            v = meta["fits"][ka]["nrmse"] if a == b else meta["cross"][f"{ka}->{kb}"]["nrmse"]
+            cells.append(("\\textbf{%.3f}" % v if a == b else f"{v:.3f}") if math.isfinite(v) else "fails")
+        lines.append(a.replace("x", ".").replace("mm", " mm ") + " & " + " & ".join(cells) + " \\\\")
+    return ("\\begin{tabular}{l" + "r" * len(tests) + "}\n\\hline\nfit \\textbackslash{} record & " + head
+            + " \\\\\n\\hline\n" + "\n".join(lines) + "\n\\hline\n\\end{tabular}\n")
+
+
 def write_numbers(meta: dict) -> list:
     fits = meta["fits"]
     nr = np.array([f["nrmse"] for f in fits.values()])
@@ -363,8 +450,24 @@ def write_numbers(meta: dict) -> list:
            C.write_number(TAG, "total_time", f"{meta['timing']['total_s']:.0f}")]
     for cur in (0.0, 1.0):
         cv = [c["nrmse"] for c in meta["cross"].values() if c["current"] == cur]
+        table = cross_table(meta, cur)
+        if table:
+            out.append(C.write_number(TAG, f"cross_table_{cur:g}A", table))
         if cv:
             out.append(C.write_number(TAG, f"cross_median_{cur:g}A".replace(".", "p"), f"{np.median(cv):.3f}"))
+    joint, loo = meta.get("joint", {}), meta.get("loo", {})
+    if joint:
+        lines = [f"{j['current']:g} A & {j['nrmse']:.3f} & " + " & ".join(
+            f"{j['params'][k]:.4g} $\\pm$ {j['stderr'][k]:.2g}" for k in FREE) + f" & {j['params']['A_f']:.4g} \\\\"
+            for j in joint.values()]
+        out.append(C.write_number(TAG, "joint_table", "\\begin{tabular}{lr" + "r" * (len(FREE) + 1) + "}\n\\hline\n"
+                                  "current & NRMSE & " + " & ".join(f"${LATEX[k]}$" for k in FREE)
+                                  + " & $A_f$ \\\\\n\\hline\n" + "\n".join(lines) + "\n\\hline\n\\end{tabular}\n"))
+        if "1A" in joint and "earthquake_nrmse" in joint["1A"]:
+            out.append(C.write_number(TAG, "earthquake_joint", f"{joint['1A']['earthquake_nrmse']:.3f}"))
+    if loo:
+        out.append(C.write_number(TAG, "loo_median", f"{np.median([v['nrmse'] for v in loo.values()]):.3f}"))
+        out.append(C.write_number(TAG, "loo_max", f"{np.max([v['nrmse'] for v in loo.values()]):.3f}"))
     if meta["earthquake"]:
         eq = [e["nrmse"] for e in meta["earthquake"].values()]
         out.append(C.write_number(TAG, "earthquake_best", f"{min(eq):.3f}"))
@@ -386,6 +489,9 @@ def verdict(meta: dict) -> str:
         parts.append("at 0 A a linear viscous+spring model y = c d' + k d reaches NRMSE median "
                      f"{np.median([f['nrmse_viscous'] for f in zero]):.3f} vs {np.median([f['nrmse'] for f in zero]):.3f} "
                      "for the fitted model")
+    worst = max(fits.values(), key=lambda f: f["nrmse"])
+    parts.append(f"the worst fit is {worst['test']} at {worst['current']:g} A (NRMSE {worst['nrmse']:.3f}, "
+                 f"{worst['nrmse_near_reversal']:.3f} near reversals, {worst['nrmse_elsewhere']:.3f} elsewhere)")
     high = [f for f in fits.values() if f["current"] == max(f2["current"] for f2 in fits.values())]
     if high:
         parts.append(f"at {high[0]['current']:g} A the viscous model reaches "
@@ -405,18 +511,41 @@ def summarize(meta: dict) -> str:
     lines = [f"s06: {len(nr)} fits, NRMSE median {np.median(list(nr.values())):.3f}, best {best} "
              f"{nr[best]:.3f}, worst {worst} {nr[worst]:.3f}; {sum(v <= 0.10 for v in nr.values())}/{len(nr)} "
              f"at or below 0.10; all converged: {all(f['success'] for f in fits.values())}."]
-    lines.append("NRMSE table (rows test, columns current):")
-    lines.append(nrmse_table(meta).replace("\\\\", "").replace("\\hline", "").replace("&", " "))
+    currents = [c for c in meta["config"]["currents"] if _by_current(meta, c)]
+    lines.append("NRMSE of each fit on its own test:\n" + f"{'test':>12}" + "".join(f"{c:>8g} A" for c in currents))
+    for t in meta["config"]["tests"]:
+        vals = [fits.get(_file_name(t, c), {}).get("nrmse", math.nan) for c in currents]
+        lines.append(f"{t:>12}" + "".join(f"{v:10.3f}" for v in vals))
     for cur in sorted({c["current"] for c in meta["cross"].values()}):
         cv = [c["nrmse"] for c in meta["cross"].values() if c["current"] == cur]
-        lines.append(f"cross-validation at {cur:g} A: NRMSE median {np.median(cv):.3f}, max {np.max(cv):.3f} "
-                     f"over {len(cv)} (fit, other test) pairs")
+        n_fail = sum(not math.isfinite(v) for v in cv)
+        lines.append(f"cross-validation at {cur:g} A: NRMSE median {np.median(cv):.3f}, "
+                     f"{sum(v <= 0.2 for v in cv)}/{len(cv)} (fit, other test) pairs <= 0.2, {n_fail} free runs fail")
+        if cur in (0.0, 1.0):
+            ts = [t for t in meta["config"]["tests"] if _file_name(t, cur) in fits]
+            lines.append(f"  fit \\ record {''.join(f'{t:>11}' for t in ts)}")
+            for a in ts:
+                row = []
+                for b in ts:
+                    ka, kb = _file_name(a, cur), _file_name(b, cur)
+                    row.append(fits[ka]["nrmse"] if a == b else meta["cross"][f"{ka}->{kb}"]["nrmse"])
+                lines.append(f"  {a:>12}" + "".join(f"{v:11.3f}" for v in row))
     if meta["earthquake"]:
         eq = {k: v["nrmse"] for k, v in meta["earthquake"].items()}
         lines.append("earthquake record at 1 A: " + ", ".join(f"{k} {v:.3f}" for k, v in eq.items()))
+    for lab, j in meta.get("joint", {}).items():
+        lines.append(f"joint fit of all tests at {lab}: pooled NRMSE {j['nrmse']:.3f}, per test "
+                     + ", ".join(f"{k} {v:.3f}" for k, v in j["nrmse_records"].items())
+                     + (f"; earthquake record {j['earthquake_nrmse']:.3f}" if "earthquake_nrmse" in j else "")
+                     + "; " + ", ".join(f"{k} {v:.4g}" for k, v in j["params"].items()))
+    loo = meta.get("loo", {})
+    if loo:
+        lines.append("leave-one-out (joint fit of the other tests predicts the held-out test): "
+                     + ", ".join(f"{k} {v['nrmse']:.3f}" for k, v in loo.items()))
     lines.append("where the model fits poorly: " + verdict(meta))
     tm = meta["timing"]
-    lines.append(f"time: fits {tm['fits_s']:.1f} s, validation {tm['validation_s']:.1f} s, total {tm['total_s']:.1f} s")
+    lines.append(f"time: single-test fits {tm['fits_s']:.1f} s, validation {tm['validation_s']:.1f} s, joint and "
+                 f"leave-one-out fits {tm.get('joint_s', 0.0):.1f} s, total {tm['total_s']:.1f} s")
     return "\n".join(lines)
 
 

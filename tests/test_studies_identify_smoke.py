@@ -80,6 +80,11 @@ def test_s06_real_damper_smoke_fits(tmp_path, monkeypatch):
     assert fits["25mm0x25Hz1A"]["peak_force"] > 3 * fits["25mm0x25Hz0A"]["peak_force"]
     assert fits["25mm0x25Hz0A"]["decimation"] == 8 and fits["2mm5Hz0A"]["decimation"] == 1
     assert "25mm0x25Hz1A" in meta["earthquake"]
+    # one parameter set for both tests of a current (measured 0.140 at 0 A, 0.101 at 1 A)
+    for lab in ("0A", "1A"):
+        j = meta["joint"][lab]
+        assert j["success"] and j["nrmse"] < 0.2
+        assert j["params"]["A_f"] == pytest.approx(max(f["peak_force"] for f in fits.values() if f["current"] == j["current"]))
 
 
 def test_s06_without_data_exits_cleanly(tmp_path, monkeypatch, capsys):
