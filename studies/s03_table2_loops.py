@@ -129,7 +129,7 @@ def plot(results: dict | None = None) -> list:
         cb.set_label("coil voltage (V)")
         cb.set_ticks(volts)
         ax = axs[2]
-        ax.plot(volts, [r["loop_area"] for r in rows], "o-", color="C0", label=r"loop area $\oint y\,\mathrm{d}d$")
+        ax.plot(volts, [r["loop_area"] for r in rows], "o-", color="C0", label="loop area (energy per cycle)")
         ax.plot(volts, [r["peak"] for r in rows], "s-", color="C1", label=r"peak $|y|$")
         ax.plot(volts, [r["A_f"] for r in rows], "^:", color="0.4", label=r"$A_f$ (Table 2)")
         ax.set_xlabel("coil voltage (V)")
