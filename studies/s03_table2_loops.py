@@ -110,7 +110,7 @@ def plot(results: dict | None = None) -> list:
         volts = [r["voltage"] for r in rows]
         norm = mpl.colors.Normalize(vmin=min(volts), vmax=max(volts))
         cmap = mpl.colormaps["viridis"]
-        fig, axs = plt.subplots(1, 3, figsize=(10.0, 3.5), width_ratios=[1, 1, 0.8])
+        fig, axs = plt.subplots(1, 3, figsize=(10.0, 4.0), width_ratios=[1, 1, 0.8])
         for r in rows:
             key = f"v{r['voltage']:.1f}"
             col = cmap(norm(r["voltage"]))
@@ -135,7 +135,7 @@ def plot(results: dict | None = None) -> list:
         ax.set_xlabel("coil voltage (V)")
         ax.set_ylabel("(1)")
         ax.set_title("per cycle, last period")
-        ax.legend(loc="center right")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=1)
         fig.suptitle(f"Table 2 rows (mr_damper, $n = 5$): $d = \\sin(2\\pi\\,{cfg['frequency']:g}\\,t)$, "
                      f"$\\Delta t$ = {cfg['dt']:g} s, last of {cfg['periods']} periods from rest", fontsize=9)
         return [C.save(fig, STUDY, "loops")]
