@@ -419,3 +419,16 @@ def test_repeated_excitation_inputs_are_fresh_and_equal(small):
     np.testing.assert_array_equal(b.u, Sine(1.0, 2.0).channels(t, model))
     c = simulate(model, p, t, Sine(1.0, 2.5))
     assert not np.allclose(c.u, b.u)
+
+
+def test_auto_substeps_retry_an_overshooting_step_instead_of_reporting_blowup():
+    """Table 1's c3 = 1000 at 25 samples per period: the first trial step overshoots (the stiffness grows like
+    x'^2 inside it) — auto mode must refine it, not call it a blow-up (found by studies/s02)."""
+    from duffsym.model.presets import TABLE1_BASE
+
+    t = np.linspace(0, 24, 601)
+    params = {**TABLE1_BASE, "c3": 1000.0}
+    traj = simulate(mr_damper(3), params, t, Sine(1.0, 0.25))
+    ref = simulate(mr_damper(3), params, t, Sine(1.0, 0.25), method="radau")
+    assert traj.success and traj.substeps.max() > 8
+    assert np.max(np.abs(traj.y - ref.y)) / np.max(np.abs(ref.y)) < 1e-3

@@ -88,6 +88,13 @@ def integrate(t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y,
                 if not (abs(xo[i]) <= blowup):
                     finite = False
             if not finite:
+                # in auto mode an overshooting trial step is not yet a blow-up: the stiffness
+                # estimate at its start can be far too low (it grows like x'^(n-1) within the
+                # step). Retry with more substeps; only a step that stays non-finite at
+                # max_substeps is a blow-up of the trajectory itself.
+                if adaptive and m < max_substeps:
+                    m = min(max_substeps, 4 * m)
+                    continue
                 break
             if not adaptive:
                 break
