@@ -34,6 +34,9 @@ def test_s05_masked_fit_beats_unmasked(tmp_path, monkeypatch):
         # measured (seed 2024, 2 periods): 0.69 -> 0.28 at 0 V, 0.87 -> 0.26 at 0.4 V
         assert r["masked"]["rms_error"] < r["plain"]["rms_error"] / 2, r["key"]
         assert r["masked"]["rms_error"] < 0.4
+        # what masking recovers is the plateau balance c3/c1 (measured +0.022 / -0.009 masked,
+        # -0.077 / +0.097 unmasked); the common scale of c1 and c3 stays biased (documented in s05)
+        assert abs(r["masked"]["c3_over_c1_error"]) < 0.05 < abs(r["plain"]["c3_over_c1_error"])
         # the mask covers the deadzone after each of the 4 reversals, a minority of the samples
         assert r["mask_info"]["n_stretches"] == 4 and 0.05 < r["mask_info"]["fraction_masked"] < 0.25
         # free-run NRMSE on the identification record: noise floor 0.02 plus the backlash misfit
