@@ -31,7 +31,6 @@ import json
 import math
 import os
 import platform
-import re
 import subprocess
 import sys
 import sysconfig
@@ -416,7 +415,7 @@ def growth(rows: list[dict]) -> dict:
 # ---------------------------------------------------------------------------------------------- report
 def merge() -> dict:
     out = {"benchmark": "bench_fit", "machine": machine(), "load_at_merge": load()}
-    for part in ("main", "starts", "sweep"):
+    for part in ("main", "starts", "sweep", "sweep_100k"):  # sweep_100k: an optional re-run of one size
         p = RESULTS / f"fit_{part}.json"
         if p.is_file():
             out[part] = json.loads(p.read_text())
@@ -474,6 +473,10 @@ def print_table(out: dict) -> None:
                   f"{r['n_iter'] or 0:5d} {r['peak_rss_gb']:8.2f} {str(r['load']):>16s}")
         if w["note"]:
             print("  " + w["note"])
+        for r in (out.get("sweep_100k") or {}).get("rows", []):
+            if r.get("wall_s"):
+                print(f"  re-run of n = {r['n']} alone: {r['wall_s']:.2f} s (build {r['timings']['build']:.2f}, solve "
+                      f"{r['timings']['solve']:.2f}), peak {r['peak_rss_gb']:.2f} GB, load {r['load']}")
         g = growth(w["rows"])
         w["growth"] = g
         print(f"  growth exponents between consecutive sizes ({', '.join(g['pairs'])}; 1 = linear):")
