@@ -415,7 +415,7 @@ def growth(rows: list[dict]) -> dict:
 # ---------------------------------------------------------------------------------------------- report
 def merge() -> dict:
     out = {"benchmark": "bench_fit", "machine": machine(), "load_at_merge": load()}
-    for part in ("main", "starts", "sweep", "sweep_100k"):  # sweep_100k: an optional re-run of one size
+    for part in ("main", "starts", "sweep", "sweep_100k", "main_load4"):  # optional re-runs
         p = RESULTS / f"fit_{part}.json"
         if p.is_file():
             out[part] = json.loads(p.read_text())
