@@ -5,6 +5,7 @@ import argparse
 import json
 import subprocess
 import sys
+import time
 from contextlib import contextmanager
 from dataclasses import asdict
 from pathlib import Path
@@ -113,3 +114,25 @@ def parse_args(argv, description: str) -> argparse.Namespace:
     p.add_argument("--smoke", action="store_true", help="small settings for CI (a few seconds)")
     p.add_argument("--plot-only", action="store_true", help="redraw the figures from data/derived only")
     return p.parse_args(argv)
+
+
+def run_study(argv, *, doc: str, label: str, config, compute, plot, write_numbers, summarize, read,
+              announce: bool = False, args=None) -> int:
+    """The ``main`` of every study: compute (unless ``--plot-only``), plot from the derived files, write
+    the quoted numbers, print the summary and what was written.
+
+    ``config`` is the study's Config class (``.smoke()`` for ``--smoke``); ``read()`` returns the
+    derived ``(arrays, meta)``; ``announce`` prints the config summary first (long studies).
+    """
+    args = args if args is not None else parse_args(argv, doc.splitlines()[0])
+    cfg = config.smoke() if args.smoke else config()
+    t0 = time.perf_counter()
+    if not args.plot_only:
+        if announce:
+            print(cfg.summary(), flush=True)
+        compute(cfg)
+    _, meta = read()
+    files = plot() + write_numbers(meta)
+    print(summarize(meta))
+    print(f"{label}: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
+    return 0

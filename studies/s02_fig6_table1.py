@@ -28,7 +28,6 @@ y = 0, periodicity residual), figure ``paper/figures/s02_fig6_table1_fig6.png``,
 from __future__ import annotations
 
 import sys
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -267,16 +266,8 @@ def summarize(meta: dict) -> str:
 
 
 def main(argv=None) -> int:
-    args = C.parse_args(argv, __doc__.splitlines()[0])
-    cfg = Config.smoke() if args.smoke else Config()
-    t0 = time.perf_counter()
-    if not args.plot_only:
-        compute(cfg)
-    _, meta = C.read_derived(STUDY)
-    files = plot() + write_numbers(meta)
-    print(summarize(meta))
-    print(f"s02: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
-    return 0
+    return C.run_study(argv, doc=__doc__, label="s02", config=Config, compute=compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=lambda: C.read_derived(STUDY))
 
 
 if __name__ == "__main__":

@@ -22,7 +22,6 @@ loop area per voltage), ``s03_area_lo.tex``/``s03_area_hi.tex`` (0.2 and 0.8 V),
 from __future__ import annotations
 
 import sys
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -173,16 +172,8 @@ def summarize(meta: dict) -> str:
 
 
 def main(argv=None) -> int:
-    args = C.parse_args(argv, __doc__.splitlines()[0])
-    cfg = Config.smoke() if args.smoke else Config()
-    t0 = time.perf_counter()
-    if not args.plot_only:
-        compute(cfg)
-    _, meta = C.read_derived(STUDY)
-    files = plot() + write_numbers(meta)
-    print(summarize(meta))
-    print(f"s03: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
-    return 0
+    return C.run_study(argv, doc=__doc__, label="s03", config=Config, compute=compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=lambda: C.read_derived(STUDY))
 
 
 if __name__ == "__main__":

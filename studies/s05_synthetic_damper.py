@@ -35,7 +35,6 @@ Files: ``data/derived/s05_synthetic_damper.{npz,json}``, figures ``paper/figures
 from __future__ import annotations
 
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -289,17 +288,8 @@ def summarize(meta: dict) -> str:
 
 
 def main(argv=None) -> int:
-    args = C.parse_args(argv, __doc__.splitlines()[0])
-    cfg = Config.smoke() if args.smoke else Config()
-    t0 = time.perf_counter()
-    if not args.plot_only:
-        print(cfg.summary(), flush=True)
-        compute(cfg)
-    _, meta = C.read_derived(STUDY)
-    files = plot() + write_numbers(meta)
-    print(summarize(meta))
-    print(f"s05: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
-    return 0
+    return C.run_study(argv, doc=__doc__, label="s05", config=Config, compute=compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=lambda: C.read_derived(STUDY), announce=True)
 
 
 if __name__ == "__main__":

@@ -605,7 +605,6 @@ def summarize(meta: dict) -> str:
 
 def main(argv=None) -> int:
     args = C.parse_args(argv, __doc__.splitlines()[0])
-    cfg = Config.smoke() if args.smoke else Config()
     folder = data_folder()
     if not args.plot_only and (folder is None or not (folder / "sinusoidal_preprocessed").is_dir()):
         where = folder if folder is not None else "../shared/data/external/" + DATASET
@@ -614,15 +613,8 @@ def main(argv=None) -> int:
               "SOURCE.md of the dataset for the paths) into that folder, or point DUFFSYM_EXTERNAL_DATA "
               "(see duffsym.data.external_data_dir) at the folder holding it. No outputs written.")
         return 0
-    t0 = time.perf_counter()
-    if not args.plot_only:
-        print(cfg.summary(), flush=True)
-        compute(cfg)
-    _, meta = read()
-    files = plot() + write_numbers(meta)
-    print(summarize(meta))
-    print(f"s06: wrote {len(files) + 2} files in {time.perf_counter() - t0:.1f} s")
-    return 0
+    return C.run_study(argv, doc=__doc__, label="s06", config=Config, compute=compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=read, announce=True, args=args)
 
 
 if __name__ == "__main__":
