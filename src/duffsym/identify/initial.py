@@ -1,7 +1,6 @@
 """Initial parameter values (the paper's tuning procedure) and the automatic deadzone mask."""
 from __future__ import annotations
 
-import math
 from typing import Mapping
 
 import numpy as np
@@ -112,7 +111,6 @@ def auto_mask(record: Record, *, force_band: float = 0.5) -> tuple[np.ndarray, d
     y = np.asarray(record.y)
     v = np.asarray(record.velocity())
     d = np.asarray(record.d)
-    t = np.asarray(record.t)
     y_max = float(np.max(np.abs(y)))
     v_max = float(np.max(np.abs(v)))
     threshold = force_band * y_max
