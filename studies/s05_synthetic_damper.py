@@ -214,7 +214,8 @@ def plot(results: dict | None = None) -> list:
         ax.set_xticks(xs, klist)
         ax.set_ylabel("|relative error|")
         ax.set_title("per parameter (filled: masked, open: unmasked)")
-        ax.legend(fontsize=6, ncol=5, loc="lower center")
+        # below the axes: errors span 1e-3..1, so no corner of the panel is free of points
+        ax.legend(fontsize=7, ncol=5, loc="upper center", bbox_to_anchor=(0.5, -0.12), frameon=False)
         ax = axs[1]
         ax.bar(xs - 0.2, [rows[k]["plain"]["rms_error"] for k in klist], 0.4, color="C1", label="unmasked")
         ax.bar(xs + 0.2, [rows[k]["masked"]["rms_error"] for k in klist], 0.4, color="C0", label="masked")
