@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import sympy as sp
+from sympy.printing.str import StrPrinter
 
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
@@ -109,3 +110,29 @@ def power_of(monomial: sp.Expr, var: sp.Symbol):
     if isinstance(monomial, sp.Pow) and monomial.base == var and not monomial.exp.has(var):
         return monomial.exp
     return None
+
+
+class _LogicTextPrinter(StrPrinter):
+    """Conditions for people: ``a != 0 or b != 0`` instead of ``Ne(a, 0) | Ne(b, 0)`` (text output only;
+    JSON keeps SymPy's parseable form)."""
+
+    def _print_Unequality(self, expr):
+        return f"{self._print(expr.lhs)} != {self._print(expr.rhs)}"
+
+    def _print_Equality(self, expr):
+        return f"{self._print(expr.lhs)} = {self._print(expr.rhs)}"
+
+    def _join(self, expr, word):
+        parts = [self._print(a) for a in expr.args]
+        return f" {word} ".join(f"({p})" if (" and " in p or " or " in p) else p for p in parts)
+
+    def _print_And(self, expr):
+        return self._join(expr, "and")
+
+    def _print_Or(self, expr):
+        return self._join(expr, "or")
+
+
+def condition_text(expr) -> str:
+    """Plain-text form of a SymPy condition (relations joined by and/or)."""
+    return _LogicTextPrinter().doprint(expr)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 from sympy.printing.str import StrPrinter
 
-from duffsym.derive._mechanics import mechanics, tidy
+from duffsym.derive._mechanics import condition_text, mechanics, tidy
 from duffsym.derive.energy import energy_balance
 from duffsym.derive.lyapunov import lyapunov_analysis
 from duffsym.derive.normalize import derive_normalization
@@ -191,6 +191,7 @@ class _TextPrinter(StrPrinter):
         return f"oint({self._print(expr.function)} dt)"
 
 
+
 def derivation_report(model: SymbolicModel) -> DerivationReport:
     """Derive and collect, in the paper's order: the equation, the state-space form, the Eq. 11 -> 12
     mapping (MR damper), the Lyapunov functions (Eq. 6, 8) and their derivatives (Eq. 7, 9), the
@@ -305,14 +306,14 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     sc = stability_conditions(model)
     reduced = sp.Eq(X_DDOT, _collected(-lya.restoring, signals).xreplace({lya.x: X}))
     conds = sc.named()
-    inv_lines = [f"{{dV/dt = 0}}: x' = 0 when {sp.sstr(sc.v_dot_zero_set)}" if sc.v_dot_zero_set is not None
+    inv_lines = [f"{{dV/dt = 0}}: x' = 0 when {condition_text(sc.v_dot_zero_set)}" if sc.v_dot_zero_set is not None
                  else "{dV/dt = 0}: not decided symbolically (non-polynomial dissipation); "
                       "stability_certificate checks W(x') > 0 numerically",
                  f"on x' = 0 (Eq. 10): {pr.text(reduced.lhs)} = {pr.text(reduced.rhs)}",
-                 f"R(x) = 0 only at x = 0 iff {sp.sstr(sc.only_origin)}"]
+                 f"R(x) = 0 only at x = 0 iff {condition_text(sc.only_origin)}"]
     if sc.equilibria:
         inv_lines.append(f"otherwise equilibria x* = {', '.join(sp.sstr(e) for e in sc.equilibria)} "
-                         f"(when {sp.sstr(sc.equilibria_exist)})")
+                         f"(when {condition_text(sc.equilibria_exist)})")
     inv_latex = (f"{pr.latex(reduced.lhs)} = {pr.latex(reduced.rhs)}"
                  + (f" \\\\ x = 0 \\text{{ only, iff }} {pr.latex(sc.only_origin)}" if sc.only_origin is not None else "")
                  + (f" \\\\ x^* = {', '.join(pr.latex(e) for e in sc.equilibria)}" if sc.equilibria else ""))
@@ -326,7 +327,7 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     cond_lines = []
     for name, c in conds.items():
         tag = "iff" if sc.exact.get(name) else "if (sufficient)"
-        cond_lines.append(f"{name}: {tag} {sp.sstr(c)}")
+        cond_lines.append(f"{name}: {tag} {condition_text(c)}")
         cond_lines += [f"    - {r}" for r in sc.reasons.get(name, [])]
     items.append(ReportItem(
         "stability_conditions", "Stability conditions (derived, any parameter signs)", "Eq. 6-10",

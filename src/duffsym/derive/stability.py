@@ -27,7 +27,7 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from duffsym.derive._mechanics import mechanics, power_of, split_terms, tidy
+from duffsym.derive._mechanics import condition_text, mechanics, power_of, split_terms, tidy
 from duffsym.derive.lyapunov import LyapunovAnalysis, lyapunov_analysis
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
@@ -438,7 +438,7 @@ def stability_certificate(model: SymbolicModel, params: Mapping[str, float]) -> 
         holds = _truth(cond, values)
         detail = _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_eq, lin)
         tag = "" if sc.exact.get(name, False) else " (sufficient)"
-        conds.append(Condition(name=name, statement=sp.sstr(cond) + tag, latex=latex(cond), holds=holds,
+        conds.append(Condition(name=name, statement=condition_text(cond) + tag, latex=latex(cond), holds=holds,
                                detail=detail))
     if conds_zero is not None:
         conds.insert(3, conds_zero)
