@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 import paths
+from duffsym._json import jsonable
 
 
 def git_sha() -> str | None:
@@ -43,27 +44,13 @@ def provenance(cfg) -> dict:
                               scipy=scipy.__version__, matplotlib=matplotlib.__version__))
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (np.floating, np.integer, np.bool_)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, float) and not np.isfinite(obj):
-        return None
-    return obj
-
-
 def write_derived(study: str, arrays: dict[str, np.ndarray], meta: dict) -> list[Path]:
     """Write ``data/derived/<study>.npz`` (arrays) and ``<study>.json`` (metadata); return the paths."""
     out = paths.derived_dir()
     out.mkdir(parents=True, exist_ok=True)
     npz, js = out / f"{study}.npz", out / f"{study}.json"
     np.savez_compressed(npz, **{k: np.asarray(v) for k, v in arrays.items()})
-    js.write_text(json.dumps(_jsonable(meta), indent=2) + "\n")
+    js.write_text(json.dumps(jsonable(meta), indent=2) + "\n")
     return [npz, js]
 
 

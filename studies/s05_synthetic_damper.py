@@ -98,7 +98,7 @@ def compute(cfg: Config) -> dict:
     """Simulate, fit (plain and masked), validate; write the derived files; return the metadata."""
     from duffsym.data import synthetic_record
     from duffsym.excitation import BandLimitedRandom, Sine
-    from duffsym.identify import Problem, auto_mask, fit, validate
+    from duffsym.identify import Problem, auto_mask, fit, nrmse, validate
     from duffsym.model import mr_damper
     from duffsym.model.presets import TABLE2_N, table2_params
 
@@ -129,7 +129,7 @@ def compute(cfg: Config) -> dict:
             for vname, vrec in val_recs.items():
                 v = validate(res, vrec, model=model)
                 clean = np.asarray(vrec.metadata["clean_y"])
-                nr_clean = float(np.sqrt(np.mean((clean - v.y_sim) ** 2)) / np.std(clean)) if v.success else np.inf
+                nr_clean = nrmse(clean, v.y_sim) if v.success else np.inf
                 val[f"{fname}_{vname}"] = dict(nrmse=v.nrmse, nrmse_clean=nr_clean, success=v.success)
                 arrays[f"{key}_val_{vname}_{fname}"] = v.y_sim
         for vname, vrec in val_recs.items():

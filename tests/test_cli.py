@@ -173,3 +173,19 @@ def test_fit_bad_files_exit_2_with_one_line(name, message, tmp_path, capsys):
     code, out, err = run(["fit", str(folder / f"{name}.csv")], capsys)
     assert code == 2 and out == ""
     assert len(err.strip().splitlines()) == 1 and message in err and "Traceback" not in err
+
+
+def test_validate_reports_a_failed_free_run(table2_csv, tmp_path, capsys):
+    """A fit whose parameters diverge on the record: a FAILED summary, exit 1, one stderr line, null errors in JSON."""
+    out = tmp_path / "fit.json"
+    assert main(["fit", str(table2_csv), "--out", str(out), "--quiet", "--json"]) == 0
+    capsys.readouterr()
+    saved = json.loads(out.read_text())
+    saved["params"]["c3"] = -abs(saved["params"]["c3"])  # negative n-th power damping: finite-time blow-up
+    out.write_text(json.dumps(saved))
+    code, stdout, err = run(["validate", str(out), str(table2_csv)], capsys)
+    assert code == 1 and "FAILED" in stdout and "blew up" in stdout
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    code, stdout, _ = run(["validate", str(out), str(table2_csv), "--json"], capsys)
+    d = json.loads(stdout)
+    assert code == 1 and d["success"] is False and d["nrmse"] is None and d["rmse"] is None

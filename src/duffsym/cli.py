@@ -27,17 +27,9 @@ def _err(msg: str) -> None:
 
 
 def _emit_json(obj) -> None:
-    print(json.dumps(obj, indent=2, allow_nan=False, default=_json_default))
+    from duffsym._json import jsonable
 
-
-def _json_default(o):
-    import numpy as np
-
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    return str(o)
+    print(json.dumps(jsonable(obj), indent=2, allow_nan=False, default=str))
 
 
 def _parse_assignments(items, what: str) -> dict[str, float]:
@@ -288,11 +280,13 @@ def cmd_validate(args) -> int:
     result = load_result(args.fit)
     record = _read_record(args, args.data)
     val = validate(result, record)
-    d = val.to_dict()
     if args.json:
-        _emit_json(d)
+        _emit_json(val.to_dict())
     else:
-        print(f"validation of {args.fit} on {args.data}: NRMSE {d['nrmse']:.4f}, RMSE {d['rmse']:.6g}")
+        print(val.summary())
+    if not val.success:
+        _err(f"duffsym validate: the free run failed: {val.message}")
+        return 1
     return 0
 
 

@@ -8,10 +8,10 @@ simulates a fit on another record (Fig. 9).
 from duffsym.identify.collocation import collocation_coefficients, fit, initial_states
 from duffsym.identify.initial import TUNING_STEPS, auto_mask, initial_guess
 from duffsym.identify.problem import Problem
-from duffsym.identify.result import IdentificationResult, load_result
+from duffsym.identify.result import IdentificationResult, load_result, nrmse
 from duffsym.identify.validation import ValidationResult, model_from_result, validate
 
 __all__ = [
     "Problem", "fit", "IdentificationResult", "load_result", "initial_guess", "auto_mask", "initial_states",
-    "collocation_coefficients", "TUNING_STEPS", "validate", "ValidationResult", "model_from_result",
+    "collocation_coefficients", "TUNING_STEPS", "nrmse", "validate", "ValidationResult", "model_from_result",
 ]

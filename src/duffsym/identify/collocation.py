@@ -32,6 +32,7 @@ import sympy as sp
 from duffsym.errors import ConvergenceWarning, ModelError
 from duffsym.identify.problem import Problem
 from duffsym.identify.result import IdentificationResult
+from duffsym.identify.result import nrmse as record_nrmse
 
 
 #: Up to this many samples in total, ``fit(expand="auto")`` expands the NLP graph.
@@ -383,7 +384,7 @@ def fit(
     sse = sum(float(np.sum((np.asarray(r.y) - ys) ** 2)) for r, ys in zip(problem.records, y_sims))
     sst = sum(float(np.sum((np.asarray(r.y) - np.mean(r.y)) ** 2)) for r in problem.records)
     nrmse = math.sqrt(sse / sst) if ok_runs else math.inf
-    per_rec = tuple(_nrmse(r.y, ys) for r, ys in zip(problem.records, y_sims))
+    per_rec = tuple(record_nrmse(r.y, ys) for r, ys in zip(problem.records, y_sims))
     used = [problem.sample_weights(i) > 0 for i in range(len(problem.records))]
     sse_u = sum(float(np.sum(((np.asarray(r.y) - ys) ** 2)[u])) for r, ys, u in zip(problem.records, y_sims, used))
     sst_u = sum(float(np.sum(((np.asarray(r.y) - np.mean(np.asarray(r.y)[u])) ** 2)[u]))
@@ -476,13 +477,6 @@ def _random_starts(th0, lo, hi, scale, n, spread, rng) -> list[np.ndarray]:
     return out
 
 
-def _nrmse(y, y_hat) -> float:
-    y = np.asarray(y)
-    if not np.all(np.isfinite(y_hat)):
-        return math.inf
-    return float(np.sqrt(np.mean((y - y_hat) ** 2)) / np.sqrt(np.mean((y - y.mean()) ** 2)))
-
-
 def _status_message(status: str, success: bool, max_iter: int) -> str:
     if success:
         return f"IPOPT converged ({status})"
@@ -501,8 +495,7 @@ def _status_message(status: str, success: bool, max_iter: int) -> str:
 def _free_run(model, params, record, U, x0):
     from duffsym.simulate import simulate
 
-    chans = {c.name: U[:, j] for j, c in enumerate(model.inputs)}
-    traj = simulate(model, params, np.asarray(record.t), chans, x0=x0, on_failure="return")
+    traj = simulate(model, params, np.asarray(record.t), U, x0=x0, on_failure="return")
     return np.asarray(traj.y, dtype=float), traj.success, traj.message
 
 

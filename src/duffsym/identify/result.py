@@ -9,13 +9,17 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from duffsym._json import finite_or_none, jsonable
 from duffsym.errors import DataError
 
 
-def _num(v):
-    """JSON-safe float (NaN/inf become None)."""
-    v = float(v)
-    return v if math.isfinite(v) else None
+def nrmse(y, y_hat) -> float:
+    """The free-run error of ``contract.md``: RMS(y - y_hat) / RMS(y - mean y); inf when y_hat is not finite."""
+    y = np.asarray(y, dtype=float)
+    y_hat = np.asarray(y_hat, dtype=float)
+    if not np.all(np.isfinite(y_hat)):
+        return math.inf
+    return float(np.sqrt(np.mean((y - y_hat) ** 2)) / np.sqrt(np.mean((y - y.mean()) ** 2)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,27 +121,27 @@ class IdentificationResult:
             "effects": list(self.effects),
             "structural": {k: int(v) for k, v in self.structural.items()},
             "params": {k: float(v) for k, v in self.params.items()},
-            "stderr": {k: _num(v) for k, v in self.stderr.items()},
-            "nrmse": _num(self.nrmse),
-            "r2": _num(self.r2),
+            "stderr": {k: finite_or_none(v) for k, v in self.stderr.items()},
+            "nrmse": finite_or_none(self.nrmse),
+            "r2": finite_or_none(self.r2),
             "status": self.status,
             "success": bool(self.success),
             "message": self.message,
             "free": list(self.free),
             "fixed": {k: float(v) for k, v in self.fixed.items()},
             "defaults_applied": dict(self.defaults_applied),
-            "covariance": [[_num(v) for v in row] for row in np.asarray(self.covariance)],
-            "cost": _num(self.cost),
-            "nrmse_records": [_num(v) for v in self.nrmse_records],
-            "nrmse_objective": _num(self.nrmse_objective),
+            "covariance": [[finite_or_none(v) for v in row] for row in np.asarray(self.covariance)],
+            "cost": finite_or_none(self.cost),
+            "nrmse_records": [finite_or_none(v) for v in self.nrmse_records],
+            "nrmse_objective": finite_or_none(self.nrmse_objective),
             "n_iter": int(self.n_iter),
             "timings": {k: float(v) for k, v in self.timings.items()},
             "x0": [list(map(float, x)) for x in self.x0],
             "records": list(self.records),
             "n_masked": [int(np.sum(m)) for m in self.mask],
-            "mask_info": _jsonable(self.mask_info),
+            "mask_info": jsonable(self.mask_info),
             "n_samples": int(self.n_samples),
-            "settings": _jsonable(self.settings),
+            "settings": jsonable(self.settings),
             "versions": dict(self.versions),
             "group_params": {g: {k: float(v) for k, v in p.items()} for g, p in self.group_params.items()},
             "groups": list(self.groups),
@@ -195,19 +199,3 @@ def load_result(path) -> IdentificationResult:
     if not isinstance(data, dict):
         raise DataError(f"{path}: expected a JSON object (a duffsym fit)")
     return IdentificationResult.from_dict(data, source=str(path))
-
-
-def _jsonable(obj):
-    if isinstance(obj, Mapping):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        return _num(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    return obj

@@ -6,9 +6,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from duffsym._json import finite_or_none
 from duffsym.data.record import Record
 from duffsym.errors import ModelError
-from duffsym.identify.result import IdentificationResult
+from duffsym.identify.result import IdentificationResult, nrmse
 
 
 @dataclass(frozen=True, eq=False)
@@ -33,11 +34,8 @@ class ValidationResult:
     y_sim: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def to_dict(self) -> dict:
-        def num(v):
-            return float(v) if math.isfinite(v) else None
-
-        return {"record": self.record, "model": self.model, "nrmse": num(self.nrmse), "rmse": num(self.rmse),
-                "r2": num(self.r2), "success": bool(self.success), "message": self.message,
+        return {"record": self.record, "model": self.model, "nrmse": finite_or_none(self.nrmse),
+                "rmse": finite_or_none(self.rmse), "r2": finite_or_none(self.r2), "success": bool(self.success), "message": self.message,
                 "x0": [float(v) for v in self.x0]}
 
     def summary(self) -> str:
@@ -81,8 +79,7 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     group : for a fit with groups, the group whose parameters to use; by default the record's
         current (``"0.5A"``) or voltage (``"0.4V"``) label.
     """
-    from duffsym.identify.collocation import _input_matrix, initial_states
-    from duffsym.simulate import simulate
+    from duffsym.identify.collocation import _free_run, _input_matrix, initial_states
 
     model = model if model is not None else model_from_result(result)
     if result.group_params and group is None:
@@ -92,16 +89,14 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     p = model.param_vector(result.params_for(group))
     U = _input_matrix(model, record)
     x0 = _estimate_x0(model, p, record, U, initial_states(model, record, p)[0])
-    traj = simulate(model, p, np.asarray(record.t), {c.name: U[:, j] for j, c in enumerate(model.inputs)},
-                    x0=x0, on_failure="return")
-    y = np.asarray(record.y)
-    if not traj.success:
-        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False, traj.message,
-                                tuple(map(float, x0)), traj.y)
-    rmse = float(np.sqrt(np.mean((y - traj.y) ** 2)))
-    nrmse = rmse / float(np.sqrt(np.mean((y - y.mean()) ** 2)))
-    return ValidationResult(record.name, model.name, nrmse, rmse, 1 - nrmse**2, True, "ok",
-                            tuple(map(float, x0)), traj.y)
+    y_sim, ok, message = _free_run(model, p, record, U, x0)
+    if not ok:
+        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False, message,
+                                tuple(map(float, x0)), y_sim)
+    rmse = float(np.sqrt(np.mean((np.asarray(record.y) - y_sim) ** 2)))
+    err = nrmse(record.y, y_sim)
+    return ValidationResult(record.name, model.name, err, rmse, 1 - err**2, True, "ok",
+                            tuple(map(float, x0)), y_sim)
 
 
 def _estimate_x0(model, p, record, U, guess):
