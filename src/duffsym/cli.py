@@ -249,19 +249,16 @@ def _contract_fields(d: dict) -> dict:
 def _plot_fit(result, record, model, path) -> None:
     import numpy as np
 
-    from duffsym.plot.loops import save_figure
-    from duffsym.simulate import Trajectory
+    from duffsym.plot.loops import plot_loops, save_figure
+    from duffsym.simulate import Trajectory, input_matrix
 
     names = tuple(c.name for c in model.inputs)
-    chans = record.inputs_for(model)
-    u = np.column_stack([chans[n] for n in names])
+    u = input_matrix(model, record.t, record.inputs_for(model))
     y_sim = np.asarray(result.y_sim[0], dtype=float)
     common = dict(model=model.name, t=record.t, x=np.zeros((record.t.size, 0)), u=u, params=result.params,
                   success=True, status="ok", message="ok", method="data", input_names=names)
     measured = Trajectory(y=np.asarray(record.y, dtype=float), **common)
     fitted = Trajectory(y=y_sim, **common)
-    from duffsym.plot.loops import plot_loops
-
     fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g})"],
                      styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)])
     if result.mask and np.any(result.mask[0]):

@@ -132,8 +132,9 @@ def _cumulative_trapezoid(values: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def _input_matrix(model, record) -> np.ndarray:
-    chans = record.inputs_for(model)
-    return np.column_stack([chans[c.name] for c in model.inputs])
+    from duffsym.simulate import input_matrix
+
+    return input_matrix(model, np.asarray(record.t), record.inputs_for(model))
 
 
 def fit(
