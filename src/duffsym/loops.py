@@ -21,6 +21,14 @@ def signed_area(x: np.ndarray, y: np.ndarray) -> float:
     return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
 
 
+def cycle_integral(x, y) -> float:
+    """:math:`\\oint y\\,dx` over a closed cycle of samples, by the trapezoid rule (closed from the last
+    sample back to the first): the d–y loop area, i.e. the work per cycle, when x = d and y is the force."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    return float(np.sum(0.5 * (y + np.roll(y, -1)) * (np.roll(x, -1) - x)))
+
+
 def _crossings(s: np.ndarray, other: np.ndarray) -> list[tuple[float, int]]:
     """Values of ``other`` (linearly interpolated) where ``s`` changes sign, with the crossing direction."""
     out = []
@@ -109,9 +117,7 @@ def loop_metrics(d, d_dot, y, *, pre_fraction: float = 0.5, post_fraction: float
     if not (np.all(np.isfinite(d)) and np.all(np.isfinite(v)) and np.all(np.isfinite(y))):
         raise DataError("loop_metrics: the cycle has non-finite samples (a failed simulation?); measure a finite cycle")
     peak = float(np.max(np.abs(y)))
-    # energy: the cycle integral of y dd, by the trapezoid rule over the closed cycle
-    dd = np.roll(d, -1) - d
-    area_d = float(np.sum(0.5 * (y + np.roll(y, -1)) * dd))
+    area_d = cycle_integral(d, y)
     area_v = signed_area(v, y)
     # branches of the d'-y loop: the accelerating branch (d' increasing) and the decelerating one
     accel = np.gradient(v) > 0

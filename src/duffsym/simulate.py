@@ -17,6 +17,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from duffsym._checks import require_increasing
 from duffsym._typing import Float1D, Float2D
 from duffsym.errors import DataError, ModelError, SimulationError
 from duffsym.excitation import Excitation
@@ -89,13 +90,7 @@ def check_time(t) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
         raise DataError(f"t has {bad.size} non-finite value(s), first at index {bad[0]}; remove or fill them")
-    steps = np.flatnonzero(np.diff(t) <= 0)
-    if steps.size:
-        i = steps[0] + 1
-        raise DataError(
-            f"t must be strictly increasing: {steps.size} non-increasing step(s), first at index {i} "
-            f"(t={t[i]:g} s); sort or de-duplicate the samples"
-        )
+    require_increasing(t, "t")
     return t
 
 
@@ -128,11 +123,8 @@ def input_matrix(model: SymbolicModel, t: np.ndarray,
             f"inputs must have shape (n_times, n_inputs) = ({t.size}, {model.n_inputs}) for channels "
             f"{[c.name for c in model.inputs]}; got {U.shape}"
         )
-    if np.isfinite(U).all():
-        return np.ascontiguousarray(U)
-    bad = np.argwhere(~np.isfinite(U))
-    if bad.size:
-        i, j = bad[0]
+    if not np.isfinite(U).all():
+        i, j = np.argwhere(~np.isfinite(U))[0]
         raise DataError(f"input {model.inputs[j].name} is not finite at index {i} (t={t[i]:g} s); clean the input")
     return np.ascontiguousarray(U)
 

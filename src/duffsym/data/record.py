@@ -21,6 +21,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from duffsym._checks import require_increasing
 from duffsym._typing import Float1D
 from duffsym.errors import DataError
 
@@ -146,14 +147,7 @@ class Record:
             raise DataError(
                 f"{where}: too few samples: {n} (need at least {MIN_SAMPLES}); record a longer test"
             )
-        t = arrays["t"]
-        steps = np.flatnonzero(np.diff(t) <= 0)
-        if steps.size:
-            i = int(steps[0] + 1)
-            raise DataError(
-                f"{where}: time must be strictly increasing: {steps.size} non-increasing step(s), first at "
-                f"index {i} (t={t[i]:g} s); sort or de-duplicate the samples"
-            )
+        require_increasing(arrays["t"], f"{where}: time")
         for k in ("d", "y"):
             if np.ptp(arrays[k]) == 0:
                 raise DataError(

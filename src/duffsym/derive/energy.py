@@ -25,9 +25,11 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
+from duffsym._checks import require_increasing
 from duffsym.derive._mechanics import mechanics, split_terms, tidy
 from duffsym.derive.lyapunov import lyapunov_analysis
 from duffsym.errors import DataError, ModelError
+from duffsym.loops import cycle_integral
 from duffsym.model.core import SymbolicModel
 from duffsym.model.statespace import state_space
 
@@ -233,11 +235,8 @@ def loop_area(t, d, y) -> float:
     t, d, y = arrays
     if not (t.size == d.size == y.size) or t.size < 3:
         raise DataError(f"loop_area: t, d, y must have the same length >= 3; got {t.size}, {d.size}, {y.size}")
-    if np.any(np.diff(t) <= 0):
-        raise DataError("loop_area: t must be strictly increasing; pass one period of a trajectory in time order")
-    dc = np.append(d, d[0])
-    yc = np.append(y, y[0])
-    return float(np.sum(0.5 * (yc[1:] + yc[:-1]) * np.diff(dc)))
+    require_increasing(t, "loop_area: t")
+    return cycle_integral(d, y)
 
 
 @dataclass(frozen=True)
