@@ -7,18 +7,14 @@ from __future__ import annotations
 
 import importlib
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
 
 
 def _study(name: str):
-    if str(STUDIES) not in sys.path:
-        sys.path.insert(0, str(STUDIES))
+    """A study module (tests/conftest.py puts studies/ on the path)."""
     return importlib.import_module(name)
 
 

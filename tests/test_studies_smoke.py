@@ -11,13 +11,11 @@ from __future__ import annotations
 import importlib
 import json
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
 NAMES = ("s01_fig3_duffing_like", "s02_fig6_table1", "s03_table2_loops")
 
 
@@ -27,13 +25,11 @@ def smoke_root(tmp_path_factory):
     root = tmp_path_factory.mktemp("studies")
     old_env = os.environ.get("DUFFSYM_OUTPUT_ROOT")
     os.environ["DUFFSYM_OUTPUT_ROOT"] = str(root)
-    sys.path.insert(0, str(STUDIES))
     codes = {}
-    try:
+    try:  # studies/ is on the path (tests/conftest.py)
         for name in NAMES:
             codes[name] = importlib.import_module(name).main(["--smoke"])
     finally:
-        sys.path.remove(str(STUDIES))
         if old_env is None:
             os.environ.pop("DUFFSYM_OUTPUT_ROOT", None)
         else:
@@ -130,7 +126,6 @@ def test_s03_loop_area_grows_with_voltage(smoke_root):
 
 def test_run_all_reports_a_failing_study_and_runs_the_others(monkeypatch, capsys, tmp_path):
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
-    monkeypatch.syspath_prepend(str(STUDIES))
     run_all = importlib.import_module("run_all")
     monkeypatch.setattr(run_all, "STUDIES", ("no_such_study", "s03_table2_loops"))
     assert run_all.main(["--smoke"]) == 1
