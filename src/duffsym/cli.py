@@ -6,6 +6,7 @@ and nothing else there; messages go to stderr. Bad input exits non-zero with one
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -16,6 +17,16 @@ from pathlib import Path
 from duffsym.errors import DuffsymError
 
 EXIT_ERROR = 2
+
+#: Modules that add subcommands: each defines ``register(subparsers)``, which adds its parser(s)
+#: with ``set_defaults(func=...)``; ``func(args)`` returns the exit code. They reuse this module's
+#: helpers (``_err``, ``_emit_json``, ``_read_record``, ``_add_file_arguments``, ``CLIError``).
+COMMAND_MODULES = (
+    "duffsym.effects.command",      # effects
+    "duffsym.diagnose.command",     # diagnose, ladder
+    "duffsym.uncertainty.command",  # sample
+    "duffsym.sindy.command",        # sindy
+)
 
 
 class CLIError(DuffsymError):
@@ -397,6 +408,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--smoke", action="store_true", help="quick run with small settings (for CI)")
     s.add_argument("--studies", help="path of the studies folder (default: found from the current folder upwards)")
     s.set_defaults(func=cmd_reproduce)
+
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
     return p
 
 

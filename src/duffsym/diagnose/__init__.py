@@ -1,0 +1,1 @@
+"""Where a model fails against measurements and which catalogued effect is missing."""

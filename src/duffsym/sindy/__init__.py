@@ -1,0 +1,1 @@
+"""SINDy cross-check of the recovered nonlinear terms (pysindy)."""

@@ -1,0 +1,1 @@
+"""Parameter uncertainty: emcee posterior sampling and identifiability."""

@@ -1,0 +1,6 @@
+"""CLI of duffsym.uncertainty (being written: see the open issue)."""
+from __future__ import annotations
+
+
+def register(sub) -> None:
+    """No subcommand yet."""
