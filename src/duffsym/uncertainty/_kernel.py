@@ -1,0 +1,122 @@
+"""The sampler's simulator: compiled batch RK4 on a fixed substep schedule (generated per model).
+
+The likelihood surface must be smooth in the parameters, so the number of RK4 substeps of each
+sample interval is chosen once, from the stiffness along the trajectory at the optimum (with a
+margin), and then held for every walker and every step. A walker whose state becomes stiffer than
+that schedule resolves (``h rho(J) > hrho_max``) is stopped and reported as *too stiff* instead of
+returning a silently wrong trajectory; a non-finite state is a *blow-up*.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+from functools import lru_cache
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from duffsym.errors import ModelError
+
+_TEMPLATE = Path(__file__).with_name("_kernel_template.py")
+_VERSION = "1"
+_lock = threading.Lock()
+
+#: Stiffness target of the schedule at the optimum (as ``duffsym.simulate.H_LAMBDA``) ...
+H_LAMBDA = 0.6
+#: ... times this margin: the schedule has ``margin`` times the substeps the optimum needs.
+MARGIN = 1.5
+#: A walker is stopped (too stiff) above this h*rho; RK4's real-axis stability limit is 2.785, and
+#: well before it the error grows, so 2.0 stops a trajectory before it is silently wrong.
+HRHO_MAX = 2.0
+BLOWUP = 1e8
+STATUS = {0: "ok", 1: "blow-up", 2: "too stiff"}
+
+
+@lru_cache(maxsize=32)
+def kernel_module(model) -> ModuleType:
+    """Import (generating on first use) the model's compiled module with the schedule kernel."""
+    from duffsym.codegen.compiled import _GENERATOR_VERSION, cache_dir, generate_source
+
+    source = generate_source(model) + "\n\n" + _TEMPLATE.read_text()
+    key = f"duffsym_unc_{model.key}_v{_GENERATOR_VERSION}_{_VERSION}"
+    path = cache_dir() / f"{key}.py"
+    with _lock:
+        if not path.exists() or path.read_text() != source:
+            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            with os.fdopen(fd, "w") as fh:
+                fh.write(source)
+            os.replace(tmp, path)
+        if key in sys.modules:
+            return sys.modules[key]
+        spec = importlib.util.spec_from_file_location(key, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[key] = module
+        spec.loader.exec_module(module)
+    return module
+
+
+def schedule_from_substeps(substeps: np.ndarray, margin: float = MARGIN) -> np.ndarray:
+    """A fixed schedule from the adaptive substep counts of a reference run: the largest count of each
+    interval and its two neighbours (so a small phase shift of the walkers is covered), times ``margin``."""
+    s = np.asarray(substeps, dtype=float)
+    if s.size == 0:
+        raise ModelError("the reference run has no sample intervals")
+    padded = np.concatenate([s[:1], s, s[-1:]])
+    local = np.maximum(np.maximum(padded[:-2], padded[1:-1]), padded[2:])
+    return np.maximum(1, np.ceil(margin * local)).astype(np.int64)
+
+
+class ScheduleSimulator:
+    """Simulate one record for many parameter sets on a fixed substep schedule.
+
+    Parameters
+    ----------
+    model : the model.
+    t : (n_times,) sample times; ``U`` (n_times, n_inputs) inputs; ``x0`` (n_states,) initial state.
+    schedule : (n_times - 1,) RK4 substeps per sample interval.
+    hold : zero-order hold of the input between samples (default: linear).
+    hrho_max, blowup : limits beyond which a set is stopped (status 2, 1).
+    """
+
+    def __init__(self, model, t, U, x0, schedule, *, hold: bool = False, hrho_max: float = HRHO_MAX,
+                 blowup: float = BLOWUP):
+        self.model = model
+        self.t = np.ascontiguousarray(t, dtype=float)
+        self.U = np.ascontiguousarray(U, dtype=float)
+        self.x0 = np.ascontiguousarray(x0, dtype=float).reshape(-1)
+        self.schedule = np.ascontiguousarray(schedule, dtype=np.int64)
+        if self.schedule.shape != (self.t.size - 1,) or np.any(self.schedule < 1):
+            raise ModelError(f"schedule must hold {self.t.size - 1} positive substep counts; got shape "
+                             f"{self.schedule.shape}")
+        self.hold = bool(hold)
+        self.hrho_max = float(hrho_max)
+        self.blowup = float(blowup)
+        self._mod = None
+
+    def __getstate__(self):  # the compiled module is not picklable (pools): rebuilt on first use
+        state = dict(self.__dict__)
+        state["_mod"] = None
+        return state
+
+    @property
+    def total_substeps(self) -> int:
+        return int(self.schedule.sum())
+
+    def run(self, P: np.ndarray):
+        """Outputs ``Y`` (n_sets, n_times; NaN after a failure), ``status``, ``failed_at``, ``worst_hrho``."""
+        if self._mod is None:
+            self._mod = kernel_module(self.model)
+        P = np.ascontiguousarray(np.atleast_2d(P), dtype=float)
+        n = P.shape[0]
+        X0 = np.ascontiguousarray(np.broadcast_to(self.x0, (n, self.x0.size)))
+        Y = np.empty((n, self.t.size))
+        status = np.zeros(n, dtype=np.int64)
+        fail = np.zeros(n, dtype=np.int64)
+        worst = np.zeros(n)
+        self._mod.integrate_schedule_batch(self.t, self.U, X0, P, self.schedule, self.hold, self.blowup,
+                                           self.hrho_max, Y, status, fail, worst)
+        return Y, status, fail, worst
