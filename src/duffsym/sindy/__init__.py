@@ -1,1 +1,13 @@
-"""SINDy cross-check of the recovered nonlinear terms (pysindy)."""
+"""SINDy cross-check of the recovered nonlinear terms (pysindy).
+
+:func:`crosscheck` regresses the velocity equation sparsely on a candidate library generated
+from the model itself, the effects catalogue and generic terms, and says which terms the data
+support, how they compare with a fit, and when the data cannot decide. The diagnosis reads
+:func:`sindy_evidence`.
+"""
+from duffsym.sindy.crosscheck import SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
+from duffsym.sindy.library import CandidateLibrary, Term, candidate_library, split_terms
+from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
+
+__all__ = ["crosscheck", "sindy_evidence", "SindyCrossCheck", "Thresholds", "candidate_library",
+           "CandidateLibrary", "Term", "split_terms", "reconstruct_states", "ReconstructedStates", "output_gain"]
