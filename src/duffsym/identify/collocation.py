@@ -81,9 +81,17 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     """Data-based guess of the state trajectory ``(n_times, n_states)``.
 
     For a two-state mechanical model whose output is a gain times one state: that state is
-    ``y / gain`` and the other its integral (drift and mean removed) or its derivative. Other
-    models start from zeros.
+    ``y / gain`` and the other its integral (drift and mean removed) or its derivative. A model
+    extended by catalogued effects starts its base states this way from the measured output with
+    the effects' output terms removed, and each added state from its effect's guess
+    (:func:`duffsym.effects.initial_states_with_effects`). Other models start from zeros.
     """
+    if model.effects:
+        from duffsym.effects import initial_states_with_effects
+
+        X = initial_states_with_effects(model, record, params, initial_states)
+        if X is not None:
+            return X
     X = np.zeros((record.n_times, model.n_states))
     info = _output_gain(model)
     if info is None:
@@ -153,6 +161,7 @@ def fit(
     start_spread: float = 10.0,
     rng: np.random.Generator | int | None = None,
     ipopt_options: Mapping[str, object] | None = None,
+    derivatives: str = "structured",
 ) -> IdentificationResult:
     r"""Identify the free parameters of ``problem`` by direct collocation and IPOPT.
 
@@ -178,6 +187,12 @@ def fit(
         ``[1/start_spread, start_spread]`` (clipped inside the bounds).
     rng : seed or Generator for the random starts.
     ipopt_options : extra IPOPT options.
+    derivatives : ``"structured"`` (default): the constraint Jacobian and the Hessian of the
+        Lagrangian are assembled from the derivatives of one interval (generated once, symbolically)
+        evaluated on every interval and scattered into the global sparse matrices, so the build and
+        each evaluation are linear in N with a small constant; ``"casadi"``: CasADi's automatic
+        differentiation of the whole NLP graph (the reference; ~10x slower to build and evaluate on
+        long records, ``expand`` applies to it only).
 
     Returns
     -------
@@ -257,7 +272,6 @@ def fit(
     n_free = len(free)
     p_scale_free = np.array([model.param(n).typical_scale for n in free])
     p_scale = np.array([model.param(n).typical_scale for n, _ in slots])
-    theta = ca.MX.sym("theta", n_slots)
 
     tau, C, D = collocation_coefficients(degree, "legendre")
     K = degree
@@ -285,13 +299,16 @@ def fit(
     lo_s = np.array([problem.bounds[n][0] for n, _ in slots]) / p_scale
     hi_s = np.array([problem.bounds[n][1] for n, _ in slots]) / p_scale
     th0 = np.array([start[sn] for sn in slot_names]) / p_scale
-    w_parts, lbw, ubw, w0 = [theta], list(lo_s), list(hi_s), list(th0)
+    n_w = n_slots + sum((nx + n_free) * r.n_times + nx * K * (r.n_times - 1) for r in problem.records)
+    wsym = ca.MX.sym("w", n_w)
+    theta = wsym[:n_slots]
+    lbw, ubw, w0 = list(lo_s), list(hi_s), list(th0)
     g_parts, obj = [], 0
     y_all = np.concatenate([np.asarray(r.y) for r in problem.records])
     y_norm = float(np.sqrt(np.mean(y_all**2))) or 1.0
-    layout = []
+    layout, blocks = [], []
     U_list, X_init_list = [], []
-    offset = n_slots
+    offset, n_g = n_slots, 0
     for i, rec in enumerate(problem.records):
         N = rec.n_times
         U = _input_matrix(model, rec)
@@ -300,13 +317,14 @@ def fit(
         X_init = initial_states(model, rec, p_start)
         S = np.maximum(np.max(np.abs(X_init), axis=0), 1e-3 * max(1.0, float(np.max(np.abs(X_init)))))
         S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
-        Xs = ca.MX.sym(f"X{i}", nx, N)
-        Xc = ca.MX.sym(f"Xc{i}", nx, K * (N - 1))
+        n_var = nx * N + nx * K * (N - 1)
+        Xs = ca.reshape(wsym[offset: offset + nx * N], nx, N)
+        Xc = ca.reshape(wsym[offset + nx * N: offset + n_var], nx, K * (N - 1))
         # One copy of the free parameters per sample, chained to theta by linear constraints: every
         # interval then depends on its own variables only, so the Hessian has no dense rows and
-        # CasADi builds it in time linear in N (shared parameters made the build quadratic); the
-        # chain p_0 = theta, p_k+1 = p_k keeps the KKT matrix banded for the sparse factorization.
-        Pl = ca.MX.sym(f"P{i}", n_free, N)
+        # its build is linear in N (shared parameters made CasADi's build quadratic); the chain
+        # p_0 = theta, p_k+1 = p_k keeps the KKT matrix banded for the sparse factorization.
+        Pl = ca.reshape(wsym[offset + n_var: offset + n_var + n_free * N], n_free, N)
         rows = []
         for n in model.param_names:
             if n in free:
@@ -328,25 +346,33 @@ def fit(
         Xc0 = np.empty((nx, K * (N - 1)))
         for j in range(K):
             Xc0[:, j::K] = ((1 - tau[j + 1]) * Xs0[:-1] + tau[j + 1] * Xs0[1:]).T
-        w_parts += [ca.vec(Xs), ca.vec(Xc), ca.vec(Pl)]
-        n_var = nx * N + nx * K * (N - 1)
         w0 += list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F")) + list(np.tile(th0[sidx] * p_scale[sidx] / p_scale_free, N))
         lbw += [-np.inf] * (n_var + n_free * N)
         ubw += [np.inf] * (n_var + n_free * N)
         layout.append((offset, N, S, offset + n_var))
+        pf = np.array([0.0 if n in free else problem.fixed_value(i, n) for n in model.param_names])
+        blocks.append(dict(offset=offset, N=N, U=U, h=h, S=S, pf=pf, sidx=sidx, y=np.asarray(rec.y, dtype=float),
+                           wts=wts, g_offset=n_g))
+        n_g += (nx * K + nx + n_free) * (N - 1) + n_free
         offset += n_var + n_free * N
         U_list.append(U)
         X_init_list.append(X_init)
-    w = ca.vertcat(*w_parts)
     g = ca.vertcat(*g_parts)
     opts = {
         "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
         "ipopt.print_level": int(print_level), "print_time": False, "ipopt.sb": "yes",
         "ipopt.linear_solver": linear_solver, "error_on_fail": False, "expand": bool(expand),
     }
+    if derivatives == "structured":
+        jac_g, hess_lag = _structured_derivatives(
+            wsym, g, blocks, interval, out_fn, model, free, p_scale_free, theta_size=n_slots, n_g=n_g, K=K,
+            y_norm=y_norm)
+        opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
+    elif derivatives != "casadi":
+        raise ModelError(f"derivatives must be 'structured' or 'casadi'; got {derivatives!r}")
     for k, v in (ipopt_options or {}).items():
         opts[k if k.startswith("ipopt.") else f"ipopt.{k}"] = v
-    solver = ca.nlpsol("duffsym_fit", "ipopt", {"x": w, "f": obj, "g": g}, opts)
+    solver = ca.nlpsol("duffsym_fit", "ipopt", {"x": wsym, "f": obj, "g": g}, opts)
     build = time.perf_counter() - t_build
 
     t_solve = time.perf_counter()
@@ -430,6 +456,121 @@ def fit(
                       for lab in problem.group_order},
         groups=tuple(problem.labels) if problem.group_order else (),
     )
+
+
+def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale_free, *, theta_size, n_g, K, y_norm):
+    """The NLP's constraint Jacobian and the triangle of the Lagrangian's Hessian, assembled by blocks.
+
+    Every collocation interval k depends only on ``z_k = (x_k, xc_k, x_k+1, p_k)`` (scaled states at
+    both ends, its collocation states, its copy of the free parameters), and every objective term
+    only on ``(x_k, p_k)``. The Jacobian and Hessian of one interval and of one objective term are
+    generated once as SX functions, mapped over the intervals, and their nonzeros scattered into
+    the global matrices (sums where blocks overlap, by one constant sparse matrix product). The
+    linear constraints (parameter copies chained to theta) add constant entries.
+    """
+    import casadi as ca
+
+    nx, nu, n_free, n_par = model.n_states, model.n_inputs, len(free), model.n_params
+    nzz = nx * (K + 2) + n_free
+    n_rows = nx * K + nx
+    z = ca.SX.sym("z", nzz)
+    uk, uk1, hk = ca.SX.sym("uk", nu), ca.SX.sym("uk1", nu), ca.SX.sym("h")
+    pf, sx = ca.SX.sym("pf", n_par), ca.SX.sym("sx", nx)
+    pk = z[nx * (K + 2):]
+    ps = ca.vertcat(*[pk[free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+                      for j, n in enumerate(model.param_names)])
+    res, xend = interval(z[:nx], ca.reshape(z[nx: nx + nx * K], nx, K), uk, uk1, hk, ps, sx)
+    gk = ca.vertcat(res, xend - z[nx + nx * K: nx * (K + 2)])
+    Jk = ca.jacobian(gk, z)
+    lam = ca.SX.sym("lam", n_rows)
+    Hk = ca.triu(ca.hessian(ca.dot(lam, gk), z)[0])
+    args = [z, uk, uk1, hk, pf, sx]
+    jfun = ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())])
+    hfun = ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())])
+    jr, jc = (np.asarray(a) for a in Jk.sparsity().get_triplet())
+    hr, hc = (np.asarray(a) for a in Hk.sparsity().get_triplet())
+    # one objective term: 0.5 * w * ((y_hat - y) / y_norm)^2 of v = (x_k, p_k)
+    v = ca.SX.sym("v", nx + n_free)
+    uo, yk, wk, lf = ca.SX.sym("u", nu), ca.SX.sym("y"), ca.SX.sym("wk"), ca.SX.sym("lam_f")
+    pv = ca.vertcat(*[v[nx + free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+                      for j, n in enumerate(model.param_names)])
+    ok = 0.5 * wk * ((out_fn(v[:nx] * sx, uo, pv) - yk) / y_norm) ** 2
+    Ho = ca.triu(ca.hessian(lf * ok, v)[0])
+    ofun = ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())])
+    orr, occ = (np.asarray(a) for a in Ho.sparsity().get_triplet())
+
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", n_g)
+    p_empty = ca.MX.sym("p", 0)
+    J_rows, J_cols, J_vals, H_rows, H_cols, H_vals = [], [], [], [], [], []
+    for b in blocks:
+        o, N, U = b["offset"], b["N"], b["U"]
+        k = np.arange(N - 1)
+        xs_idx = o + np.arange(nx)[:, None] + nx * np.arange(N)[None, :]                     # (nx, N)
+        xc_idx = o + nx * N + np.arange(nx * K)[:, None] + nx * K * k[None, :]              # (nx K, N-1)
+        p_idx = o + nx * N + nx * K * (N - 1) + np.arange(n_free)[:, None] + n_free * np.arange(N)[None, :]
+        zi = np.vstack([xs_idx[:, :-1], xc_idx, xs_idx[:, 1:], p_idx[:, :-1]])            # (nzz, N-1)
+        c0 = b["g_offset"]
+        c1 = c0 + nx * K * (N - 1)
+        c2 = c1 + nx * (N - 1)
+        c3 = c2 + n_free
+        gi = np.vstack([c0 + np.arange(nx * K)[:, None] + nx * K * k[None, :],
+                        c1 + np.arange(nx)[:, None] + nx * k[None, :]])                   # (n_rows, N-1)
+        Z = ca.reshape(w[zi.ravel(order="F").tolist()], nzz, N - 1)
+        L = ca.reshape(lam_g[gi.ravel(order="F").tolist()], n_rows, N - 1)
+        common = (U[:-1].T, U[1:].T, b["h"][None, :], b["pf"], b["S"])
+        J_vals.append(ca.vec(jfun.map(N - 1)(Z, *common)))
+        J_rows.append(gi[jr, :].ravel(order="F"))
+        J_cols.append(zi[jc, :].ravel(order="F"))
+        H_vals.append(ca.vec(hfun.map(N - 1)(Z, *common, L)))
+        H_rows.append(zi[hr, :].ravel(order="F"))
+        H_cols.append(zi[hc, :].ravel(order="F"))
+        vi = np.vstack([xs_idx, p_idx])
+        V = ca.reshape(w[vi.ravel(order="F").tolist()], nx + n_free, N)
+        H_vals.append(ca.vec(ofun.map(N)(V, U.T, b["y"][None, :], b["wts"][None, :], b["pf"], b["S"], lam_f)))
+        H_rows.append(vi[orr, :].ravel(order="F"))
+        H_cols.append(vi[occ, :].ravel(order="F"))
+        # linear constraints: p_0 - theta = 0 and p_k+1 - p_k = 0
+        jf = np.arange(n_free)
+        J_rows += [c2 + jf, c2 + jf, (c3 + jf[:, None] + n_free * k[None, :]).ravel(order="F"),
+                   (c3 + jf[:, None] + n_free * k[None, :]).ravel(order="F")]
+        J_cols += [p_idx[:, 0], np.asarray(b["sidx"]), p_idx[:, 1:].ravel(order="F"), p_idx[:, :-1].ravel(order="F")]
+        n_lin = n_free * (N - 1)
+        J_vals.append(ca.DM(np.concatenate([np.ones(n_free), -np.ones(n_free), np.ones(n_lin), -np.ones(n_lin)])))
+    n_w = w.numel()
+    jac = _scatter(np.concatenate(J_rows), np.concatenate(J_cols), ca.vertcat(*J_vals), n_g, n_w, upper=False)
+    hess = _scatter(np.concatenate(H_rows), np.concatenate(H_cols), ca.vertcat(*H_vals), n_w, n_w, upper=True)
+    jac_g = ca.Function("nlp_jac_g", [w, p_empty], [g, jac], ["x", "p"], ["g", "jac_g_x"])
+    hess_lag = ca.Function("nlp_hess_l", [w, p_empty, lam_f, lam_g], [hess],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    return jac_g, hess_lag
+
+
+def _scatter(rows, cols, vals, n_rows, n_cols, *, upper):
+    """Sparse ``n_rows x n_cols`` MX matrix whose entry (rows[t], cols[t]) sums ``vals[t]``.
+
+    With ``upper``, entries below the diagonal move to their mirror image above it (the symmetric
+    Hessian's upper triangle).
+    """
+    import casadi as ca
+
+    rows = np.asarray(rows, dtype=np.int64)
+    cols = np.asarray(cols, dtype=np.int64)
+    if upper:
+        rows, cols = np.minimum(rows, cols), np.maximum(rows, cols)
+    key = cols * n_rows + rows
+    uniq, inverse = np.unique(key, return_inverse=True)
+    r_u, c_u = uniq % n_rows, uniq // n_rows
+    colind = np.searchsorted(c_u, np.arange(n_cols + 1))
+    sp = ca.Sparsity(n_rows, n_cols, colind.tolist(), r_u.tolist())
+    if uniq.size == key.size:
+        order = np.empty_like(inverse)
+        order[inverse] = np.arange(inverse.size)
+        nz = vals[order.tolist()]
+    else:
+        A = ca.DM(ca.Sparsity(uniq.size, key.size, np.arange(key.size + 1).tolist(), inverse.tolist()), 1.0)
+        nz = ca.mtimes(A, vals)
+    return ca.MX(sp, nz)
 
 
 def _grouped_params(problem, slot_values) -> dict[str, float]:
