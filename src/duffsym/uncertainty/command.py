@@ -1,6 +1,150 @@
-"""CLI of duffsym.uncertainty (being written: see the open issue)."""
+"""``duffsym sample``: emcee posterior of a saved fit on its record (``contract.md``)."""
 from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+
+def cmd_sample(args) -> int:
+    import warnings
+
+    from duffsym.cli import CLIError, _emit_json, _err, _read_record
+    from duffsym.errors import ConvergenceWarning
+    from duffsym.identify import load_result
+    from duffsym.uncertainty.sampler import ChainTooShort, sample
+
+    for label, v, least in (("--walkers", args.walkers, 2), ("--steps", args.steps, 2), ("--workers", args.workers, 1)):
+        if v is not None and v < least:
+            raise CLIError(f"{label} must be at least {least}; got {v}")
+    if args.burn is not None and not 0 <= args.burn < args.steps - 1:
+        raise CLIError(f"--burn must be in [0, --steps - 1) = [0, {args.steps - 1}); got {args.burn}")
+    if args.thin is not None and args.thin < 1:
+        raise CLIError(f"--thin must be >= 1; got {args.thin}")
+    result = load_result(args.fit)
+    record = _read_record(args, args.data)
+    mask = None
+    if args.mask == "auto":
+        from duffsym.identify import auto_mask
+
+        mask, _ = auto_mask(record)
+    elif args.mask not in (None, "none", "fit"):
+        import numpy as np
+
+        path = Path(args.mask)
+        if not path.is_file():
+            raise CLIError(f"--mask {args.mask}: no such file; give fit, none, auto or a file of 0/1 per sample")
+        try:
+            mask = np.loadtxt(path, dtype=float).astype(bool).reshape(-1)
+        except ValueError as exc:
+            raise CLIError(f"--mask {args.mask}: not a column of 0/1 values ({exc})") from None
+    n_masked = result.to_dict().get("n_masked", [0])
+    if args.mask in (None, "fit") and n_masked and n_masked[0] and not result.mask:
+        _err(f"note: the fit left {n_masked[0]} sample(s) out by a mask that FIT.json does not store; "
+             "pass --mask auto (or the mask file) to leave them out here too")
+    if not args.quiet and not args.json:
+        _err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
+             f"{args.steps} steps")
+    pool = None
+    if args.workers and args.workers > 1:
+        import multiprocessing
+
+        pool = multiprocessing.get_context("spawn").Pool(args.workers)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ConvergenceWarning)
+            chains = sample(result, record, n_walkers=args.walkers, n_steps=args.steps, burn=args.burn, thin=args.thin,
+                            noise="ar1" if args.ar1 else "gaussian", mask=mask, rng=args.seed, pool=pool,
+                            progress=not args.quiet, on_short="raise" if args.strict else "warn",
+                            threads=args.threads)
+    except ChainTooShort as exc:
+        if exc.chains is not None and args.chains:
+            exc.chains.save(args.chains)
+        raise CLIError(f"{exc} (--strict)") from None
+    finally:
+        if pool is not None:
+            pool.close()
+            pool.join()
+    written = []
+    if args.chains:
+        written.append(str(chains.save(args.chains)))
+    if args.corner:
+        from duffsym.plot.loops import save_figure
+        from duffsym.uncertainty.plots import plot_corner
+
+        save_figure(plot_corner(chains), args.corner)
+        written.append(args.corner)
+    if args.bands:
+        from duffsym.plot.loops import save_figure
+        from duffsym.uncertainty.plots import plot_bands
+        from duffsym.uncertainty.predictive import posterior_predictive
+
+        bands = posterior_predictive(chains, result, record, rng=args.seed)[0]
+        try:
+            period = record.period
+        except (IndexError, ZeroDivisionError, ValueError):
+            period = None
+        save_figure(plot_bands(bands, period=period, title=f"posterior predictive, {record.name}"), args.bands)
+        written.append(args.bands)
+    out = chains.to_dict()
+    if args.identifiability:
+        from duffsym.uncertainty.identifiability import identifiability_report
+
+        out["identifiability"] = identifiability_report(result, record, chains=chains).to_dict()
+    out["files"] = written
+    if args.out:
+        import json
+
+        from duffsym._json import jsonable
+
+        Path(args.out).write_text(json.dumps(jsonable(out), indent=2, allow_nan=False))
+        written.append(args.out)
+    if args.json:
+        _emit_json(out)
+    else:
+        print(chains.summary())
+        if args.identifiability:
+            print(out["identifiability"]["text"])
+    if written and not args.quiet:
+        _err(f"wrote {', '.join(written)}")
+    for w in caught:
+        if not args.quiet and str(w.message) not in chains.warnings:
+            _err(f"warning: {w.message}")
+    return 0
 
 
 def register(sub) -> None:
-    """No subcommand yet."""
+    from duffsym.cli import _add_file_arguments
+
+    s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 % intervals, "
+                       "tau, ESS, Laplace comparison)")
+    s.add_argument("data", help="the CSV record the fit was made on")
+    s.add_argument("--fit", required=True, help="FIT.json written by `duffsym fit --out`")
+    s.add_argument("--walkers", type=int, default=32, help="number of walkers (default 32; at least 2x the free "
+                   "parameters)")
+    s.add_argument("--steps", type=int, default=5000, help="steps per walker (default 5000; emcee wants >= 50 tau, "
+                   "tau is typically 70-150 steps here)")
+    s.add_argument("--burn", type=int, default=None, help="steps discarded (default 3 tau, at most a third)")
+    s.add_argument("--thin", type=int, default=None, help="thinning of the kept chain (default 1)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the walker starts and moves")
+    s.add_argument("--ar1", action="store_true", help="AR(1) noise instead of white (samples its coefficient)")
+    s.add_argument("--mask", default="fit", help="fit (the fit's mask if stored; FIT.json stores none), none, auto "
+                   "(deadzone, as fit --mask auto) or a file of 0/1 per sample")
+    s.add_argument("--workers", type=int, default=None, help="evaluate walkers in this many processes (default: all "
+                   "walkers in one compiled batch call, usually faster)")
+    s.add_argument("--threads", type=int, default=1, help="numba threads of the batch call (default 1: on a busy "
+                   "machine waking threads costs more than the work)")
+    s.add_argument("--strict", action="store_true", help="fail (exit 2) when the chain is shorter than 50 tau")
+    s.add_argument("--chains", help="save the chains (.npz; reload with duffsym.uncertainty.load_chains)")
+    s.add_argument("--corner", help="corner plot file (PNG/PDF)")
+    s.add_argument("--bands", help="posterior predictive bands on the loops and the time series (PNG/PDF)")
+    s.add_argument("--identifiability", action="store_true", help="add the identifiability report (symmetry, "
+                   "Fisher spectrum, posterior correlations)")
+    _add_file_arguments(s)
+    s.add_argument("--out", help="write the JSON summary to this file")
+    s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    s.add_argument("--quiet", action="store_true", help="no progress bar or messages")
+    s.set_defaults(func=cmd_sample)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(0)
