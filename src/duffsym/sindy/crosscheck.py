@@ -210,7 +210,9 @@ class SindyCrossCheck:
         ``window_s``, ``n_models``.
     verdict : one of ``consistent``, ``missing-terms``, ``disagrees``, ``inconclusive``;
         ``message`` one or two sentences; ``reasons`` the measured facts behind an inconclusive verdict.
-    reference : where the model coefficients come from (``"fit"``, ``"params"`` or ``"none"``).
+    reference : where the model coefficients come from (``"fit"``, ``"params"`` or ``"none"``; with
+        ``"none"`` the expected term set is the model's at its default parameters, so ``k3 = 0`` drops ``x^5``
+        as the identification does by default).
     """
 
     model: str
@@ -429,11 +431,13 @@ def crosscheck(
     if cov is not None and free and cov.shape == (len(free), len(free)) and np.all(np.isfinite(cov)):
         J = lib.coefficient_gradients(ref, free)
         model_se = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
+        model_se[~np.array([t.in_model for t in lib.terms])] = np.nan
     in_model = np.array([t.in_model for t in lib.terms])
     if ref is not None:
         expected = in_model & (np.abs(model_coef) > 0)
     else:
-        expected = in_model.copy()
+        # no fit: the term set of the model as identified by default (k3 = 0 drops x^5, as Problem does)
+        expected = in_model & (np.abs(lib.coefficients(model.defaults())) > 0)
     selected = inclusion >= thr.include
     ambiguous = (inclusion > thr.exclude) & ~selected
 
