@@ -225,6 +225,19 @@ class Record:
         w = min(max(w, 5), 101, self.n_times - (1 - self.n_times % 2))
         return w if w % 2 else w + 1
 
+    def default_acceleration_window(self) -> int:
+        """Savitzky–Golay window used by :meth:`acceleration`: a tenth of the input's mean period
+        :math:`2\\pi\\,\\mathrm{rms}(d)/\\mathrm{rms}(\\dot d)` (the period of a sine; shorter than the dominant
+        period for a multisine, whose high lines weigh more in the acceleration), odd, 5..101 samples."""
+        d = np.asarray(self.d) - np.mean(self.d)
+        v = np.asarray(self.velocity())
+        v = v - np.mean(v)
+        rms_v = float(np.sqrt(np.mean(v**2)))
+        period = 2 * math.pi * float(np.sqrt(np.mean(d**2))) / rms_v if rms_v > 0 else self.period
+        w = int(round(0.1 * min(period, self.period) / self.dt))
+        w = min(max(w, 5), 101, self.n_times - (1 - self.n_times % 2))
+        return w if w % 2 else w + 1
+
     # ------------------------------------------------------------------ signals
     def velocity(self, *, window: int | None = None, polyorder: int = 3) -> Float1D:
         """The input velocity: ``d_dot`` if the record has it, else a Savitzky–Golay derivative of ``d``.
@@ -252,18 +265,51 @@ class Record:
         out.flags.writeable = False
         return out
 
+    def acceleration(self, *, window: int | None = None, polyorder: int = 3) -> Float1D:
+        """The input acceleration: a Savitzky–Golay derivative of ``d_dot`` if the record has it, else the
+        Savitzky–Golay second derivative of ``d`` (window :meth:`default_acceleration_window`).
+
+        Like the velocity it is centred (no lag); for a sine of :math:`\\theta = \\omega\\,dt` rad per sample
+        its gain is :math:`1 - O((\\theta w/2)^2)` for the second derivative of ``d`` (measured in the
+        tests: below 1e-3 at 2 Hz with dt = 0.005 s and the default window) and :math:`1 - O((\\theta w/2)^4)`
+        from a given ``d_dot``. Noise in ``d`` is amplified: use a longer window for noisy inputs.
+
+        Raises
+        ------
+        DataError
+            If the sampling is not uniform or the window is invalid.
+        """
+        dt = self.require_uniform("deriving the acceleration")
+        w = self.default_acceleration_window() if window is None else int(window)
+        if w % 2 == 0 or w <= polyorder or w > self.n_times:
+            raise DataError(
+                f"record {self.name or '(unnamed)'}: acceleration window must be odd, larger than "
+                f"polyorder={polyorder} and at most n_times={self.n_times}; got {w}"
+            )
+        if self.d_dot is not None:
+            out = savgol_derivative(np.asarray(self.d_dot), dt, w, polyorder)
+        else:
+            from scipy.signal import savgol_filter
+
+            out = savgol_filter(np.asarray(self.d), window_length=w, polyorder=polyorder, deriv=2, delta=dt,
+                                mode="interp")
+        out.flags.writeable = False
+        return out
+
     def inputs_for(self, model) -> dict[str, np.ndarray]:
-        """The model's input channels by name (order 0: ``d``; order 1: the velocity)."""
+        """The model's input channels by name (order 0: ``d``; 1: the velocity; 2: the acceleration)."""
         out = {}
         for ch in model.inputs:
             if ch.order == 0:
                 out[ch.name] = np.asarray(self.d)
             elif ch.order == 1:
                 out[ch.name] = np.asarray(self.velocity())
+            elif ch.order == 2:
+                out[ch.name] = np.asarray(self.acceleration())
             else:
                 raise DataError(
                     f"model {model.name} needs input {ch.name} (derivative order {ch.order}); a record provides "
-                    "the input and its first derivative only"
+                    "the input and its first and second derivatives only"
                 )
         return out
 

@@ -1,7 +1,31 @@
-"""Physical effects that extend a model (composable; see :class:`Effect`)."""
-from duffsym.effects.base import CoulombFriction, Effect, ForceOffset, OutputLag, apply_effects
+"""Physical effects that extend a model (composable; see :class:`Effect` and ``duffsym effects``).
+
+The catalogue, in the order ``duffsym effects`` lists it:
+
+=================  ===========================================================  ===============
+effect             form                                                         parameters
+=================  ===========================================================  ===============
+force-offset       y += off_y0                                                  off_y0
+gas-accumulator    y += off_y0 + gas_k d (preload = the force offset)           off_y0, gas_k
+inertia            y += inertia_m d''                                           inertia_m
+coulomb-friction   x'' += -fric_mu tanh(x'/0.01)                                fric_mu
+asymmetry          y += asym_a F tanh(x'/0.05)                                  asym_a
+output-lag         z' = (y - z)/lag_tau, output z                               lag_tau
+input-delay        Pade all-pass state q; d -> 2q - d (also covers a ZOH)       delay_tau
+backlash           smooth play state b; d -> b                                  bl_h
+=================  ===========================================================  ===============
+"""
+from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
+from duffsym.effects.inputs import Backlash, InputDelay
+from duffsym.effects.mechanical import CoulombFriction
+from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
 
 #: Effects by name.
-CATALOGUE = {e.name: e for e in (ForceOffset(), CoulombFriction(), OutputLag())}
+CATALOGUE: dict[str, Effect] = {e.name: e for e in (
+    ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), Asymmetry(), OutputLag(),
+    InputDelay(), Backlash(),
+)}
 
-__all__ = ["Effect", "ForceOffset", "CoulombFriction", "OutputLag", "apply_effects", "CATALOGUE"]
+__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
+           "OutputLag", "InputDelay", "Backlash", "apply_effects", "effect_chain", "initial_states_with_effects",
+           "CATALOGUE"]

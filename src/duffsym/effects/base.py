@@ -1,35 +1,125 @@
-"""Physical effects as composable extensions of a symbolic model.
+"""Physical effects as composable extensions of a symbolic model: the :class:`Effect` interface.
 
 An effect adds terms, states, inputs or parameters to a :class:`~duffsym.model.SymbolicModel`
-through :meth:`SymbolicModel.extend`; it never edits generated code. Derivations, code generation
-and simulation then work on the extended model unchanged.
+through :meth:`SymbolicModel.extend`; it never edits generated code. Derivations, code generation,
+identification, simulation and sampling then work on the extended model unchanged.
+
+Every effect provides, for the diagnosis (``duffsym diagnose``/``ladder``) and for people:
+
+- ``name``, ``physics`` (one line), ``signature`` (one line: how it shows in the residuals of a
+  model that lacks it), ``form`` (the equations it adds, one line);
+- :meth:`Effect.parameters`: its parameters (:class:`ParamSpec` with unit, bounds, default),
+  named with the effect's ``prefix`` so that effects combine;
+- :meth:`Effect.apply`: the extended model (raises :class:`ModelError` when not applicable);
+- :meth:`Effect.initial_guess`: starting values of its parameters from a record and the free run
+  of the fitted model *without* the effect;
+- :meth:`Effect.initial_states`: data-based starting trajectories of the states it adds (used by
+  the collocation fit, :func:`duffsym.identify.collocation.initial_states`);
+- :meth:`Effect.base_output`: the measured output with the effect's own output term removed
+  (so the base model's states can be started from the data).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Iterable
+import math
+from typing import Iterable, Mapping
 
+import numpy as np
 import sympy as sp
 
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
+#: The model before each effect, keyed by the extended model's equation hash (see :func:`effect_chain`).
+_PARENTS: dict[str, tuple[SymbolicModel, "Effect"]] = {}
+_PARENTS_MAX = 512
+
+
+def sigmoid(u: sp.Expr) -> sp.Expr:
+    """Smooth step from 0 to 1: :math:`(1 + \\tanh u)/2` (infinitely differentiable, for IPOPT)."""
+    return (1 + sp.tanh(u)) / 2
+
 
 class Effect:
-    """Base class of an effect: a name, a one-line physics description, and :meth:`apply`.
+    """Base class of the catalogue's effects (see the module docstring for the interface).
 
-    Subclasses prefix their parameter names with ``prefix`` so effects combine without clashes.
+    Subclasses are frozen dataclasses; they implement :meth:`parameters` and :meth:`_extend`, and
+    override :meth:`initial_guess`, :meth:`initial_states` and :meth:`base_output` where needed.
+    ``n_states`` is the number of states the effect appends to the state vector.
     """
 
     name: str = "effect"
     prefix: str = ""
     physics: str = ""
-    signature: str = ""  # how the effect shows in the residuals of a model that lacks it
+    signature: str = ""
+    form: str = ""
+    guess: str = ""  # how initial_guess estimates the parameters, one line
+    n_states: int = 0
 
-    def apply(self, model: SymbolicModel) -> SymbolicModel:  # pragma: no cover - interface
+    # ------------------------------------------------------------------ interface
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        """The parameters the effect adds (prefixed names, units, bounds, default)."""
+        return ()
+
+    def apply(self, model: SymbolicModel) -> SymbolicModel:
+        """``model`` with this effect added.
+
+        Raises
+        ------
+        ModelError
+            If the effect is already applied, or does not apply to this model (e.g. needs a
+            mechanical model, or duplicates a term another applied effect already has).
+        """
+        self._check_not_applied(model)
+        new = self._extend(model)
+        if len(_PARENTS) >= _PARENTS_MAX:
+            _PARENTS.pop(next(iter(_PARENTS)))
+        _PARENTS[new.key] = (model, self)
+        return new
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        """Starting values of the effect's parameters from the data.
+
+        Parameters
+        ----------
+        record : the measured :class:`~duffsym.data.Record`.
+        y_model : (n_times,) free-run output of the fitted model *without* this effect.
+
+        Returns
+        -------
+        dict
+            Parameter name -> value, inside the parameter's bounds.
+        """
+        return {p.name: p.default for p in self.parameters()}
+
+    def initial_states(self, X_base: np.ndarray, record, params: Mapping[str, float]) -> np.ndarray:
+        """Starting trajectories ``(n_times, n_states)`` of the states this effect adds.
+
+        ``X_base`` holds the guesses of the states before this effect (base states first);
+        ``params`` the parameter values by name (all of the extended model's).
+        """
+        return np.zeros((np.asarray(record.t).size, self.n_states))
+
+    def base_output(self, y: np.ndarray, record, params: Mapping[str, float]) -> np.ndarray:
+        """The output ``y`` with this effect's own output term removed (identity if it has none)."""
+        return y
+
+    def describe(self) -> dict:
+        """Everything ``duffsym effects --json`` shows about the effect."""
+        return {
+            "effect": self.name, "physics": self.physics, "signature": self.signature, "form": self.form,
+            "initial_guess": self.guess, "new_states": self.n_states,
+            "parameters": [
+                {"name": p.name, "unit": p.unit, "default": p.default, "lower": p.lower, "upper": p.upper,
+                 "description": p.description}
+                for p in self.parameters()
+            ],
+        }
+
+    # ------------------------------------------------------------------ helpers
     def _check_not_applied(self, model: SymbolicModel) -> None:
         if self.name in model.effects:
             raise ModelError(f"effect {self.name} is already applied to model {model.name}")
@@ -38,8 +128,28 @@ class Effect:
         if model.position is None or model.velocity is None:
             raise ModelError(f"effect {self.name} needs a mechanical model (position and velocity states); "
                              f"model {model.name} has none")
-        self._check_not_applied(model)
         return model.position, model.velocity
+
+    def _require_input(self, model: SymbolicModel, order: int = 0):
+        """The model's input channel of ``order`` on its first signal, or a ModelError."""
+        chans = [c for c in model.inputs if c.order == order]
+        if not chans:
+            raise ModelError(f"effect {self.name} acts on the input and its derivative of order {order}; "
+                             f"model {model.name} has inputs {[c.name for c in model.inputs]}")
+        return chans[0]
+
+    def _spec(self, name: str) -> ParamSpec:
+        for p in self.parameters():
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def _clip(self, name: str, value: float, fallback: float | None = None) -> float:
+        """``value`` clipped to the (closed) bounds of parameter ``name``; ``fallback`` (else the default) if not finite."""
+        p = self._spec(name)
+        if not math.isfinite(value):
+            value = p.default if fallback is None else fallback
+        return float(min(max(value, p.lower), p.upper))
 
 
 def apply_effects(model: SymbolicModel, effects: Iterable[Effect]) -> SymbolicModel:
@@ -49,59 +159,85 @@ def apply_effects(model: SymbolicModel, effects: Iterable[Effect]) -> SymbolicMo
     return model
 
 
-@dataclass(frozen=True)
-class ForceOffset(Effect):
-    """A constant offset of the measured force (load-cell zero error, gas preload seen as a bias).
+def effect_chain(model: SymbolicModel) -> tuple[SymbolicModel, list[tuple[Effect, SymbolicModel]]] | None:
+    """The base model and, in order, each effect applied to it with the model after it; None if unknown.
 
-    .. math:: y \\leftarrow y + y_0
+    Models built by :meth:`Effect.apply` in this process are remembered; others are rebuilt from the
+    model library (by name and power, as :func:`duffsym.identify.model_from_result` does) and
+    accepted only if the rebuilt equations are identical.
     """
+    steps: list[tuple[Effect, SymbolicModel]] = []
+    m = model
+    while m.effects and m.key in _PARENTS:
+        parent, eff = _PARENTS[m.key]
+        steps.append((eff, m))
+        m = parent
+    if not m.effects:
+        return m, steps[::-1]
+    from duffsym.effects import CATALOGUE
+    from duffsym.model.library import get_model
 
-    name: str = "force-offset"
-    prefix: str = "off_"
-    physics: str = "constant force bias: load-cell zero or accumulator preload"
-    signature: str = "residual mean is non-zero; d–y loop shifted vertically"
+    if any(e not in CATALOGUE for e in model.effects):
+        return None
+    struct = dict(model.structural)
+    try:
+        n = struct.get("n_x")
+        base = get_model(model.name, None if n is None or model.name == "duffing" else int(n))
+    except (ModelError, TypeError, ValueError):
+        return None
+    steps = []
+    m = base
+    try:
+        for e in model.effects:
+            m = CATALOGUE[e].apply(m)
+            steps.append((CATALOGUE[e], m))
+    except ModelError:
+        return None
+    return (base, steps) if m.key == model.key else None
 
-    def apply(self, model: SymbolicModel) -> SymbolicModel:
-        self._check_not_applied(model)
-        y0 = ParamSpec(f"{self.prefix}y0", "y_{0}", 0.0, -1e9, 1e9, unit="output unit",
-                       description="force offset")
-        return model.extend(effect=self.name, params=(y0,), output_add=y0.symbol)
 
+def initial_states_with_effects(model: SymbolicModel, record, params: np.ndarray, base_states) -> np.ndarray | None:
+    """Data-based state guess of an extended model: the base model's guess (from the measured output
+    with the effects' output terms removed), then each effect's columns. None if the chain is unknown.
 
-@dataclass(frozen=True)
-class CoulombFriction(Effect):
-    """Continuous Coulomb (seal) friction on the fluid mass: :math:`-\\mu\\tanh(\\dot x/\\varepsilon)`.
-
-    The smooth ``tanh`` keeps the model continuous (the paper's point) and differentiable for IPOPT.
+    ``base_states(model, record, params)`` is the base models' guess
+    (:func:`duffsym.identify.collocation.initial_states`).
     """
+    chain = effect_chain(model)
+    if chain is None:
+        return None
+    base, steps = chain
+    values = dict(zip(model.param_names, map(float, np.asarray(params, dtype=float))))
+    y = np.asarray(record.y, dtype=float)
+    for eff, _ in reversed(steps):
+        y = eff.base_output(y, record, values)
+    rec_base = record
+    if not np.array_equal(y, record.y):
+        try:
+            rec_base = record.replace(y=y)
+        except Exception:  # a degenerate corrected output: start from the measured one
+            rec_base = record
+    X = base_states(base, rec_base, np.array([values[n] for n in base.param_names]))
+    for eff, _ in steps:
+        cols = np.asarray(eff.initial_states(X, record, values), dtype=float).reshape(X.shape[0], eff.n_states)
+        X = np.column_stack([X, cols]) if eff.n_states else X
+    if X.shape != (record.n_times, model.n_states):
+        return None
+    return X
 
-    name: str = "coulomb-friction"
-    prefix: str = "fric_"
-    physics: str = "seal friction: a force of constant magnitude opposing the motion"
-    signature: str = "step-like residual at velocity reversals, odd in d'"
-    epsilon: float = 0.01
 
-    def apply(self, model: SymbolicModel) -> SymbolicModel:
-        _, v = self._require_mechanical(model)
-        mu = ParamSpec(f"{self.prefix}mu", r"\mu", 0.0, 0.0, 1e6, description="Coulomb friction level")
-        term = -mu.symbol * sp.tanh(v / sp.Float(self.epsilon))
-        return model.extend(effect=self.name, params=(mu,), rhs_add={v: term})
+# ---------------------------------------------------------------------------------------------- data helpers
+def residual(record, y_model) -> np.ndarray:
+    """``y - y_model`` as floats, checked for length."""
+    y = np.asarray(record.y, dtype=float)
+    ym = np.asarray(y_model, dtype=float).reshape(-1)
+    if ym.shape != y.shape:
+        raise ModelError(f"y_model must have one value per sample of the record ({y.size}); got {ym.size}")
+    return y - ym
 
 
-@dataclass(frozen=True)
-class OutputLag(Effect):
-    """First-order dynamics between the model force and the measured force (coil, sensor, filter).
-
-    Adds a state :math:`z` with :math:`\\tau\\dot z = y - z`; the output becomes :math:`z`.
-    """
-
-    name: str = "output-lag"
-    prefix: str = "lag_"
-    physics: str = "first-order lag of the measured force: coil inductance, sensor or filter dynamics"
-    signature: str = "residual ~ -tau * dy/dt: largest where the force changes fastest"
-
-    def apply(self, model: SymbolicModel) -> SymbolicModel:
-        self._check_not_applied(model)
-        tau = ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, 1e-6, 10.0, unit="s", description="lag time constant")
-        z = sp.Symbol("z_lag", real=True)
-        return model.extend(effect=self.name, params=(tau,), states=((z, (model.output - z) / tau.symbol),), output=z)
+def lstsq_coeffs(r: np.ndarray, *columns: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of ``r`` on the given columns (0 where a column is degenerate)."""
+    A = np.column_stack(columns)
+    coef, *_ = np.linalg.lstsq(A, r, rcond=1e-10)
+    return np.where(np.isfinite(coef), coef, 0.0)

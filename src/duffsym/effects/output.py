@@ -1,0 +1,275 @@
+"""Effects on the measured force: offset, gas accumulator, inertia, asymmetry, output lag.
+
+Each adds a term to the output (or, for the lag, a filter state between the model force and the
+measured force). None of them changes the state equations of the mechanical model, so the
+Lyapunov argument of ``duffsym derive`` is unchanged by them (only the output map changes); the
+output lag adds a stable first-order state (:math:`\\tau > 0`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+
+from duffsym.effects.base import Effect, lstsq_coeffs, residual
+from duffsym.errors import ModelError
+from duffsym.model.core import InputChannel, SymbolicModel
+from duffsym.model.symbols import ParamSpec
+
+#: Parameters of the additive output effects: set to 0 they remove their term (see Asymmetry).
+ADDITIVE_OUTPUT_PARAMS = ("off_y0", "gas_k", "inertia_m")
+
+OFFSET = ParamSpec("off_y0", "y_{0}", 0.0, -1e9, 1e9, unit="output unit", scale=1.0,
+                   description="constant force: load-cell zero error or accumulator preload")
+
+
+def whole_cycle_mean(record) -> float:
+    """Mean of the measured force over the whole input cycles of the record (all of it if unknown).
+
+    A symmetric damper's force is odd in the motion and averages to zero over whole cycles; a base
+    model lacking the offset can mimic part of it (e.g. a drifting state with k1 = k2 = 0), so the
+    mean residual underestimates it, while the whole-cycle mean of ``y`` does not.
+    """
+    y = np.asarray(record.y, dtype=float)
+    t = np.asarray(record.t, dtype=float)
+    try:
+        n = int(np.floor((t[-1] - t[0]) / record.period))
+        stop = int(np.searchsorted(t, t[0] + n * record.period)) if n >= 1 else y.size
+    except (IndexError, ZeroDivisionError, ValueError):
+        stop = y.size
+    v = float(np.mean(y[: max(stop, 2)]))
+    return v if np.isfinite(v) else 0.0
+
+
+@dataclass(frozen=True)
+class ForceOffset(Effect):
+    """A constant offset of the measured force: :math:`y \\leftarrow y + y_0`.
+
+    Physics: load-cell zero error, or the preload force of a gas accumulator. On a single record a
+    constant preload and a sensor offset are the same term (not separable); the
+    :class:`GasAccumulator` therefore uses this very parameter, ``off_y0``, for its preload, and
+    the two effects are not applied together (force-offset after gas-accumulator raises).
+
+    Initial guess: the mean of the measured force over whole input cycles (see :func:`whole_cycle_mean`).
+    """
+
+    name: str = "force-offset"
+    prefix: str = "off_"
+    physics: str = ("constant force: load-cell zero error or gas-accumulator preload (the same term on one record; "
+                    "gas-accumulator includes it)")
+    signature: str = "residual mean is non-zero; d-y loop shifted vertically, residual not correlated with d or d'"
+    form: str = "y += off_y0"
+    guess: str = "off_y0 = mean of y over whole input cycles"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (OFFSET,)
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        if OFFSET.name in model.param_names:
+            raise ModelError(f"model {model.name} already has the constant force {OFFSET.name} (from "
+                             f"{', '.join(model.effects) or 'the model'}); a second offset would not be identifiable")
+        return model.extend(effect=self.name, params=(OFFSET,), output_add=OFFSET.symbol)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        residual(record, y_model)
+        return {OFFSET.name: self._clip(OFFSET.name, whole_cycle_mean(record))}
+
+    def base_output(self, y, record, params):
+        return y - params[OFFSET.name]
+
+
+@dataclass(frozen=True)
+class GasAccumulator(Effect):
+    """Gas accumulator: preload and gas-spring stiffness on the piston displacement,
+    :math:`y \\leftarrow y + y_0 + k_a d`.
+
+    The accumulator's gas volume changes with the rod volume in the cylinder, so its pressure, and
+    the force it adds, is (linearised) a preload plus a stiffness on the piston displacement ``d``.
+    The preload is the force-offset parameter ``off_y0`` itself (a constant preload and a sensor
+    zero error cannot be told apart on one record); applied to a model that already has
+    ``off_y0`` (force-offset) it adds the stiffness only. ``gas_k`` may take either sign, as the
+    sign of ``d`` depends on the rig's convention.
+
+    Under a single sine :math:`\\ddot d = -\\omega^2 d`, so the stiffness and the piston inertia
+    (:class:`PistonInertia`) are the same term; a multisine or several frequencies separate them.
+
+    Initial guess: ``off_y0`` as for force-offset; ``gas_k`` by least squares of the residual on ``[1, d]``.
+    """
+
+    name: str = "gas-accumulator"
+    prefix: str = "gas_"
+    physics: str = ("gas spring of the accumulator: preload off_y0 (= force-offset, same term) plus stiffness "
+                    "gas_k on the piston displacement")
+    signature: str = ("residual linear in d (in phase with the displacement, loop tilted) plus a constant; "
+                      "on one sine indistinguishable from inertia")
+    form: str = "y += off_y0 + gas_k * d"
+    guess: str = "off_y0 = mean of y over whole cycles; gas_k = least squares of the residual on [1, d]"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (OFFSET, ParamSpec(f"{self.prefix}k", "k_{a}", 0.0, -1e9, 1e9, unit="output unit / input unit",
+                                  scale=0.1, description="gas-spring stiffness on the piston displacement"))
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        d = _piston(self, model, 0)
+        off, k = self.parameters()
+        params = (k,) if off.name in model.param_names else (off, k)
+        term = k.symbol * d.symbol + (off.symbol if off in params else 0)
+        return model.extend(effect=self.name, params=params, output_add=term)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        d = np.asarray(record.d, dtype=float)
+        c0, c1 = lstsq_coeffs(r, np.ones_like(d), d)
+        return {OFFSET.name: self._clip(OFFSET.name, whole_cycle_mean(record)),
+                f"{self.prefix}k": self._clip(f"{self.prefix}k", c1)}
+
+    def base_output(self, y, record, params):
+        return y - params[OFFSET.name] - params[f"{self.prefix}k"] * np.asarray(record.d)
+
+
+@dataclass(frozen=True)
+class PistonInertia(Effect):
+    """Piston and fluid inertia: :math:`y \\leftarrow y + m_p \\ddot d`.
+
+    The mass of the piston, rod and the fluid it accelerates adds a force proportional to the
+    piston acceleration. The model gains the input channel :math:`\\ddot d` (``d_ddot``): from an
+    :class:`~duffsym.excitation.Excitation` it is exact; from a record it is the Savitzky–Golay
+    derivative of the velocity (:meth:`duffsym.data.Record.acceleration`). ``inertia_m >= 0``
+    (in the convention where the damping force is positive with the velocity).
+
+    Under a single sine it is collinear with the gas stiffness (:math:`\\ddot d = -\\omega^2 d`).
+
+    Initial guess: least squares of the (mean-removed) residual on :math:`\\ddot d`.
+    """
+
+    name: str = "inertia"
+    prefix: str = "inertia_"
+    physics: str = "inertia of piston, rod and accelerated fluid: a force proportional to the piston acceleration"
+    signature: str = ("residual proportional to d'' (in phase with -d on a sine), growing with frequency squared; "
+                      "loops wider at high frequency")
+    form: str = "y += inertia_m * d_ddot"
+    guess: str = "least squares of the residual on d'' (record acceleration)"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec(f"{self.prefix}m", "m_{p}", 0.0, 0.0, 1e9, unit="output unit / (input unit/s^2)",
+                          scale=0.01, description="piston and fluid mass"),)
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        _piston(self, model, 0)
+        (m,) = self.parameters()
+        acc = InputChannel("d", 2)
+        return model.extend(effect=self.name, params=(m,), inputs=(acc,), output_add=m.symbol * acc.symbol)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        a = np.asarray(record.acceleration(), dtype=float)
+        (c,) = lstsq_coeffs(r - r.mean(), a - a.mean())
+        return {f"{self.prefix}m": self._clip(f"{self.prefix}m", c)}
+
+    def base_output(self, y, record, params):
+        return y - params[f"{self.prefix}m"] * np.asarray(record.acceleration())
+
+
+@dataclass(frozen=True)
+class Asymmetry(Effect):
+    """Different force levels in compression and extension:
+    :math:`y \\leftarrow y + a\\,F\\tanh(\\dot x/\\varepsilon)`, with :math:`F` the model's force before the
+    additive output terms (offset, gas, inertia).
+
+    With :math:`F = A_f\\dot x` this is :math:`A_f\\dot x\\,(1 + a\\,\\mathrm{sign}\\,\\dot x)`: gain
+    :math:`1 + a` for :math:`\\dot x > 0` and :math:`1 - a` for :math:`\\dot x < 0` (rod-side vs
+    piston-side areas, valve asymmetry). The switch acts on the model's internal velocity
+    :math:`\\dot x`, which is normalised by the convention :math:`A_f = \\max|y|` (so
+    :math:`|\\dot x| \\lesssim 1` whatever the units), with a fixed :math:`\\varepsilon = 0.05`; near
+    :math:`\\dot x = 0` the term is :math:`\\approx a A_f \\dot x^2/\\varepsilon`, smooth. Applied after an
+    output lag it scales the lagged force.
+
+    Initial guess: least squares of the residual on :math:`|y_{model}|`.
+    """
+
+    name: str = "asymmetry"
+    prefix: str = "asym_"
+    physics: str = "compression and extension give different force levels (rod/piston areas, valves)"
+    signature: str = "residual even in velocity: ~ a*|y| (same sign in both half-cycles, zero at reversals)"
+    form: str = "y += asym_a * F * tanh(x_dot / 0.05), F the model force"
+    guess: str = "least squares of the residual on |y_model|"
+    epsilon: float = 0.05
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec(f"{self.prefix}a", "a", 0.0, -0.95, 0.95, unit="1", scale=0.1,
+                          description="relative force difference, extension +a, compression -a"),)
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        _, v = self._require_mechanical(model)
+        (a,) = self.parameters()
+        zero = {model.param(n).symbol: 0 for n in ADDITIVE_OUTPUT_PARAMS if n in model.param_names}
+        force = model.output.xreplace(zero)
+        return model.extend(effect=self.name, params=(a,),
+                            output_add=a.symbol * force * sp.tanh(v / sp.Float(self.epsilon)))
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        ym = np.abs(np.asarray(y_model, dtype=float))
+        (c,) = lstsq_coeffs(r, ym)
+        return {f"{self.prefix}a": self._clip(f"{self.prefix}a", c)}
+
+    def base_output(self, y, record, params):
+        a = params[f"{self.prefix}a"]
+        return np.where(y >= 0, y / (1 + a), y / (1 - a))
+
+
+@dataclass(frozen=True)
+class OutputLag(Effect):
+    """First-order dynamics between the model force and the measured force (coil inductance of the
+    field, sensor or anti-alias filter): a state :math:`z` with :math:`\\tau\\dot z = y - z`; the
+    output becomes :math:`z`.
+
+    To first order in :math:`\\tau\\omega` the lag is :math:`z \\approx y - \\tau\\dot y`, the same as an
+    input delay :math:`\\tau` (:class:`~duffsym.effects.inputs.InputDelay`); they differ at second order
+    (the lag attenuates by :math:`1/\\sqrt{1 + \\tau^2\\omega^2}` and rounds sharp corners, the delay
+    only shifts).
+
+    Initial guess: :math:`\\tau = -\\langle r, \\dot y_{model}\\rangle / \\langle \\dot y_{model}, \\dot y_{model}\\rangle`
+    (the residual's projection on the model force's rate), at least ``dt/2`` (a base fit absorbs
+    part of the lag in its parameters, so the projection underestimates it). Initial state
+    trajectory: :math:`z` = the measured force.
+    """
+
+    name: str = "output-lag"
+    prefix: str = "lag_"
+    physics: str = "first-order lag of the measured force: coil inductance, sensor or filter dynamics"
+    signature: str = ("residual ~ -tau * dy/dt: largest where the force changes fastest, loop corners rounded; "
+                      "to first order the same as an input delay")
+    form: str = "z' = (y - z) / lag_tau, output z"
+    guess: str = "tau = -<r, dy_model/dt> / <dy_model/dt, dy_model/dt>, at least dt/2"
+    n_states: int = 1
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, 1e-6, 10.0, unit="s", scale=0.01,
+                          description="lag time constant"),)
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        (tau,) = self.parameters()
+        z = sp.Symbol("z_lag", real=True)
+        return model.extend(effect=self.name, params=(tau,), states=((z, (model.output - z) / tau.symbol),), output=z)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        ym = np.asarray(y_model, dtype=float)
+        rate = np.gradient(ym, np.asarray(record.t))
+        (c,) = lstsq_coeffs(r - r.mean(), -(rate - rate.mean()))
+        name = f"{self.prefix}tau"
+        return {name: self._clip(name, max(c, 0.5 * record.dt), 0.5 * record.dt)}
+
+    def initial_states(self, X_base, record, params) -> np.ndarray:
+        return np.asarray(record.y, dtype=float)[:, None]
+
+
+def _piston(effect: Effect, model: SymbolicModel, order: int) -> InputChannel:
+    """The model's piston-displacement input channel (signal ``d``), or a ModelError."""
+    chan = effect._require_input(model, order)
+    if chan.signal != "d":
+        raise ModelError(f"effect {effect.name} acts on the piston displacement d; model {model.name} is driven by "
+                         f"{chan.signal!r}")
+    return chan
