@@ -25,6 +25,7 @@ What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 - collinearity: the condition number of the relevant columns (model terms and every term selected
   in at least half the bootstrap fits), and the largest variance inflation factor among them;
 - stability: terms whose inclusion probability is neither near 0 nor near 1;
+- fit: the fraction of the weak-form target the selected terms explain (``r2``);
 - sampling: the change of the (normalised) coefficients when every other sample is dropped
   (for a second-order accurate scheme the error of the full-rate estimate is about a third of it).
 """
@@ -57,6 +58,8 @@ class Thresholds:
     max_sampling_change : largest acceptable normalised coefficient change when the sampling halves.
     coefficient_rtol : relative tolerance for a coefficient to agree with the model's value
         (it also agrees within 3 combined standard deviations).
+    min_r2 : smallest acceptable fraction of the (weak-form) target the selected terms explain;
+        below it something outside the library (or the state reconstruction) dominates.
     """
 
     tolerance: float = 1e-4
@@ -66,6 +69,7 @@ class Thresholds:
     max_vif: float = 1e5
     max_sampling_change: float = 0.05
     coefficient_rtol: float = 0.1
+    min_r2: float = 0.9
 
 
 # ------------------------------------------------------------------------------------ regression rows
@@ -465,6 +469,9 @@ def crosscheck(
         reasons.append(f"the relevant terms are nearly collinear on these data (condition number {cond:.3g}, "
                        f"limit {thr.max_condition:.3g}; largest variance inflation {max_vif:.3g} for {worst}, "
                        f"limit {thr.max_vif:.3g}): excitation too poor to tell them apart")
+    if r2 < thr.min_r2:
+        reasons.append(f"the selected terms explain only {r2:.3f} of the velocity equation's target (limit "
+                       f"{thr.min_r2:g}): the library or the rebuilt states miss what dominates these data")
     amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
     if amb:
         reasons.append(f"inclusion unstable under bootstrap for {', '.join(amb)} (probability between "
@@ -489,10 +496,12 @@ def crosscheck(
     if reasons:
         verdict = "inconclusive"
         advice = []
-        if len(reasons) > (sampling_change > thr.max_sampling_change):
+        if len(reasons) > (sampling_change > thr.max_sampling_change) + (r2 < thr.min_r2):
             advice.append("use random or multi-amplitude excitation")
         if sampling_change > thr.max_sampling_change:
             advice.append("sample faster")
+        if r2 < thr.min_r2:
+            advice.append("look beyond the library (output effects, input delay, preprocessing of the data)")
         message = "the data cannot decide which terms the velocity equation needs; " + " and ".join(advice) + "."
     elif missing:
         verdict = "missing-terms"
