@@ -1,0 +1,257 @@
+"""Study s09 — SINDy cross-check of the terms of the MR damper model (weak form, pysindy).
+
+Which terms of the velocity equation x'' = f(x, x', d, d') do the data support? The candidate
+library holds the model's own terms (read off the SymPy right-hand side of Eq. 12), the effects
+catalogue's term (coulomb-friction: tanh(x'/0.01)) and generic odd powers of x and x' up to 7
+plus x'|x'|. The states are rebuilt from the data (x' = y/A_f, x its integral); no model
+derivative is used. See :mod:`duffsym.sindy.crosscheck` for the method and the verdict rules.
+
+Scenarios (Table 2, 0.4 V row; truth known):
+
+- ``rich``: band-limited random input (RMS 0.7, up to 4 Hz, 20 s at dt = 2 ms), noise-free:
+  term set and coefficient errors against the SymPy coefficients of the true parameters;
+- ``noisy``: the same with 1 % output noise, ``n_seeds`` seeds: how often the term set is exactly right;
+- ``friction``: data from the model with coulomb-friction (mu = 5) checked against the model without it:
+  is tanh(x'/eps) flagged as missing (``n_friction_seeds`` seeds)?
+- ``sine``: a single 2 Hz sine at the paper's dt = 5 ms with 2 % noise (and noise-free), weak and
+  smoothed-finite-difference forms;
+- real MR damper (UTFSM, 1 kHz tests 5 mm 3 Hz and 10 mm 1 Hz, 0 A and 1 A): each test alone and both pooled.
+
+Files: ``data/derived/s09_sindy.{npz,json}``, figure ``paper/figures/s09_sindy_inclusion.png``
+(inclusion probabilities per term and scenario), numbers ``paper/output/s09_*.tex``.
+"""
+from __future__ import annotations
+
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as C  # noqa: E402
+
+STUDY = "s09_sindy"
+TAG = "s09"
+TRUE_TERMS = ("x", "x_dot", "x_dot^5", "d", "d_dot")
+REAL_TESTS = ("5mm3Hz", "10mm1Hz")
+
+
+@dataclass(frozen=True)
+class Config:
+    """Settings of study s09.
+
+    duration : length of the random records, s. n_seeds : seeds of the 1 % noise runs.
+    n_friction_seeds : seeds of the hidden-friction runs. n_models : bootstrap fits per check.
+    real : include the UTFSM data (skipped with a message when the data folder is absent).
+    currents : coil currents (A) of the real tests.
+    """
+
+    duration: float = 20.0
+    n_seeds: int = 20
+    n_friction_seeds: int = 5
+    n_models: int = 20
+    real: bool = True
+    currents: tuple[float, ...] = (0.0, 1.0)
+
+    @classmethod
+    def smoke(cls) -> "Config":
+        return cls(duration=8.0, n_seeds=1, n_friction_seeds=1, n_models=4, real=False)
+
+    def summary(self) -> str:
+        return (f"s09 config: random records of {self.duration:g} s, {self.n_seeds} noisy seeds, "
+                f"{self.n_friction_seeds} friction seeds, {self.n_models} bootstrap fits, real data {self.real}")
+
+
+def _truth():
+    from duffsym.model.presets import TABLE2
+
+    return dict(TABLE2[0.4])
+
+
+def _rich(model, params, noise, seed, duration):
+    from duffsym.data import synthetic_record
+    from duffsym.excitation import BandLimitedRandom
+
+    exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=duration, seed=seed)
+    return synthetic_record(model, params, exc, dt=0.002, duration=duration, noise=noise, settle=2.0, rng=seed)
+
+
+def _row(label, res, seconds):
+    d = res.to_dict()
+    return {"label": label, "verdict": res.verdict, "message": res.message, "reasons": list(res.reasons),
+            "selected": list(res.selected), "missing": list(res.missing), "absent": list(res.absent),
+            "inclusion": {t["name"]: t["inclusion"] for t in d["terms"]},
+            "coefficients": {t["name"]: t["coefficient"] for t in d["terms"]},
+            "model_coefficients": {t["name"]: t["model_coefficient"] for t in d["terms"]},
+            "diagnostics": {k: v for k, v in d["diagnostics"].items() if not isinstance(v, list)},
+            "gain": res.gain, "seconds": seconds}
+
+
+def _check(label, records, model, **kw):
+    from duffsym.sindy import crosscheck
+
+    t0 = time.perf_counter()
+    res = crosscheck(records, model, **kw)
+    row = _row(label, res, time.perf_counter() - t0)
+    print(f"  {label}: {res.verdict} ({row['seconds']:.1f} s) selected {', '.join(res.selected)}", flush=True)
+    return res, row
+
+
+def compute(cfg: Config) -> dict:
+    from duffsym.data import synthetic_record
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.excitation import Sine
+    from duffsym.model import get_model
+    from duffsym.sindy import candidate_library
+
+    model = get_model("mr-damper", 5)
+    truth = _truth()
+    names = candidate_library(model).names
+    rows = []
+    kw = dict(params=truth, n_models=cfg.n_models)
+
+    res, row = _check("rich, noise-free", _rich(model, truth, 0.0, 0, cfg.duration), model, **kw)
+    errors = {n: abs(row["coefficients"][n] / row["model_coefficients"][n] - 1) for n in TRUE_TERMS}
+    row["relative_errors"] = errors
+    rows.append(row)
+
+    noisy = []
+    for seed in range(cfg.n_seeds):
+        res, r = _check(f"rich, 1 % noise, seed {seed}", _rich(model, truth, 0.01, seed, cfg.duration), model,
+                        rng=seed, **kw)
+        r["exact"] = set(res.selected) == set(TRUE_TERMS)
+        r["relative_errors"] = {n: abs(r["coefficients"][n] / r["model_coefficients"][n] - 1)
+                                if r["coefficients"][n] else None for n in TRUE_TERMS}
+        noisy.append(r)
+    rows.append(dict(noisy[0], label="rich, 1 % noise"))
+
+    fric_model = apply_effects(model, [CATALOGUE["coulomb-friction"]])
+    friction = []
+    for seed in range(cfg.n_friction_seeds):
+        rec = _rich(fric_model, {**truth, "fric_mu": 5.0}, 0.01, 100 + seed, cfg.duration)
+        res, r = _check(f"hidden friction, seed {seed}", rec, model, rng=seed, **kw)
+        r["flagged"] = any(m["effect"] == "coulomb-friction" and m["supported"] for m in res.missing_terms())
+        friction.append(r)
+    rows.append(dict(friction[0], label="hidden friction (mu = 5)"))
+
+    sine = []
+    for noise in (0.02, 0.0):
+        rec = synthetic_record(model, truth, Sine(1.0, 2.0), dt=0.005, duration=5.0, noise=noise, settle=2.0, rng=0)
+        for method in ("weak", "smoothed"):
+            _, r = _check(f"single sine, dt 5 ms, noise {noise:g}, {method}", rec, model, method=method, **kw)
+            sine.append(r)
+    rows.append(dict(sine[0], label="single sine, 5 ms, 2 % noise"))
+
+    real = []
+    if cfg.real:
+        real = _real(cfg, model)
+        rows.extend(r for r in real if r["label"].endswith("pooled"))
+    return {"names": names, "rows": rows, "noisy": noisy, "friction": friction, "sine": sine, "real": real}
+
+
+def _real(cfg: Config, model) -> list[dict]:
+    from duffsym.data import external_data_dir, load_mr_damper_utfsm
+    from duffsym.errors import DataError
+
+    try:
+        folder = external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed"
+    except DataError as exc:
+        print(f"  real data skipped: {exc}")
+        return []
+    if not folder.is_dir():
+        print(f"  real data skipped: {folder} is absent (see the data README to obtain it)")
+        return []
+    out = []
+    for cur in cfg.currents:
+        tag = f"{cur:g}".replace(".", "x") + "A"
+        recs = [load_mr_damper_utfsm(folder / f"{test}{tag}.txt", velocity="derive") for test in REAL_TESTS]
+        for test, rec in zip(REAL_TESTS, recs):
+            _, r = _check(f"real {test} {cur:g} A", rec, model, n_models=cfg.n_models)
+            out.append(r)
+        _, r = _check(f"real {cur:g} A, both tests pooled", recs, model, n_models=cfg.n_models)
+        r["label"] = f"real {cur:g} A, 3 Hz + 1 Hz pooled"
+        out.append(r)
+    return out
+
+
+def run_compute(cfg: Config) -> None:
+    res = compute(cfg)
+    names = res["names"]
+    incl = np.array([[r["inclusion"][n] for n in names] for r in res["rows"]])
+    C.write_derived(STUDY, {"inclusion": incl}, {**C.provenance(cfg), **res})
+
+
+def plot() -> list[Path]:
+    arrays, meta = C.read_derived(STUDY)
+    names, rows = meta["names"], meta["rows"]
+    incl = arrays["inclusion"]
+    with C.style() as plt:
+        fig, ax = plt.subplots(figsize=(8.0, 0.55 * len(rows) + 2.2))
+        im = ax.imshow(incl, vmin=0, vmax=1, cmap="viridis", aspect="auto")
+        ax.set_xticks(range(len(names)))
+        labels = [n.replace("tanh(100.0*x_dot)", "tanh(x'/0.01)").replace("x_dot", "x'").replace("*Abs(x')", "|x'|")
+                  .replace("d_dot", "d'") for n in names]
+        ax.set_xticklabels(labels, rotation=45, ha="right")
+        ax.set_yticks(range(len(rows)))
+        ax.set_yticklabels([f"{r['label']}\n[{r['verdict']}]" for r in rows], fontsize=8)
+        for i in range(incl.shape[0]):
+            for j in range(incl.shape[1]):
+                ax.text(j, i, f"{incl[i, j]:.2f}".rstrip("0").rstrip(".") if incl[i, j] else "",
+                        ha="center", va="center", fontsize=7, color="w" if incl[i, j] < 0.6 else "k")
+        model_terms = [j for j, n in enumerate(names) if n in ("x", "x^5", "x_dot", "x_dot^5", "d", "d_dot")]
+        ax.axvline(max(model_terms) + 0.5, color="r", lw=1.2)
+        ax.set_title("SINDy inclusion probability per candidate term (left of the red line: the model's terms)",
+                     fontsize=9)
+        fig.colorbar(im, ax=ax, fraction=0.03, pad=0.02, label="inclusion probability")
+        return [C.save(fig, STUDY, "inclusion")]
+
+
+def _stats(meta):
+    noisy, friction = meta["noisy"], meta["friction"]
+    rich = meta["rows"][0]
+    return {
+        "rich_max_err": max(rich["relative_errors"].values()),
+        "noisy_exact": sum(r["exact"] for r in noisy), "noisy_n": len(noisy),
+        "noisy_max_err": max((e for r in noisy if r["exact"] for e in r["relative_errors"].values()), default=float("nan")),
+        "friction_flagged": sum(r["flagged"] for r in friction), "friction_n": len(friction),
+        "friction_mu": [-r["coefficients"]["tanh(100.0*x_dot)"] for r in friction],
+    }
+
+
+def write_numbers(meta) -> list[Path]:
+    s = _stats(meta)
+    out = [C.write_number(TAG, "rich_max_err", f"{100 * s['rich_max_err']:.2f}"),
+           C.write_number(TAG, "noisy_exact", f"{s['noisy_exact']}/{s['noisy_n']}"),
+           C.write_number(TAG, "noisy_max_err", f"{100 * s['noisy_max_err']:.1f}"),
+           C.write_number(TAG, "friction_flagged", f"{s['friction_flagged']}/{s['friction_n']}")]
+    for r in meta["sine"]:
+        key = "sine_" + ("noisy" if "0.02" in r["label"] else "clean") + "_" + r["label"].split(", ")[-1]
+        out.append(C.write_number(TAG, key, r["verdict"]))
+    for r in meta["real"]:
+        key = "real_" + r["label"].replace("real ", "").replace(" ", "_").replace(",", "").replace("+", "and")
+        out.append(C.write_number(TAG, key.replace(".", "x"), r["verdict"]))
+    return out
+
+
+def summarize(meta) -> str:
+    s = _stats(meta)
+    sine = "; ".join(f"{r['label']}: {r['verdict']}" for r in meta["sine"])
+    real = "; ".join(f"{r['label']}: {r['verdict']} (r2 {r['diagnostics']['r2']:.2f}, selected "
+                     f"{', '.join(r['selected'])})" for r in meta["real"]) or "not run"
+    return (f"s09: rich noise-free: largest coefficient error {100 * s['rich_max_err']:.2f} %; 1 % noise: exact term "
+            f"set in {s['noisy_exact']}/{s['noisy_n']} seeds (largest coefficient error among them "
+            f"{100 * s['noisy_max_err']:.1f} %); hidden friction flagged in {s['friction_flagged']}/{s['friction_n']} "
+            f"(mu estimates {', '.join(f'{m:.2f}' for m in s['friction_mu'])}, truth 5). {sine}. Real: {real}.")
+
+
+def main(argv=None) -> int:
+    return C.run_study(argv, doc=__doc__, label="s09", config=Config, compute=run_compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=lambda: C.read_derived(STUDY),
+                       announce=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
