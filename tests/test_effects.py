@@ -1,0 +1,287 @@
+"""Effects catalogue: the equations each effect adds (against hand-written forms), composition,
+the data-based initial states and guesses, the input helpers (d_ddot, smooth play, Pade delay)
+and ``duffsym effects``. Parameter recovery by fitting is in test_effects_recovery.py."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from duffsym import Sine, mr_damper
+from duffsym.cli import main
+from duffsym.data import synthetic_record
+from duffsym.data.synthetic import apply_backlash
+from duffsym.derive import derivation_report
+from duffsym.effects import CATALOGUE, Backlash, apply_effects, effect_chain
+from duffsym.effects import base as effects_base
+from duffsym.errors import ModelError
+from duffsym.excitation import Multisine
+from duffsym.identify.collocation import initial_states
+from duffsym.model.core import SymbolicModel
+from duffsym.model.presets import table2_params
+from duffsym.simulate import input_matrix, simulate
+
+M = mr_damper()
+TRUTH = table2_params(0.4)
+S = {s.name: s for s in M.param_symbols}
+x, v = M.states
+d, dd = (c.symbol for c in M.inputs)
+dddot = sp.Symbol("d_ddot", real=True)
+c1, c2, c3, k1, k2, k3, A_f = (S[k] for k in ("c1", "c2", "c3", "k1", "k2", "k3", "A_f"))
+
+
+def sym(name: str) -> sp.Symbol:
+    return sp.Symbol(name, real=True)
+
+
+def accel(d_, dd_, x_=x, v_=v):
+    """Eq. 12's acceleration written out by hand (n = 5)."""
+    return k1 * (d_ - x_) + c1 * (dd_ - v_) - c2 * v_ - k2 * x_ - k3 * x_**5 - c3 * v_**5
+
+
+def same(a, b) -> bool:
+    """Symbolically equal (floats such as 0.01 compared as rationals)."""
+    a, b = (sp.nsimplify(e, rational=True) for e in (a, b))
+    return sp.simplify(sp.expand(a - b)) == 0
+
+
+def test_catalogue_has_every_effect_of_the_issue_with_prefixed_parameters():
+    assert set(CATALOGUE) == {"force-offset", "gas-accumulator", "inertia", "coulomb-friction", "asymmetry",
+                              "output-lag", "input-delay", "backlash"}
+    for name, e in CATALOGUE.items():
+        assert e.name == name and e.physics and e.signature and e.form and e.guess
+        for p in e.parameters():
+            assert p.name.startswith(e.prefix) or p.name == "off_y0"
+            assert p.lower <= p.default <= p.upper and p.unit
+
+
+def test_base_equation_as_written_here_is_the_library_model():
+    assert same(M.rhs[1], accel(d, dd)) and M.rhs[0] == v and M.output == A_f * v
+
+
+@pytest.mark.parametrize("name", list(CATALOGUE))
+def test_each_effect_adds_the_hand_written_terms(name):
+    e = CATALOGUE[name]
+    E = e.apply(M)
+    assert E.effects == (name,)
+    P = {p.name: p.symbol for p in E.params}
+    base_acc = accel(d, dd)
+    if name == "force-offset":
+        exp_rhs, exp_out = [v, base_acc], A_f * v + P["off_y0"]
+    elif name == "gas-accumulator":
+        exp_rhs, exp_out = [v, base_acc], A_f * v + P["off_y0"] + P["gas_k"] * d
+    elif name == "inertia":
+        assert [c.name for c in E.inputs] == ["d", "d_dot", "d_ddot"]
+        exp_rhs, exp_out = [v, base_acc], A_f * v + P["inertia_m"] * dddot
+    elif name == "coulomb-friction":
+        exp_rhs, exp_out = [v, base_acc - P["fric_mu"] * sp.tanh(v / sp.Float(0.01))], A_f * v
+    elif name == "asymmetry":
+        exp_rhs, exp_out = [v, base_acc], A_f * v * (1 + P["asym_a"] * sp.tanh(v / sp.Float(0.05)))
+    elif name == "output-lag":
+        z = sym("z_lag")
+        exp_rhs, exp_out = [v, base_acc, (A_f * v - z) / P["lag_tau"]], z
+    elif name == "input-delay":
+        q, tau = sym("q_delay"), P["delay_tau"]
+        exp_rhs = [v, accel(2 * q - d, 4 * (d - q) / tau - dd), 2 * (d - q) / tau]
+        exp_out = A_f * v
+    else:  # backlash
+        b, h = sym("b_backlash"), P["bl_h"]
+        sig = lambda u: (1 + sp.tanh(u)) / 2  # noqa: E731
+        eps, g, w = h / 10, d - b, sp.Rational(1, 10) * dd / h
+        b_dot = dd * (sig((g - h) / eps + 2) * sig(w) + sig((-g - h) / eps + 2) * sig(-w))
+        exp_rhs, exp_out = [v, accel(b, b_dot), b_dot], A_f * v
+    assert len(E.rhs) == len(exp_rhs)
+    for got, want in zip(E.rhs, exp_rhs):
+        assert same(got, want), (got, want)
+    assert same(E.output, exp_out)
+    assert E.n_states == M.n_states + e.n_states
+
+
+@pytest.fixture(scope="module")
+def base_report():
+    return derivation_report(M)
+
+
+@pytest.mark.parametrize("name", list(CATALOGUE))
+def test_derivation_report_runs_on_each_extended_model(name, base_report):
+    rep = derivation_report(CATALOGUE[name].apply(M))
+    text = rep.item("lyapunov_derivative").text
+    if name == "coulomb-friction":  # friction is dissipative: -mu x' tanh(x'/eps) <= 0 for mu >= 0
+        assert "fric_mu*x2*tanh(100.0*x2) <= 0 when fric_mu >= 0" in text
+    elif name in ("force-offset", "gas-accumulator", "inertia", "asymmetry", "output-lag"):
+        assert text == base_report.item("lyapunov_derivative").text  # output-side: argument unchanged
+
+
+def test_all_effects_compose_and_simulate():
+    order = ["coulomb-friction", "asymmetry", "gas-accumulator", "inertia", "output-lag", "input-delay", "backlash"]
+    E = apply_effects(M, [CATALOGUE[n] for n in order])
+    assert E.effects == tuple(order) and E.n_states == 5
+    assert [c.name for c in E.inputs] == ["d", "d_dot", "d_ddot"]
+    # the backlash and the delay replace d'' as well: no bare d_ddot left in the output outside the chain
+    t = np.arange(0, 1.0, 0.005)
+    p = {**TRUTH, "fric_mu": 2.0, "asym_a": 0.1, "off_y0": 0.1, "gas_k": 0.1, "inertia_m": 0.001,
+         "lag_tau": 0.01, "delay_tau": 0.005, "bl_h": 0.05}
+    tr = simulate(E, p, t, Sine(1.0, 2.0))
+    assert tr.success and np.all(np.isfinite(tr.y))
+
+
+def test_not_applicable_or_duplicate_effects_raise_clear_errors():
+    with pytest.raises(ModelError, match="already applied"):
+        apply_effects(M, [CATALOGUE["output-lag"], CATALOGUE["output-lag"]])
+    # the preload of the gas accumulator is the force offset: one constant term only
+    with pytest.raises(ModelError, match="already has the constant force off_y0"):
+        apply_effects(M, [CATALOGUE["gas-accumulator"], CATALOGUE["force-offset"]])
+    E = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["gas-accumulator"]])
+    assert E.param_names.count("off_y0") == 1 and "gas_k" in E.param_names
+    plain = SymbolicModel(name="plain", states=(sym("s"),), inputs=M.inputs[:1], params=(), rhs=(d - sym("s"),),
+                          output=sym("s"))
+    for name in ("coulomb-friction", "asymmetry"):
+        with pytest.raises(ModelError, match="needs a mechanical model"):
+            CATALOGUE[name].apply(plain)
+    with pytest.raises(ModelError, match="needs the piston velocity"):
+        CATALOGUE["backlash"].apply(plain)
+
+
+def test_effect_chain_is_remembered_and_rebuilt_from_the_library():
+    E = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["output-lag"]])
+    base, steps = effect_chain(E)
+    assert base == M and [e.name for e, _ in steps] == ["force-offset", "output-lag"] and steps[-1][1] == E
+    saved = dict(effects_base._PARENTS)
+    effects_base._PARENTS.clear()
+    try:  # e.g. a model unpickled in a worker process
+        base, steps = effect_chain(E)
+        assert base == M and steps[-1][1].key == E.key
+    finally:
+        effects_base._PARENTS.update(saved)
+
+
+def test_extended_models_start_their_states_from_the_data():
+    """Before: zeros for every state of a model whose output is not gain*state (e.g. the lag's z)."""
+    E = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["output-lag"], CATALOGUE["backlash"]])
+    rec = synthetic_record(M, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0)
+    p = E.param_vector({**TRUTH, "off_y0": 0.25, "lag_tau": 0.01, "bl_h": 0.05})
+    X = initial_states(E, rec, p)
+    X0 = initial_states(M, rec, M.param_vector(TRUTH))
+    y = np.asarray(rec.y)
+    assert np.allclose(X[:, 1], (y - 0.25) / TRUTH["A_f"])  # base velocity from the offset-free output
+    assert np.allclose(X[:, 1] + 0.25 / TRUTH["A_f"], X0[:, 1])
+    assert np.allclose(X[:, 2], y)  # lag state: the measured force
+    b, _ = apply_backlash(rec.d, rec.velocity(), 0.05)
+    assert np.allclose(X[:, 3], b)
+
+
+@pytest.fixture(scope="module")
+def sine_record():
+    return synthetic_record(M, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=1.5, noise=0.01, rng=3)
+
+
+@pytest.mark.parametrize("name", list(CATALOGUE))
+def test_initial_guesses_lie_inside_the_bounds(name, sine_record):
+    e = CATALOGUE[name]
+    specs = {p.name: p for p in e.parameters()}
+    for y_model in (np.asarray(sine_record.y), np.zeros(sine_record.n_times), -3 * np.asarray(sine_record.y)):
+        g = e.initial_guess(sine_record, y_model)
+        assert set(g) == set(specs)
+        for k, val in g.items():
+            assert np.isfinite(val) and specs[k].lower <= val <= specs[k].upper
+    with pytest.raises(ModelError, match="one value per sample"):
+        e.initial_guess(sine_record, np.zeros(3))
+
+
+def test_initial_guesses_on_the_residual_they_target(sine_record):
+    y, t, dv = np.asarray(sine_record.y), np.asarray(sine_record.t), np.asarray(sine_record.d)
+    g = CATALOGUE["force-offset"].initial_guess(sine_record.replace(y=y + 0.3), y)
+    assert g["off_y0"] == pytest.approx(0.3 + np.mean(y[:-1]), abs=0.02)
+    g = CATALOGUE["gas-accumulator"].initial_guess(sine_record.replace(y=y + 0.2 + 0.3 * dv), y)
+    assert g["gas_k"] == pytest.approx(0.3, abs=0.01)
+    acc = sine_record.acceleration()
+    g = CATALOGUE["inertia"].initial_guess(sine_record.replace(y=y + 0.002 * acc), y)
+    assert g["inertia_m"] == pytest.approx(0.002, rel=0.02)
+    g = CATALOGUE["asymmetry"].initial_guess(sine_record.replace(y=y * (1 + 0.2 * np.sign(y))), y)
+    assert g["asym_a"] == pytest.approx(0.2, abs=0.01)
+    shifted = np.interp(t - 0.012, t, y)
+    g = CATALOGUE["input-delay"].initial_guess(sine_record.replace(y=shifted), y)
+    assert g["delay_tau"] == pytest.approx(0.012, abs=0.001)
+    g = CATALOGUE["output-lag"].initial_guess(sine_record.replace(y=y - 0.01 * np.gradient(y, t)), y)
+    assert g["lag_tau"] == pytest.approx(0.01, rel=0.1)
+
+
+def test_backlash_guess_reads_the_flat_force_after_reversals():
+    clean = synthetic_record(M, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=1.5, noise=0.01, rng=4)
+    played = synthetic_record(M, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=1.5, noise=0.01, backlash=0.05, rng=4)
+    g = CATALOGUE["backlash"].initial_guess(played, clean.metadata["clean_y"])
+    assert 0.025 <= g["bl_h"] <= 0.075  # half-width within 50 % from the flat span alone
+
+
+def test_smooth_play_follows_the_exact_play_operator():
+    """The catalogue's backlash state vs :func:`apply_backlash` on a unit 2 Hz sine (documented trade-off)."""
+    E = Backlash().apply(M)
+    t = np.arange(0.0, 1.5, 0.0005)
+    exc = Sine(1.0, 2.0)
+    for h in (0.02, 0.05, 0.1):
+        tr = simulate(E, {**TRUTH, "bl_h": h}, t, exc, x0=[0.0, 0.0, 0.0])
+        b = tr.x[:, 2]
+        u, _ = apply_backlash(exc(t), exc.derivative(t, 1), h)
+        late = t > 0.5
+        h_eff = np.max(np.abs(exc(t)[late] - b[late]))
+        assert 1.05 * h < h_eff < 1.2 * h
+        assert np.sqrt(np.mean((b[late] - u[late]) ** 2)) < 0.16 * h
+
+
+def test_pade_delay_is_all_pass_with_the_documented_phase():
+    E = CATALOGUE["input-delay"].apply(M)
+    q_dot = E.rhs[2]
+    f = sp.lambdify((sym("q_delay"), d, E.param("delay_tau").symbol), q_dot)
+    w, tau = 2 * np.pi * 2.0, 0.01  # omega*tau = 0.126
+    t = np.arange(0, 3.0, 1e-4)
+    q = np.empty_like(t)
+    q[0] = 0.0
+    for i in range(t.size - 1):  # RK2 on the scalar state; fine step
+        k1_ = f(q[i], np.sin(w * t[i]), tau)
+        k2_ = f(q[i] + 1e-4 * k1_, np.sin(w * t[i + 1]), tau)
+        q[i + 1] = q[i] + 0.5e-4 * (k1_ + k2_)
+    d_del = 2 * q - np.sin(w * t)
+    late = t > 1.0
+    assert np.max(np.abs(d_del[late])) == pytest.approx(1.0, abs=1e-3)  # all-pass
+    lag = 2 * np.arctan(w * tau / 2)
+    assert np.max(np.abs(d_del[late] - np.sin(w * t[late] - lag))) < 2e-3
+    assert np.max(np.abs(d_del[late] - np.sin(w * (t[late] - tau)))) < 2e-3  # = delay for omega*tau << 1
+
+
+def test_record_acceleration_and_inputs_for_d_ddot():
+    E = CATALOGUE["inertia"].apply(M)
+    exc = Sine(1.0, 2.0)
+    rec = synthetic_record(M, TRUTH, exc, dt=0.005, duration=1.5, noise=0.0, rng=0)
+    exact = exc.derivative(rec.t, 2)
+    inner = slice(20, -20)
+    assert np.max(np.abs(rec.acceleration() - exact)[inner]) < 1e-4 * np.max(np.abs(exact))  # from d_dot
+    no_vel = rec.replace(d_dot=None)
+    assert np.max(np.abs(no_vel.acceleration() - exact)[inner]) < 1e-2 * np.max(np.abs(exact))  # from d
+    chans = rec.inputs_for(E)
+    assert list(chans) == ["d", "d_dot", "d_ddot"] and np.allclose(chans["d_ddot"], rec.acceleration())
+    U = input_matrix(E, np.asarray(rec.t), exc)  # an excitation gives the exact d''
+    assert np.allclose(U[:, 2], exact)
+    ms = Multisine((0.7, 0.25, 0.1), (1.0, 2.5, 5.0), (0.0, 1.0, 2.0))
+    rec = synthetic_record(M, TRUTH, ms, dt=0.005, duration=2.0, noise=0.0, rng=0)
+    ex = ms.derivative(rec.t, 2)
+    err = np.sqrt(np.mean((rec.acceleration() - ex)[inner] ** 2) / np.mean(ex**2))
+    assert err < 5e-3  # window from the mean period, not the 1 Hz fundamental
+
+
+def test_cli_effects_lists_every_effect_with_its_parameters(capsys):
+    assert main(["effects", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    rows = {r["effect"]: r for r in data["effects"]}
+    assert set(rows) == set(CATALOGUE)
+    for name, r in rows.items():
+        names = [p["name"] for p in r["parameters"]]
+        assert names == [p.name for p in CATALOGUE[name].parameters()] and names
+        for p in r["parameters"]:
+            assert {"unit", "lower", "upper", "default", "description"} <= set(p)
+        assert r["signature"] and r["physics"] and r["form"] and r["initial_guess"]
+    assert rows["input-delay"]["new_states"] == 1 and rows["force-offset"]["new_states"] == 0
+    assert main(["effects", "-v"]) == 0
+    out = capsys.readouterr().out
+    assert "param:     bl_h [input unit]" in out and "signature:" in out
