@@ -1,8 +1,9 @@
 """The sampler's simulator: compiled batch RK4 on a fixed substep schedule (generated per model).
 
 The likelihood surface must be smooth in the parameters, so the number of RK4 substeps of each
-sample interval is chosen once, from the stiffness along the trajectory at the optimum (with a
-margin), and then held for every walker and every step. A walker whose state becomes stiffer than
+sample interval is chosen once, from the stiffness along the trajectory at the optimum
+(``h rho(J) <= h_rho`` over the interval and its neighbours, see ``_setup.stiffness_schedule``),
+and then held for every walker and every step. A walker whose state becomes stiffer than
 that schedule resolves (``h rho(J) > hrho_max``) is stopped and reported as *too stiff* instead of
 returning a silently wrong trajectory; a non-finite state is a *blow-up*.
 """
@@ -25,10 +26,6 @@ _TEMPLATE = Path(__file__).with_name("_kernel_template.py")
 _VERSION = "1"
 _lock = threading.Lock()
 
-#: Stiffness target of the schedule at the optimum (as ``duffsym.simulate.H_LAMBDA``) ...
-H_LAMBDA = 0.6
-#: ... times this margin: the schedule has ``margin`` times the substeps the optimum needs.
-MARGIN = 1.5
 #: A walker is stopped (too stiff) above this h*rho; RK4's real-axis stability limit is 2.785, and
 #: well before it the error grows, so 2.0 stops a trajectory before it is silently wrong.
 HRHO_MAX = 2.0
@@ -57,17 +54,6 @@ def kernel_module(model) -> ModuleType:
         sys.modules[key] = module
         spec.loader.exec_module(module)
     return module
-
-
-def schedule_from_substeps(substeps: np.ndarray, margin: float = MARGIN) -> np.ndarray:
-    """A fixed schedule from the adaptive substep counts of a reference run: the largest count of each
-    interval and its two neighbours (so a small phase shift of the walkers is covered), times ``margin``."""
-    s = np.asarray(substeps, dtype=float)
-    if s.size == 0:
-        raise ModelError("the reference run has no sample intervals")
-    padded = np.concatenate([s[:1], s, s[-1:]])
-    local = np.maximum(np.maximum(padded[:-2], padded[1:-1]), padded[2:])
-    return np.maximum(1, np.ceil(margin * local)).astype(np.int64)
 
 
 class ScheduleSimulator:

@@ -74,7 +74,7 @@ def record_mask(result, i, record, mask):
 
 
 def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[float, float]] | None = None,
-                    noise: str = "gaussian", mask=None, h_rho: float = 0.8, hrho_max: float = _kernel.HRHO_MAX,
+                    noise: str = "gaussian", mask=None, h_rho: float = 1.0, hrho_max: float = _kernel.HRHO_MAX,
                     reconstruction: str = "linear"):
     """The :class:`LogPosterior` of ``result``'s free parameters on ``records`` plus setup details."""
     from duffsym.identify import model_from_result

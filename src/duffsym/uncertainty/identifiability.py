@@ -49,12 +49,14 @@ class IdentifiabilityReport:
     excitation: dict
     text: str
     fisher: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    fisher_correlation: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
     def to_dict(self) -> dict:
         return {"free": list(self.free), "coordinates": list(self.coordinates), "symmetry": self.symmetry,
                 "eigenvalues": self.eigenvalues.tolist(), "directions": self.directions,
                 "posterior_correlations": self.correlations, "findings": self.findings,
-                "excitation": self.excitation, "text": self.text}
+                "excitation": self.excitation, "text": self.text,
+                "fisher_correlation": self.fisher_correlation.tolist()}
 
 
 def _coordinate(prior):
@@ -174,14 +176,22 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             v = np.array([tangent[n] / theta[j] if kinds[j] == "log" else tangent[n] / scales[j]
                           for j, n in enumerate(free)])
             sym_dir = v / np.linalg.norm(v)
-    # --- Fisher directions
+    # --- Fisher directions; the Cramer-Rao correlations name the partners of a weak direction (the
+    # eigenvectors depend on the coordinates' scales, the correlations do not)
+    cov = np.linalg.pinv(0.5 * (F + F.T))
+    csd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+    fcorr = cov / np.outer(csd, csd)
     directions = []
     for k in range(len(w)):
         sd = 1 / math.sqrt(w[k]) if w[k] > 0 else math.inf
         v = V[:, k] * (1 if V[np.argmax(np.abs(V[:, k])), k] > 0 else -1)
         comps = {free[j]: float(v[j]) for j in np.argsort(-np.abs(v)) if abs(v[j]) >= 0.2}
+        lead = int(np.argmax(np.abs(v)))
+        partners = {free[j]: float(fcorr[lead, j]) for j in np.argsort(-np.abs(fcorr[lead]))
+                    if j != lead and abs(fcorr[lead, j]) >= 0.8}
         status = "unidentifiable" if sd > UNIDENTIFIABLE_SD else ("weak" if sd > WEAK_SD else "identified")
         directions.append({"eigenvalue": float(w[k]), "sd": sd, "status": status, "components": comps,
+                           "correlated_with": partners,
                            "label": " ".join(f"{c:+.2f} {labels[free.index(n)]}" for n, c in comps.items()),
                            "symmetry_overlap": float(abs(sym_dir @ v)) if sym_dir is not None else None})
     # --- posterior correlations
@@ -206,14 +216,18 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
     for d in directions:
         if d["status"] == "identified":
             continue
-        involved = list(d["components"])
+        involved = list(dict.fromkeys([*d["components"], *d["correlated_with"]]))
         if d["symmetry_overlap"] is not None and d["symmetry_overlap"] > 0.9:
             continue  # already reported as the symmetry
         nonlinear = [n for n in involved if degrees.get(n, 1) > 1]
         linear = [n for n in involved if degrees.get(n, 1) <= 1]
         pairs = [p for p in corr_pairs if set(p["pair"]) <= set(involved)]
         ev = f"Fisher direction {d['label']} has sd {d['sd']:.2g}" + (
-            " (log units: a factor e^sd)" if any(kinds[free.index(n)] == "log" for n in involved) else "")
+            " (log units: a factor e^sd)" if any(kinds[free.index(n)] == "log" for n in d["components"]) else "")
+        if d["correlated_with"]:
+            lead = next(iter(d["components"]))
+            ev += f"; {lead} is Cramer-Rao correlated with " + ", ".join(
+                f"{n} ({c:+.2f})" for n, c in d["correlated_with"].items())
         if pairs:
             ev += "; posterior correlations " + ", ".join(f"{a}-{b} {c['correlation']:+.2f}"
                                                         for c in pairs for a, b in [c["pair"]])
@@ -249,4 +263,4 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
                      + (f"; {f['why']}" if "why" in f else "") + f". Resolve: {f['resolve']}")
     return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
                                  eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
-                                 excitation=exc, text="\n".join(lines), fisher=F)
+                                 excitation=exc, text="\n".join(lines), fisher=F, fisher_correlation=fcorr)

@@ -305,7 +305,7 @@ def _initial_walkers(post: LogPosterior, result, n_walkers: int, spread: float, 
 def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5000, burn: int | None = None,
            thin: int | None = None, noise: str = "gaussian", bounds: Mapping[str, tuple[float, float]] | None = None,
            mask=None, rng=None, pool=None, vectorize: bool | None = None, progress: bool = False,
-           init_spread: float = 1.0, h_rho: float = 0.8, hrho_max: float = 2.0, on_short: str = "warn",
+           init_spread: float = 1.0, h_rho: float = 1.0, hrho_max: float = 2.0, on_short: str = "warn",
            recheck_draws: int = 16, sigma_draws: int = 2000, moves=None, threads: int | None = 1) -> Chains:
     r"""Sample the posterior of a fit's free parameters with emcee.
 
