@@ -5,7 +5,7 @@ from the model itself, the effects catalogue and generic terms, and says which t
 support, how they compare with a fit, and when the data cannot decide. The diagnosis reads
 :func:`sindy_evidence`.
 """
-from duffsym.sindy.crosscheck import SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
+from duffsym.sindy.check import SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
 from duffsym.sindy.library import CandidateLibrary, Term, candidate_library, split_terms
 from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
 

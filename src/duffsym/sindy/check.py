@@ -14,9 +14,10 @@ doi:10.1137/20M1343166). ``method="smoothed"`` instead differentiates :math:`\do
 pysindy's ``SmoothedFiniteDifference`` (strong form, one row per sample), to show why that fails
 at coarse sampling.
 
-Sparse regression: pysindy's stepwise sparse regression (``SSR``, dropping the term that raises the
-residual least) on unit-norm columns and a unit-norm target, the sparsest model on its path whose
-residual is not significantly worse than the full library's (:func:`_select`), after projecting out one constant per record
+Sparse regression on unit-norm columns and a unit-norm target: the sparsest support whose residual
+is not significantly worse than the full library's (:func:`_select`); the supports are the best
+subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise sparse
+regression path (``SSR``, dropping the term that raises the residual least) for larger ones, after projecting out one constant per record
 (the integration constant of the rebuilt position) and one ramp (its drift). Inclusion probabilities come from bagging the
 rows (``n_models`` bootstrap fits).
 
@@ -158,28 +159,61 @@ def _path(G: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
     return [np.array(supports[k]) for k in sorted(supports)]
 
 
+MAX_EXHAUSTIVE = 16  # libraries up to this size get exhaustive best-subset search (2^16 subsets, Gram-based)
+
+
+def _acceptable(rss: float, k: int, p: int, rss_full: float, bb: float, n_eff: float, tolerance: float) -> bool:
+    allowance = tolerance * bb + (p - k) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
+    return rss - rss_full <= allowance
+
+
+def _best_subsets(G: np.ndarray, b: np.ndarray):
+    """For each size k, the support with the smallest residual (exhaustive; Gram matrices, batched solves)."""
+    from itertools import combinations
+
+    p = G.shape[1]
+    A = G.T @ G
+    g = G.T @ b
+    bb = float(b @ b)
+    ridge = 1e-13 * np.trace(A) / p  # keeps exactly collinear subsets solvable; far below any real effect
+    out = []
+    for k in range(1, p + 1):
+        combos = np.array(list(combinations(range(p), k)))
+        Ak = A[combos[:, :, None], combos[:, None, :]] + ridge * np.eye(k)
+        gk = g[combos]
+        coef = np.linalg.solve(Ak, gk[..., None])[..., 0]
+        rss = bb - np.einsum("ck,ck->c", gk, coef)
+        i = int(np.argmin(rss))
+        out.append((combos[i], float(rss[i])))
+    return out
+
+
 def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float) -> np.ndarray:
-    """Coefficients of the sparsest model on the SSR path whose residual is not significantly worse.
+    """Coefficients of the sparsest model whose residual is not significantly worse than the full library's.
 
     A support of k terms is accepted when its residual sum of squares exceeds the full library's
     by at most ``tolerance * |b|^2`` (practical significance) plus ``(p - k) log(n_eff) RSS_full / n_eff``
     (a BIC-like allowance for noise; ``n_eff`` counts independent rows, the windows overlap).
+    Candidates per size: the best subset found exhaustively for libraries of at most
+    :data:`MAX_EXHAUSTIVE` terms (greedy elimination can lose the true term among nearly collinear
+    powers, x'^5 against x'^3 + x'^7), else pysindy's stepwise path (:func:`_path`).
     """
     p = G.shape[1]
-    fits = []
-    for sup in _path(G, b):
-        c, *_ = np.linalg.lstsq(G[:, sup], b, rcond=None)
-        fits.append((sup, c, float(np.sum((b - G[:, sup] @ c) ** 2))))
-    rss_full = fits[-1][2]
+    c_full, *_ = np.linalg.lstsq(G, b, rcond=None)
+    rss_full = float(np.sum((b - G @ c_full) ** 2))
     bb = float(b @ b)
-    for sup, c, rss in fits:
-        if rss - rss_full <= tolerance * bb + (p - sup.size) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0):
+    if p <= MAX_EXHAUSTIVE:
+        candidates = [sup for sup, _ in _best_subsets(G, b)]
+    else:
+        candidates = _path(G, b)
+    for sup in candidates:
+        c, *_ = np.linalg.lstsq(G[:, sup], b, rcond=None)
+        rss = float(np.sum((b - G[:, sup] @ c) ** 2))
+        if _acceptable(rss, sup.size, p, rss_full, bb, n_eff, tolerance):
             out = np.zeros(p)
             out[sup] = c
             return out
-    out = np.zeros(p)
-    out[fits[-1][0]] = fits[-1][1]
-    return out
+    return c_full
 
 
 def _condition(Gn: np.ndarray, cols: Sequence[int]) -> tuple[float, np.ndarray]:
