@@ -10,8 +10,12 @@ resolve them.
   :math:`\theta/\mathrm{scale}` otherwise), by central differences on the sampler's fixed substep
   schedule, and :math:`\sigma^2` from the residuals. An eigenvalue :math:`\lambda` gives the standard
   deviation :math:`1/\sqrt\lambda` of the data's knowledge along its eigenvector (for log
-  coordinates, a relative change): above :data:`UNIDENTIFIABLE_SD` the combination is practically
-  unidentifiable, above :data:`WEAK_SD` weakly identified.
+  coordinates, a relative change). Its inverse (Cramer-Rao) gives each parameter's **variance
+  inflation factor** (scale-free: how much the correlations with the others widen its uncertainty)
+  and its correlated partners. A parameter with VIF above :data:`VIF_UNIDENTIFIABLE` whose
+  Cramer-Rao sd exceeds half its value is *unidentifiable* (a ridge), with VIF above
+  :data:`VIF_WEAK` *weak*; the finding names it with its partners (|correlation| >= 0.8) and, when
+  an x^n-type term trades against linear ones, asks for several amplitudes.
 - **Posterior correlations** above :data:`CORRELATED` in magnitude (sampling coordinates).
 
 References
@@ -29,6 +33,12 @@ import sympy as sp
 
 UNIDENTIFIABLE_SD = 0.5
 WEAK_SD = 0.1
+#: Variance inflation factor (scale-free: 1 / (1 - R^2) of a parameter regressed on the others, Cramer-Rao)
+#: above which a parameter is named with its correlated partners: *unidentifiable* when also its
+#: Cramer-Rao sd exceeds half its value (the ridge lets it wander by more than its size), else *weak*.
+VIF_UNIDENTIFIABLE = 100.0
+VIF_WEAK = 50.0
+REL_SD_UNIDENTIFIABLE = 0.5
 CORRELATED = 0.9
 #: Relative spread of the input's cycle peaks below which a record counts as "single amplitude".
 SINGLE_AMPLITUDE_SPREAD = 0.05
@@ -50,13 +60,14 @@ class IdentifiabilityReport:
     text: str
     fisher: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     fisher_correlation: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    params: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"free": list(self.free), "coordinates": list(self.coordinates), "symmetry": self.symmetry,
                 "eigenvalues": self.eigenvalues.tolist(), "directions": self.directions,
                 "posterior_correlations": self.correlations, "findings": self.findings,
                 "excitation": self.excitation, "text": self.text,
-                "fisher_correlation": self.fisher_correlation.tolist()}
+                "fisher_correlation": self.fisher_correlation.tolist(), "params": self.params}
 
 
 def _coordinate(prior):
@@ -181,6 +192,8 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
     cov = np.linalg.pinv(0.5 * (F + F.T))
     csd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
     fcorr = cov / np.outer(csd, csd)
+    # variance inflation: how much the correlations widen each parameter's uncertainty (scale-free)
+    vif = np.clip(np.diag(cov) * np.diag(F), 1.0, None)
     directions = []
     for k in range(len(w)):
         sd = 1 / math.sqrt(w[k]) if w[k] > 0 else math.inf
@@ -203,6 +216,17 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             for j in range(i):
                 if abs(C[i, j]) >= CORRELATED:
                     corr_pairs.append({"pair": [names[j], names[i]], "correlation": float(C[i, j])})
+    # --- per-parameter inflation and partners
+    params_info = {}
+    for j, n in enumerate(free):
+        partners = {free[i]: float(fcorr[j, i]) for i in np.argsort(-np.abs(fcorr[j]))
+                    if i != j and abs(fcorr[j, i]) >= 0.8}
+        theta_j = float(post.base[post.index[j]])
+        # csd is in the report's coordinates: log (relative) for log-scale parameters, value/scale otherwise
+        rel = float(csd[j]) if kinds[j] == "log" else float(csd[j] * scales[j] / max(abs(theta_j), 1e-300))
+        status = ("unidentifiable" if vif[j] > VIF_UNIDENTIFIABLE and rel > REL_SD_UNIDENTIFIABLE
+                  else ("weak" if vif[j] > VIF_WEAK else "identified"))
+        params_info[n] = {"vif": float(vif[j]), "relative_sd": rel, "partners": partners, "status": status}
     # --- findings
     findings = []
     if sym.exists and not sym_info["broken"]:
@@ -213,21 +237,19 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
         findings.append({"kind": "symmetry broken", "params": sym_info["moved"],
                          "evidence": f"the scaling symmetry is broken by fixing {', '.join(sym_info['fixed_moved'])}",
                          "resolve": "nothing needed; the gains are relative to the fixed value"})
-    for d in directions:
-        if d["status"] == "identified":
+    done: set = set()
+    rank = {"unidentifiable": 0, "weak": 1, "identified": 2}
+    for n in sorted(free, key=lambda k: (rank[params_info[k]["status"]], -params_info[k]["vif"])):
+        info = params_info[n]
+        if info["status"] == "identified" or n in done:
             continue
-        involved = list(dict.fromkeys([*d["components"], *d["correlated_with"]]))
-        if d["symmetry_overlap"] is not None and d["symmetry_overlap"] > 0.9:
-            continue  # already reported as the symmetry
-        nonlinear = [n for n in involved if degrees.get(n, 1) > 1]
-        linear = [n for n in involved if degrees.get(n, 1) <= 1]
+        involved = [n] + [m for m in info["partners"] if m not in done]
+        done.update(involved)
+        nonlinear = [m for m in involved if degrees.get(m, 1) > 1]
+        linear = [m for m in involved if degrees.get(m, 1) <= 1]
         pairs = [p for p in corr_pairs if set(p["pair"]) <= set(involved)]
-        ev = f"Fisher direction {d['label']} has sd {d['sd']:.2g}" + (
-            " (log units: a factor e^sd)" if any(kinds[free.index(n)] == "log" for n in d["components"]) else "")
-        if d["correlated_with"]:
-            lead = next(iter(d["components"]))
-            ev += f"; {lead} is Cramer-Rao correlated with " + ", ".join(
-                f"{n} ({c:+.2f})" for n, c in d["correlated_with"].items())
+        ev = (f"the correlations with {', '.join(f'{m} ({c:+.2f})' for m, c in info['partners'].items()) or 'the others'} "
+              f"inflate the variance of {n} {info['vif']:.3g}-fold (Cramer-Rao)")
         if pairs:
             ev += "; posterior correlations " + ", ".join(f"{a}-{b} {c['correlation']:+.2f}"
                                                         for c in pairs for a, b in [c["pair"]])
@@ -241,7 +263,8 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
         else:
             why = "the record does not separate these terms"
             resolve = "records at several frequencies and amplitudes (band-limited random excitation)"
-        findings.append({"kind": d["status"], "params": involved, "evidence": ev, "why": why, "resolve": resolve})
+        findings.append({"kind": min((params_info[m]["status"] for m in involved), key=rank.get), "params": involved, "evidence": ev, "why": why, "resolve": resolve,
+                         "vif": info["vif"]})
     for p in corr_pairs:
         if not any(set(p["pair"]) <= set(f["params"]) for f in findings):
             findings.append({"kind": "correlated", "params": p["pair"],
@@ -252,6 +275,7 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
     lines.append("  scaling symmetry: " + ("none" if not sym.exists else (
         f"moves {', '.join(sym_info['moved'])}; " + ("broken by fixing " + ", ".join(sym_info["fixed_moved"])
                                                       if sym_info["broken"] else "UNBROKEN (all free)"))))
+    lines.append("  variance inflation (Cramer-Rao): " + ", ".join(f"{n} {p['vif']:.3g}" for n, p in params_info.items()))
     lines.append("  Fisher sd along eigen-directions (weakest first): "
                  + "; ".join(f"{d['sd']:.2g} [{d['label']}]" for d in directions[:3]))
     if not [f for f in findings if f["kind"] not in ("symmetry broken",)]:
@@ -263,4 +287,4 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
                      + (f"; {f['why']}" if "why" in f else "") + f". Resolve: {f['resolve']}")
     return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
                                  eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
-                                 excitation=exc, text="\n".join(lines), fisher=F, fisher_correlation=fcorr)
+                                 excitation=exc, text="\n".join(lines), fisher=F, fisher_correlation=fcorr, params=params_info)
