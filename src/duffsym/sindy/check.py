@@ -26,7 +26,8 @@ What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 - collinearity: the condition number of the relevant columns (model terms and every term selected
   in at least half the bootstrap fits), and the largest variance inflation factor among them;
 - stability: terms whose inclusion probability is neither near 0 nor near 1;
-- fit: the fraction of the weak-form target the selected terms explain (``r2``);
+- fit: the fraction of the weak-form target the selected terms explain (``r2``), and the part the
+  full library leaves unexplained in a systematic way (residual correlated beyond one window);
 - sampling: the change of the (normalised) coefficients when every other sample is dropped
   (for a second-order accurate scheme the error of the full-rate estimate is about a third of it).
 """
@@ -61,6 +62,10 @@ class Thresholds:
         (it also agrees within 3 combined standard deviations).
     min_r2 : smallest acceptable fraction of the (weak-form) target the selected terms explain;
         below it something outside the library (or the state reconstruction) dominates.
+    max_systematic : largest acceptable systematic unexplained fraction of the target: the full
+        library's residual energy times its largest correlation at a lag of one window (beyond which
+        noise is uncorrelated) or one dominant input period (a misfit under periodic input repeats);
+        above it the term choice reflects how candidates mimic a missing part.
     """
 
     tolerance: float = 1e-4
@@ -71,6 +76,7 @@ class Thresholds:
     max_sampling_change: float = 0.05
     coefficient_rtol: float = 0.1
     min_r2: float = 0.9
+    max_systematic: float = 0.005
 
 
 # ------------------------------------------------------------------------------------ regression rows
@@ -244,7 +250,9 @@ class SindyCrossCheck:
         non-zero coefficient at the reference parameters; ``missing`` selected terms the model lacks;
         ``absent`` expected terms not selected; ``ambiguous`` the others in between.
     diagnostics : ``condition``, ``max_vif`` (relevant columns), ``condition_library`` (all),
-        ``sampling_change``, ``r2`` (weak/strong fit of the selected terms), ``n_rows``,
+        ``sampling_change``, ``r2`` (weak/strong fit of the selected terms), ``model_terms_excess``
+        (residual increase of the model's own term set over the full library, in units of the
+        selection allowance; at most 1 means the model's terms fit as well), ``n_rows``,
         ``window_s``, ``n_models``.
     verdict : one of ``consistent``, ``missing-terms``, ``disagrees``, ``inconclusive``;
         ``message`` one or two sentences; ``reasons`` the measured facts behind an inconclusive verdict.
@@ -286,8 +294,8 @@ class SindyCrossCheck:
 
         One dict per non-model candidate selected in at least half the bootstrap fits, strongest
         first: ``term, source, effect (catalogue name or None), inclusion, coefficient,
-        supported`` (``supported`` is True when the check is conclusive and the inclusion reaches
-        ``thresholds.include``).
+        supported`` (``supported`` is True when the check is conclusive, the inclusion reaches
+        ``thresholds.include`` and the model's own term set does not fit the data as well).
         """
         rows = []
         for t in self.terms:
@@ -295,7 +303,8 @@ class SindyCrossCheck:
                 continue
             rows.append({"term": t["name"], "source": t["source"], "effect": t["effect"],
                          "inclusion": t["inclusion"], "coefficient": t["coefficient"],
-                         "supported": bool(self.conclusive and t["inclusion"] >= self.thresholds["include"])})
+                         "supported": bool(self.conclusive and t["inclusion"] >= self.thresholds["include"]
+                                           and not self.diagnostics.get("model_terms_acceptable", False))})
         return sorted(rows, key=lambda r: -r["inclusion"])
 
     def evidence(self) -> dict:
@@ -496,6 +505,42 @@ def crosscheck(
     sampling_change = float(np.max(np.where(beyond, change, 0.0))) if change.size else 0.0
     noise_change = float(np.max(change)) if change.size else 0.0
 
+    # does the model's own term set fit the data as well (within the same allowance) as SINDy's choice?
+    cols = [j for j in range(lib.n_terms) if usable[j]]
+    exp_cols = [cols.index(j) for j in range(lib.n_terms) if expected[j] and usable[j]]
+    Gu = Gn[:, cols]
+    c_all, *_ = np.linalg.lstsq(Gu, bn, rcond=None)
+    rss_full = float(np.sum((bn - Gu @ c_all) ** 2))
+    if exp_cols:
+        c_exp, *_ = np.linalg.lstsq(Gu[:, exp_cols], bn, rcond=None)
+        rss_exp = float(np.sum((bn - Gu[:, exp_cols] @ c_exp) ** 2))
+    else:
+        rss_exp = float(bn @ bn)
+    allowance = thr.tolerance + (len(cols) - len(exp_cols)) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
+    model_excess = (rss_exp - rss_full) / allowance  # <= 1: the model's terms are an acceptable model too
+    model_ok = model_excess <= 1.0
+
+    # is what the full library leaves unexplained noise, or a systematic part it cannot represent?
+    # Rows closer than one window share samples, so noise correlates only up to that lag; beyond it,
+    # a correlated residual is structure outside the library (or in the state reconstruction).
+    res = bn - Gu @ c_all
+    rec_id = np.argmax(np.abs(C[:, 0::2]), axis=1)
+    # A misfit under periodic input also repeats from period to period: the correlation at a lag of
+    # one dominant input period is taken too, and the larger of the two counts.
+    row_step = stride if method == "weak" else max(1, stride // 4)
+    lags = {int(math.ceil(width / row_step)), max(1, int(round(min(periods) / max(dts) / row_step)))}
+    residual_correlation = 0.0
+    for lag in lags:
+        num = den = 0.0
+        for r_id in np.unique(rec_id):
+            seg = res[rec_id == r_id]
+            den += float(seg @ seg)
+            if seg.size > lag:
+                num += float(seg[:-lag] @ seg[lag:])
+        if den > 0:
+            residual_correlation = max(residual_correlation, num / den)
+    systematic = rss_full / float(bn @ bn) * residual_correlation
+
     reasons = []
     max_vif = float(np.max(vif)) if vif.size else 1.0
     if cond > thr.max_condition or max_vif > thr.max_vif:
@@ -503,6 +548,11 @@ def crosscheck(
         reasons.append(f"the relevant terms are nearly collinear on these data (condition number {cond:.3g}, "
                        f"limit {thr.max_condition:.3g}; largest variance inflation {max_vif:.3g} for {worst}, "
                        f"limit {thr.max_vif:.3g}): excitation too poor to tell them apart")
+    if systematic > thr.max_systematic:
+        reasons.append(f"the full library leaves {systematic:.3g} of the target unexplained in a systematic way "
+                       f"(residual correlation {residual_correlation:.2f} beyond one window or one input period; limit "
+                       f"{thr.max_systematic:g}): something outside the library shapes these data, so which "
+                       "candidates stand in for it says little about the physics")
     if r2 < thr.min_r2:
         reasons.append(f"the selected terms explain only {r2:.3f} of the velocity equation's target (limit "
                        f"{thr.min_r2:g}): the library or the rebuilt states miss what dominates these data")
@@ -527,16 +577,22 @@ def crosscheck(
                       3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
             agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
 
+
     if reasons:
         verdict = "inconclusive"
         advice = []
-        if len(reasons) > (sampling_change > thr.max_sampling_change) + (r2 < thr.min_r2):
+        beyond = (r2 < thr.min_r2) or systematic > thr.max_systematic
+        if len(reasons) > (sampling_change > thr.max_sampling_change) + (r2 < thr.min_r2) + (systematic > thr.max_systematic):
             advice.append("use random or multi-amplitude excitation")
         if sampling_change > thr.max_sampling_change:
             advice.append("sample faster")
-        if r2 < thr.min_r2:
+        if beyond:
             advice.append("look beyond the library (output effects, input delay, preprocessing of the data)")
         message = "the data cannot decide which terms the velocity equation needs; " + " and ".join(advice) + "."
+    elif model_ok and (missing or absent or extra_model):
+        verdict = "consistent"
+        message = (f"the model's terms ({', '.join(exp_names)}) fit the data as well as SINDy's sparsest choice "
+                   f"({', '.join(sel_names)}); the data do not single out either, so they do not contradict the model.")
     elif missing:
         verdict = "missing-terms"
         message = (f"the data support term(s) the model lacks: {', '.join(missing)}"
@@ -569,6 +625,8 @@ def crosscheck(
                    "sampling_change_all": noise_change, "r2": r2,
                    "n_rows": int(n_rows), "window_s": width * max(dts), "window_samples": int(width),
                    "n_models": int(n_models), "n_records": len(records), "dt": max(dts),
+                   "model_terms_excess": model_excess, "model_terms_acceptable": bool(model_ok),
+                   "systematic": systematic, "residual_correlation": residual_correlation,
                    "relevant": [lib.names[j] for j in relevant], "extra_model_terms": extra_model}
     name = model.name + (" + " + ", ".join(model.effects) if model.effects else "")
     return SindyCrossCheck(
