@@ -115,7 +115,7 @@ def test_sample_recovers_laplace_and_truth(sine_fit, chains):
         assert set(d[key]) == set(FREE)
     assert chains.chain.shape == (400, 24, 5)
     assert sum(chains.counts.values()) == 24 * 400 + 24  # every proposal + the start ensemble
-    assert 0.2 < d["acceptance"] < 0.7
+    assert 0.08 < d["acceptance"] < 0.5  # DE moves: ~0.1-0.3
     for j, n in enumerate(FREE):
         q = d["median"][n]
         se = res.stderr[n]
