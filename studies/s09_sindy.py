@@ -17,6 +17,19 @@ Scenarios (Table 2, 0.4 V row; truth known):
   smoothed-finite-difference forms;
 - real MR damper (UTFSM, 1 kHz tests 5 mm 3 Hz and 10 mm 1 Hz, 0 A and 1 A): each test alone and both pooled.
 
+Result (full run, 47-88 s on 2 shared cores): noise-free rich record: exactly the model's terms, largest
+coefficient error 0.03 %; 1 % noise: the exact term set in 20/20 seeds, coefficient errors up to 2.1 %;
+hidden friction (mu = 5): tanh(x'/0.01) flagged in 5/5 seeds, mu estimated 4.45-5.12. Single sine at
+5 ms with 2 % noise: inconclusive (collinear velocity powers, unstable inclusion); the same noise-free:
+the weak form recovers the model exactly ("consistent" is then the truth); smoothed finite differences
+at 5 ms: inconclusive both ways (coefficients move when the sampling halves). Real damper: inconclusive
+on every test. Alone, each test is fitted by a sparser set than the model's (e.g. x, x^5, d at 0 A
+5 mm 3 Hz, r2 0.96) with the model's own set 5-7 times the allowance worse, but the residual is
+systematic or the choice unstable; pooled (3 Hz + 1 Hz), one coefficient set explains only 50 % (0 A)
+and 72 % (1 A) of the weak-form target: what the single tests select does not carry over between
+amplitudes, so the candidates are standing in for something outside the library (the authors'
+moving-average smoothing of the force, the knee at reversals that s06 reports) and the check says so.
+
 Files: ``data/derived/s09_sindy.{npz,json}``, figure ``paper/figures/s09_sindy_inclusion.png``
 (inclusion probabilities per term and scenario), numbers ``paper/output/s09_*.tex``.
 """
@@ -148,7 +161,7 @@ def compute(cfg: Config) -> dict:
     real = []
     if cfg.real:
         real = _real(cfg, model)
-        rows.extend(r for r in real if r["label"].endswith("pooled"))
+        rows.extend(real)
     return {"names": names, "rows": rows, "noisy": noisy, "friction": friction, "sine": sine, "real": real}
 
 
@@ -233,14 +246,16 @@ def write_numbers(meta) -> list[Path]:
     for r in meta["real"]:
         key = "real_" + r["label"].replace("real ", "").replace(" ", "_").replace(",", "").replace("+", "and")
         out.append(C.write_number(TAG, key.replace(".", "x"), r["verdict"]))
+        out.append(C.write_number(TAG, key.replace(".", "x") + "_r2", f"{r['diagnostics']['r2']:.2f}"))
     return out
 
 
 def summarize(meta) -> str:
     s = _stats(meta)
     sine = "; ".join(f"{r['label']}: {r['verdict']}" for r in meta["sine"])
-    real = "; ".join(f"{r['label']}: {r['verdict']} (r2 {r['diagnostics']['r2']:.2f}, selected "
-                     f"{', '.join(r['selected'])})" for r in meta["real"]) or "not run"
+    real = "; ".join(f"{r['label']}: {r['verdict']} (r2 {r['diagnostics']['r2']:.2f}, systematic "
+                     f"{r['diagnostics']['systematic']:.3g}, selected {', '.join(r['selected'])})"
+                     for r in meta["real"]) or "not run"
     return (f"s09: rich noise-free: largest coefficient error {100 * s['rich_max_err']:.2f} %; 1 % noise: exact term "
             f"set in {s['noisy_exact']}/{s['noisy_n']} seeds (largest coefficient error among them "
             f"{100 * s['noisy_max_err']:.1f} %); hidden friction flagged in {s['friction_flagged']}/{s['friction_n']} "
