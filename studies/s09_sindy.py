@@ -57,7 +57,8 @@ class Config:
     """Settings of study s09.
 
     duration : length of the random records, s. n_seeds : seeds of the 1 % noise runs.
-    n_friction_seeds : seeds of the hidden-friction runs. n_models : bootstrap fits per check.
+    n_friction_seeds : seeds of the hidden-friction runs. n_models : bootstrap fits per check
+    (``n_models_comparison`` for the plain pysindy selections, SSR and STLSQ, run on the noisy records).
     real : include the UTFSM data (skipped with a message when the data folder is absent).
     currents : coil currents (A) of the real tests.
     """
@@ -66,12 +67,13 @@ class Config:
     n_seeds: int = 20
     n_friction_seeds: int = 5
     n_models: int = 20
+    n_models_comparison: int = 10
     real: bool = True
     currents: tuple[float, ...] = (0.0, 1.0)
 
     @classmethod
     def smoke(cls) -> "Config":
-        return cls(duration=8.0, n_seeds=1, n_friction_seeds=1, n_models=4, real=False)
+        return cls(duration=8.0, n_seeds=1, n_friction_seeds=1, n_models=4, n_models_comparison=2, real=False)
 
     def summary(self) -> str:
         return (f"s09 config: random records of {self.duration:g} s, {self.n_seeds} noisy seeds, "
@@ -132,9 +134,14 @@ def compute(cfg: Config) -> dict:
     rows.append(row)
 
     noisy = []
+    selections = {"ssr": 0, "stlsq": 0}  # plain pysindy choices on the same records, for comparison
     for seed in range(cfg.n_seeds):
-        res, r = _check(f"rich, 1 % noise, seed {seed}", _rich(model, truth, 0.01, seed, cfg.duration), model,
-                        rng=seed, **kw)
+        rec = _rich(model, truth, 0.01, seed, cfg.duration)
+        res, r = _check(f"rich, 1 % noise, seed {seed}", rec, model, rng=seed, **kw)
+        for sel in selections:
+            other, _ = _check(f"  ({sel})", rec, model, rng=seed, params=truth, n_models=cfg.n_models_comparison,
+                              selection=sel)
+            selections[sel] += other.verdict == "consistent" and set(other.selected) == set(TRUE_TERMS)
         r["exact"] = set(res.selected) == set(TRUE_TERMS)
         r["relative_errors"] = {n: abs(r["coefficients"][n] / r["model_coefficients"][n] - 1)
                                 if r["coefficients"][n] else None for n in TRUE_TERMS}
@@ -162,7 +169,8 @@ def compute(cfg: Config) -> dict:
     if cfg.real:
         real = _real(cfg, model)
         rows.extend(real)
-    return {"names": names, "rows": rows, "noisy": noisy, "friction": friction, "sine": sine, "real": real}
+    return {"names": names, "rows": rows, "noisy": noisy, "friction": friction, "sine": sine, "real": real,
+            "selection_exact": selections}
 
 
 def _real(cfg: Config, model) -> list[dict]:
@@ -240,6 +248,8 @@ def write_numbers(meta) -> list[Path]:
            C.write_number(TAG, "noisy_exact", f"{s['noisy_exact']}/{s['noisy_n']}"),
            C.write_number(TAG, "noisy_max_err", f"{100 * s['noisy_max_err']:.1f}"),
            C.write_number(TAG, "friction_flagged", f"{s['friction_flagged']}/{s['friction_n']}")]
+    for sel, n in meta.get("selection_exact", {}).items():
+        out.append(C.write_number(TAG, f"noisy_exact_{sel}", f"{n}/{s['noisy_n']}"))
     for r in meta["sine"]:
         key = "sine_" + ("noisy" if "0.02" in r["label"] else "clean") + "_" + r["label"].split(", ")[-1]
         out.append(C.write_number(TAG, key, r["verdict"]))
@@ -252,13 +262,15 @@ def write_numbers(meta) -> list[Path]:
 
 def summarize(meta) -> str:
     s = _stats(meta)
+    sel_txt = ", ".join(f"{k} {v}/{s['noisy_n']}" for k, v in meta.get("selection_exact", {}).items())
     sine = "; ".join(f"{r['label']}: {r['verdict']}" for r in meta["sine"])
     real = "; ".join(f"{r['label']}: {r['verdict']} (r2 {r['diagnostics']['r2']:.2f}, systematic "
                      f"{r['diagnostics']['systematic']:.3g}, selected {', '.join(r['selected'])})"
                      for r in meta["real"]) or "not run"
     return (f"s09: rich noise-free: largest coefficient error {100 * s['rich_max_err']:.2f} %; 1 % noise: exact term "
             f"set in {s['noisy_exact']}/{s['noisy_n']} seeds (largest coefficient error among them "
-            f"{100 * s['noisy_max_err']:.1f} %); hidden friction flagged in {s['friction_flagged']}/{s['friction_n']} "
+            f"{100 * s['noisy_max_err']:.1f} %; plain pysindy selections on the same records: "
+            f"{sel_txt}); hidden friction flagged in {s['friction_flagged']}/{s['friction_n']} "
             f"(mu estimates {', '.join(f'{m:.2f}' for m in s['friction_mu'])}, truth 5). {sine}. Real: {real}.")
 
 

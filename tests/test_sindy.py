@@ -123,6 +123,8 @@ def test_bad_input(model):
         crosscheck(rec, model, method="exact")
     with pytest.raises(ModelError, match="proportional to the velocity|output"):
         crosscheck(rec, get_model("duffing"))
+    with pytest.raises(ModelError, match="selection must be one of"):
+        crosscheck(rec, model, selection="lasso")
     with pytest.raises(DataError, match="at least one record"):
         crosscheck([], model)
     with pytest.raises(DataError, match="shorter than one weak-form window"):

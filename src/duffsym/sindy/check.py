@@ -53,6 +53,7 @@ class Thresholds:
 
     tolerance : fraction of the target's energy (|b|^2) a dropped set of terms may leave
         unexplained, on top of the noise allowance (see ``_select``).
+    stlsq_threshold : coefficient threshold on the normalised system for ``selection="stlsq"``.
     include, exclude : inclusion probability at or above which a term counts as selected /
         at or below which it counts as rejected; between them it is ambiguous.
     max_condition : largest acceptable condition number of the relevant columns.
@@ -69,6 +70,7 @@ class Thresholds:
     """
 
     tolerance: float = 1e-4
+    stlsq_threshold: float = 0.05
     include: float = 0.8
     exclude: float = 0.2
     max_condition: float = 1e4
@@ -194,7 +196,24 @@ def _best_subsets(G: np.ndarray, b: np.ndarray):
     return out
 
 
-def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float) -> np.ndarray:
+def _stlsq(G: np.ndarray, b: np.ndarray, threshold: float) -> np.ndarray:
+    """pysindy's STLSQ on the normalised system (the plain SINDy choice, kept for comparison)."""
+    import warnings
+
+    import pysindy as ps
+
+    opt = ps.STLSQ(threshold=threshold, alpha=1e-10, max_iter=50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        opt.fit(G, b)
+    return np.asarray(opt.coef_, dtype=float).reshape(-1)
+
+
+SELECTIONS = ("best-subset", "ssr", "stlsq")
+
+
+def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float, selection: str = "best-subset",
+            threshold: float = 0.05) -> np.ndarray:
     """Coefficients of the sparsest model whose residual is not significantly worse than the full library's.
 
     A support of k terms is accepted when its residual sum of squares exceeds the full library's
@@ -204,11 +223,13 @@ def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float) -> np.
     :data:`MAX_EXHAUSTIVE` terms (greedy elimination can lose the true term among nearly collinear
     powers, x'^5 against x'^3 + x'^7), else pysindy's stepwise path (:func:`_path`).
     """
+    if selection == "stlsq":
+        return _stlsq(G, b, threshold)
     p = G.shape[1]
     c_full, *_ = np.linalg.lstsq(G, b, rcond=None)
     rss_full = float(np.sum((b - G @ c_full) ** 2))
     bb = float(b @ b)
-    if p <= MAX_EXHAUSTIVE:
+    if p <= MAX_EXHAUSTIVE and selection == "best-subset":
         candidates = [sup for sup, _ in _best_subsets(G, b)]
     else:
         candidates = _path(G, b)
@@ -361,6 +382,7 @@ def crosscheck(
     window: float | None = None,
     n_models: int = 20,
     max_power: int = 7,
+    selection: str = "best-subset",
     thresholds: Thresholds | None = None,
     rng: np.random.Generator | int | None = 0,
 ) -> SindyCrossCheck:
@@ -379,6 +401,10 @@ def crosscheck(
     library : candidate terms (default :func:`candidate_library` of the model with ``max_power``).
     method : ``"weak"`` (default) or ``"smoothed"``.
     window : weak-form window length, s (default a quarter of the shortest dominant input period).
+    selection : how supports are chosen: ``"best-subset"`` (default; exhaustive up to 16 terms, then
+        pysindy's SSR path), ``"ssr"`` (pysindy's stepwise path always) or ``"stlsq"`` (pysindy's
+        STLSQ with ``thresholds.stlsq_threshold``: plain SINDy, kept for comparison; with nearly
+        collinear powers it keeps spurious terms under noise, see study s09).
     n_models : bootstrap fits for the inclusion probabilities.
     thresholds : the numbers behind the verdict (:class:`Thresholds`).
     rng : seed or Generator of the bootstrap.
@@ -412,6 +438,8 @@ def crosscheck(
 
             model = mr_damper(5)
     thr = thresholds or Thresholds()
+    if selection not in SELECTIONS:
+        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {selection!r}")
     if n_models < 2:
         raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {n_models}")
     gain_expr = output_gain(model)
@@ -451,13 +479,14 @@ def crosscheck(
 
     n_rows = Gn.shape[0]
     n_eff = n_rows * stride / width  # windows overlap: about width/stride rows per independent one
-    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance)
+    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
     coef_n = np.zeros(lib.n_terms)
     coef_n[usable] = xi_n
     boot = np.zeros((n_models, lib.n_terms))
     for m in range(n_models):
         rows = rng.integers(0, n_rows, n_rows)
-        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance)
+        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
+                                  thr.stlsq_threshold)
     inclusion = np.mean(boot != 0, axis=0)
     scale = bnorm / norms
     coef = coef_n * scale

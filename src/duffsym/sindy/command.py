@@ -27,7 +27,7 @@ def cmd_sindy(args) -> int:
         _err(f"SINDy cross-check ({args.method} form, {args.models} bootstrap fits) of "
              f"{', '.join(args.data)}" + (f" against {args.fit}" if args.fit else ""))
     check = crosscheck(records, model, fit=fit, method=args.method, window=args.window, n_models=args.models,
-                       max_power=args.max_power, rng=args.seed)
+                       max_power=args.max_power, selection=args.selection, rng=args.seed)
     if args.json:
         _emit_json(check.to_dict())
     else:
@@ -53,6 +53,9 @@ def register(sub) -> None:
                    help="weak form (default; no derivative of the data) or smoothed finite differences")
     s.add_argument("--window", type=float, default=None, help="weak-form window, s (default: a quarter input period)")
     s.add_argument("--models", type=int, default=20, help="bootstrap fits for the inclusion probabilities (default 20)")
+    s.add_argument("--selection", choices=("best-subset", "ssr", "stlsq"), default="best-subset",
+                   help="support selection: exhaustive best subsets (default), pysindy SSR path, or pysindy STLSQ "
+                        "(plain SINDy; keeps spurious terms among collinear powers under noise)")
     s.add_argument("--max-power", type=int, default=7, help="highest power of x and x' among the generic terms")
     s.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
     _add_file_arguments(s)
