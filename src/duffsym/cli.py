@@ -207,10 +207,28 @@ def _fit_model(args):
     return model
 
 
-def cmd_fit(args) -> int:
+def _mask_from_args(spec: str | None, record):
+    """``--mask none|auto|FILE`` -> (mask or None, info or None)."""
     import numpy as np
 
-    from duffsym.identify import Problem, auto_mask, fit
+    from duffsym.identify import auto_mask
+
+    if spec in (None, "none"):
+        return None, None
+    if spec == "auto":
+        return auto_mask(record)
+    mask_path = Path(spec)
+    if not mask_path.is_file():
+        raise CLIError(f"--mask {spec}: no such file; give none, auto or a file of 0/1 per sample")
+    try:
+        mask = np.loadtxt(mask_path, dtype=float).astype(bool).reshape(-1)
+    except ValueError as exc:
+        raise CLIError(f"--mask {spec}: not a column of 0/1 values ({exc})") from None
+    return mask, {"rule": f"user mask from {spec}"}
+
+
+def cmd_fit(args) -> int:
+    from duffsym.identify import Problem, fit
 
     record = _read_record(args, args.data)
     model = _fit_model(args)
@@ -220,18 +238,7 @@ def cmd_fit(args) -> int:
             fixed["A_f"] = float(args.af)
         except ValueError:
             raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
-    mask, mask_info = None, None
-    if args.mask == "auto":
-        mask, mask_info = auto_mask(record)
-    elif args.mask not in (None, "none"):
-        mask_path = Path(args.mask)
-        if not mask_path.is_file():
-            raise CLIError(f"--mask {args.mask}: no such file; give none, auto or a file of 0/1 per sample")
-        try:
-            mask = np.loadtxt(mask_path, dtype=float).astype(bool).reshape(-1)
-        except ValueError as exc:
-            raise CLIError(f"--mask {args.mask}: not a column of 0/1 values ({exc})") from None
-        mask_info = {"rule": f"user mask from {args.mask}"}
+    mask, mask_info = _mask_from_args(args.mask, record)
     problem = Problem(model, record, fixed=fixed, mask=mask, mask_info=mask_info)
     if not args.quiet:
         _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "

@@ -1,6 +1,115 @@
-"""CLI of duffsym.diagnose (being written: see the open issue)."""
+"""``duffsym diagnose`` and ``duffsym ladder`` (see the contract)."""
 from __future__ import annotations
 
 
+def _common(args):
+    """Record, model, candidates, mask and fixed values from the shared options."""
+    from duffsym.cli import CLIError, _mask_from_args, _parse_assignments, _read_record
+    from duffsym.effects import CATALOGUE
+
+    record = _read_record(args, args.data)
+    cands = None
+    if args.candidates:
+        cands = [c.strip() for c in args.candidates.split(",") if c.strip()]
+        unknown = [c for c in cands if c not in CATALOGUE]
+        if unknown:
+            raise CLIError(f"--candidates: unknown effect(s) {unknown}; choose from {{{', '.join(CATALOGUE)}}} "
+                           "(duffsym effects lists them)")
+    mask, _ = _mask_from_args(args.mask, record)
+    fixed = _parse_assignments(args.fix, "--fix")
+    return record, cands, mask, fixed
+
+
+def _progress(args):
+    from duffsym.cli import _err
+
+    return None if args.quiet else (lambda msg: _err(msg))
+
+
+def cmd_diagnose(args) -> int:
+    from duffsym.cli import _emit_json, _fit_model
+    from duffsym.diagnose import diagnose
+
+    record, cands, mask, fixed = _common(args)
+    fit_result = None
+    if args.fit:
+        from duffsym.identify import load_result, model_from_result
+
+        fit_result = load_result(args.fit)
+        model = model_from_result(fit_result)
+    else:
+        model = _fit_model(args)
+    dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
+                  noise=args.noise, mask=mask, progress=_progress(args))
+    if args.report:
+        from duffsym.diagnose.report import write_diagnosis_report
+
+        path = write_diagnosis_report(dg, record, args.report)
+        if not args.quiet:
+            from duffsym.cli import _err
+
+            _err(f"report written to {path}")
+    if args.json:
+        _emit_json(dg.to_dict())
+    else:
+        print(dg.summary())
+    return 0
+
+
+def cmd_ladder(args) -> int:
+    from duffsym.cli import _emit_json, _err, _fit_model
+    from duffsym.diagnose import ladder
+
+    record, cands, mask, fixed = _common(args)
+    model = _fit_model(args)
+    lad = ladder(record, model, max_steps=args.max_steps, candidates=cands, fixed=fixed, holdout=args.holdout,
+                 noise=args.noise, mask=mask, progress=_progress(args))
+    if args.out:
+        lad.final_fit.save(args.out)
+    if args.report:
+        from duffsym.diagnose.report import write_ladder_report
+
+        path = write_ladder_report(lad, record, args.report)
+        if not args.quiet:
+            _err(f"report written to {path}")
+    if args.json:
+        _emit_json(lad.to_dict())
+    else:
+        print(lad.summary())
+    if not lad.final_fit.success:
+        _err(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
+        return 1
+    return 0
+
+
+def _shared(s) -> None:
+    from duffsym.cli import _add_file_arguments, _add_model_arguments
+
+    s.add_argument("data", help="CSV record (time, displacement, force, ...; see --columns)")
+    _add_model_arguments(s)
+    s.add_argument("--add", help="effects already in the model, comma-separated (see duffsym effects)")
+    s.add_argument("--candidates", help="effects to try, comma-separated (default: the whole catalogue)")
+    s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed in every fit")
+    s.add_argument("--holdout", type=float, default=0.3, help="fraction of the record held out at its end "
+                   "(default 0.3; snapped to whole input cycles)")
+    s.add_argument("--noise", type=float, default=None, help="output noise standard deviation if known "
+                   "(default: estimated from the measurement)")
+    s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
+    _add_file_arguments(s)
+    s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--quiet", action="store_true", help="no progress messages")
+
+
 def register(sub) -> None:
-    """No subcommand yet."""
+    s = sub.add_parser("diagnose", help="where the model fails on a record, and which catalogued effect is missing")
+    _shared(s)
+    s.add_argument("--fit", help="FIT.json of the model to diagnose (its effects included); default: fit it here")
+    s.set_defaults(func=cmd_diagnose)
+
+    s = sub.add_parser("ladder", help="base fit, then add the best supported effect and refit, while the evidence "
+                       "supports it; the error at each step")
+    _shared(s)
+    s.add_argument("--max-steps", type=int, default=4, help="add at most this many effects (default 4)")
+    s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
+    s.set_defaults(func=cmd_ladder)

@@ -1,0 +1,130 @@
+"""Add the missing effects one at a time and watch the error fall.
+
+:func:`ladder` starts from a model, diagnoses it (:func:`~duffsym.diagnose.diagnose`), adds the
+effect the evidence supports, diagnoses the extended model, and repeats while an effect is
+needed. Each step reports the free-run error on the fitting part and on the held-out tail, the
+BIC, and the parameters with their standard errors. The last model is finally refitted on the
+whole record (``final_fit``), which is what ``duffsym ladder --out`` saves for ``validate``.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping
+
+import numpy as np
+
+from duffsym.data.record import Record
+from duffsym.diagnose.search import Diagnosis, _fit, diagnose
+
+
+@dataclass(frozen=True)
+class Step:
+    """One rung of the ladder: the model with ``effects`` and how well it does."""
+
+    effects: tuple[str, ...]
+    nrmse: float  # free run over the whole record (fitted on the fitting part)
+    nrmse_fit: float
+    nrmse_heldout: float
+    bic: float
+    params: dict
+    stderr: dict
+    diagnosis: Diagnosis
+
+    def to_dict(self) -> dict:
+        return dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
+                    nrmse_heldout=self.nrmse_heldout, params=self.params, stderr=self.stderr,
+                    verdict=self.diagnosis.verdict, needed=list(self.diagnosis.needed),
+                    candidates=[c.to_dict() for c in self.diagnosis.candidates])
+
+
+@dataclass(frozen=True)
+class Ladder:
+    """The steps from the base model to the last supported extension."""
+
+    steps: tuple[Step, ...]
+    final_fit: object
+    stopped: str
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def effects(self) -> tuple[str, ...]:
+        return self.steps[-1].effects
+
+    def to_dict(self) -> dict:
+        return dict(steps=[s.to_dict() for s in self.steps], effects=list(self.effects), stopped=self.stopped,
+                    final=dict(params=self.final_fit.params, stderr=self.final_fit.stderr, nrmse=self.final_fit.nrmse,
+                               success=self.final_fit.success, status=self.final_fit.status),
+                    timings=self.timings)
+
+    def summary(self) -> str:
+        lines = ["ladder (free-run NRMSE over the whole record / held-out tail, BIC on the fitting part):"]
+        for i, s in enumerate(self.steps):
+            lines.append(f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
+                         f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
+        lines.append(f"stopped: {self.stopped}")
+        lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
+        return "\n".join(lines)
+
+
+def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
+           fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
+           progress=None, **rules) -> Ladder:
+    """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
+
+    Parameters
+    ----------
+    record, model, candidates, fixed, holdout, noise, mask, progress : as for :func:`diagnose`.
+    max_steps : at most this many effects are added.
+    rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose`.
+    """
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.identify.result import nrmse as _nrmse
+
+    t0 = time.perf_counter()
+    say = progress or (lambda msg: None)
+    if model is None:
+        from duffsym.model.library import mr_damper
+
+        model = mr_damper()
+    y = np.asarray(record.y, dtype=float)
+    steps: list[Step] = []
+    start = None
+    stopped = ""
+    while True:
+        say(f"step {len(steps)}: {' + '.join(('base',) + tuple(model.effects))}")
+        dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise, mask=mask,
+                      start=start, progress=progress, **rules)
+        k = dg.split["n_fit"]
+        steps.append(Step(
+            effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
+            nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
+            stderr=dict(dg.base_fit.stderr), diagnosis=dg))
+        if not dg.needed:
+            stopped = "no further effect is supported by the evidence: " + dg.verdict
+            break
+        if len(steps) > max_steps:
+            stopped = f"reached max_steps={max_steps}; the last diagnosis still asked for {dg.needed[0]}"
+            break
+        best = dg.candidates[0] if dg.candidates[0].effect == dg.needed[0] else \
+            next(c for c in dg.candidates if c.effect == dg.needed[0])
+        model = apply_effects(model, [CATALOGUE[best.effect]])
+        start = dict(best.all_params)
+    say("final fit on the whole record")
+    last = steps[-1]
+    final = _fit(model, record, _final_fixed(model, fixed, record), last.params)
+    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0})
+
+
+def _final_fixed(model, fixed, record) -> dict:
+    out = dict(fixed or {})
+    if "A_f" in model.param_names and "A_f" not in out:
+        out["A_f"] = float(np.max(np.abs(record.y)))
+    return out
+
+
+def error_fell(lad: Ladder) -> float:
+    """Held-out NRMSE of the last step over the first (< 1 when the error fell)."""
+    a, b = lad.steps[0].nrmse_heldout, lad.steps[-1].nrmse_heldout
+    return b / a if a > 0 else math.nan

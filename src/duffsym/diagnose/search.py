@@ -1,0 +1,364 @@
+"""Which catalogued effect is missing: refit with each candidate added, judge on held-out data.
+
+The procedure (:func:`diagnose`):
+
+1. **Split** the record into a fitting part and a held-out tail (whole input cycles when the
+   input is periodic). Every model below is fitted on the first part only.
+2. **Base fit** of the model, and the structure of its free-run residual over the whole record
+   (:func:`~duffsym.diagnose.residuals.analyse_residuals`).
+3. **Each candidate** effect of the catalogue is added to the model and the extended model is
+   refitted by collocation + IPOPT, started from the base optimum and the effect's data-based
+   initial guess (``Effect.initial_guess(record, y_model)``).
+4. **Evidence** per candidate, from free runs of the fitted models over the whole record:
+   the held-out NRMSE (prediction on data the fit never saw), ΔBIC on the fitting part
+   (free-run sum of squares, penalising the added parameters and initial states), and the share
+   of the base model's *excess* held-out error (above the noise level) that the effect removes.
+5. **Decision.** A candidate is *supported* when ΔBIC < ``bic_threshold`` (default −10, "very
+   strong" on Kass & Raftery's scale) and it lowers the held-out RMSE by at least
+   ``min_improvement`` (10 %). It is *needed* — a confident verdict — only when, in addition, it
+   removes at least ``min_explained`` (50 %) of the excess held-out error. A supported candidate
+   that explains less is reported as a partial explanation and the remaining structure is
+   described in words, so that an effect outside the catalogue is not forced onto a wrong one.
+   When the base residual is white at the noise level, no candidate is needed.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from duffsym.data.record import Record
+from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, noise_level, rising_crossings
+from duffsym.errors import DataError, ModelError
+
+BIC_THRESHOLD = -10.0
+MIN_IMPROVEMENT = 0.10
+MIN_EXPLAINED = 0.50
+#: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
+TIE = 0.05
+#: IPOPT iterations for a candidate's fit (see :func:`diagnose`)
+CANDIDATE_MAX_ITER = 150
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One catalogued effect added to the model and refitted."""
+
+    effect: str
+    nrmse_after: float  # held-out free-run NRMSE with the effect
+    nrmse_after_fit: float  # free-run NRMSE on the fitting part
+    nrmse_after_all: float  # over the whole record
+    delta_bic: float
+    improvement: float  # 1 - rmse_after / rmse_before on the held-out part
+    explained: float  # share of the base model's excess held-out MSE removed
+    params: dict  # the effect's own parameters
+    stderr: dict
+    all_params: dict
+    success: bool
+    message: str
+    seconds: float
+    supported: bool = False
+    needed: bool = False
+    physics: str = ""
+
+    def to_dict(self) -> dict:
+        return dict(effect=self.effect, nrmse_after=self.nrmse_after, delta_bic=self.delta_bic, params=self.params,
+                    stderr=self.stderr, nrmse_after_fit=self.nrmse_after_fit, nrmse_after_all=self.nrmse_after_all,
+                    improvement=self.improvement, explained=self.explained, supported=self.supported,
+                    needed=self.needed, success=self.success, message=self.message, seconds=self.seconds,
+                    all_params=self.all_params, physics=self.physics)
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """Where a model fails on a record and which catalogued effect is missing.
+
+    Attributes
+    ----------
+    model, effects : the diagnosed model and the effects it already had.
+    nrmse : the base model's free-run NRMSE over the whole record; ``nrmse_heldout`` over the tail.
+    residuals : the structure of the base model's free-run residual.
+    candidates : every tried effect, best (lowest held-out NRMSE) first.
+    needed : effects the evidence supports adding (see the module docstring); [] when none.
+    verdict : one or two sentences for a person.
+    base_fit : the base model's fit on the fitting part; ``y_base`` its free run on the whole record.
+    split : the fitting/held-out split (sample counts, time).
+    """
+
+    model: str
+    effects: tuple
+    nrmse: float
+    nrmse_heldout: float
+    residuals: ResidualAnalysis
+    candidates: tuple[Candidate, ...]
+    needed: tuple[str, ...]
+    verdict: str
+    base_fit: object
+    y_base: np.ndarray
+    split: dict
+    noise: float
+    bic_base: float
+    timings: dict = field(default_factory=dict)
+    y_candidates: dict = field(default_factory=dict)
+
+    @property
+    def best(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates else None
+
+    def to_dict(self) -> dict:
+        return dict(
+            nrmse=self.nrmse, candidates=[c.to_dict() for c in self.candidates], needed=list(self.needed),
+            verdict=self.verdict, model=self.model, effects=list(self.effects), nrmse_heldout=self.nrmse_heldout,
+            noise=self.noise, bic_base=self.bic_base, split=self.split, findings=self.residuals.findings(),
+            residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
+            rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
+        )
+
+    def summary(self) -> str:
+        lines = [f"diagnosis of {self.model}{' + ' + ' + '.join(self.effects) if self.effects else ''}: "
+                 f"free-run NRMSE {self.nrmse:.4g} (held-out {self.nrmse_heldout:.4g}), noise level {self.noise:.3g}"]
+        lines.append("where it fails:")
+        lines += [f"  - {s}" for s in self.residuals.findings()]
+        lines.append("candidates (best first; held-out NRMSE, dBIC, share of excess error explained):")
+        for c in self.candidates:
+            flag = "needed" if c.needed else ("partial" if c.supported else "")
+            pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
+            lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
+                         f"{flag:<7} {pv}" + ("" if c.success else f"  [fit failed: {c.message}]"))
+        lines.append(f"verdict: {self.verdict}")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------- split
+def split_record(record: Record, holdout: float) -> int:
+    """Index where the held-out tail starts: ``1 - holdout`` of the record, moved to the nearest
+    rising zero crossing of the input (a whole-cycle boundary) when the input is periodic."""
+    if not (0.05 <= holdout <= 0.6):
+        raise DataError(f"holdout must be between 0.05 and 0.6 of the record; got {holdout}")
+    n = record.n_times
+    k = int(round((1 - holdout) * n))
+    rising = rising_crossings(record.d)
+    if rising.size >= 3:
+        ok = rising[(rising > 0.4 * n) & (rising < 0.95 * n)]
+        if ok.size:
+            k = int(ok[np.argmin(np.abs(ok - k))])
+    if k < 40 or n - k < 20:
+        raise DataError(f"record {record.name!r} ({n} samples) is too short to hold out a part for the diagnosis; "
+                        "give a longer record (several input cycles)")
+    return k
+
+
+def _part(record: Record, stop: int) -> Record:
+    v = np.asarray(record.velocity())
+    return record.replace(t=record.t[:stop], d=record.d[:stop], y=record.y[:stop], d_dot=v[:stop])
+
+
+# ---------------------------------------------------------------------------------------------- fits
+def _free_run(model, params: Mapping[str, float], record: Record, x0) -> np.ndarray | None:
+    from duffsym.simulate import input_matrix, simulate
+
+    U = input_matrix(model, np.asarray(record.t), record.inputs_for(model))
+    traj = simulate(model, model.param_vector(params), np.asarray(record.t), U, x0=x0, on_failure="return")
+    if not traj.success or not np.all(np.isfinite(traj.y)):
+        return None
+    return np.asarray(traj.y, dtype=float)
+
+
+def _bic(ssr: float, n: int, k: int) -> float:
+    return n * math.log(max(ssr, 1e-300) / n) + k * math.log(n)
+
+
+def _n_estimated(result, model) -> int:
+    return len(result.free) + model.n_states
+
+
+def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
+         n_starts: int = 1, rng=0, max_iter: int = 500):
+    from duffsym.identify import Problem, fit
+
+    fixed = {k: v for k, v in fixed.items() if k in model.param_names}
+    problem = Problem(model, record, fixed=fixed, mask=mask)
+    start = None
+    if x0 is not None:
+        start = {k: v for k, v in x0.items() if k in problem.free}
+        for k in list(start):
+            lo, hi = problem.bounds[k]
+            if not lo <= start[k] <= hi:
+                start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
+    return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter)
+
+
+# ---------------------------------------------------------------------------------------------- main
+def diagnose(
+    record: Record,
+    model=None,
+    *,
+    fit_result=None,
+    start: Mapping[str, float] | None = None,
+    candidates: Iterable[str] | None = None,
+    fixed: Mapping[str, float] | None = None,
+    holdout: float = 0.3,
+    noise: float | None = None,
+    mask=None,
+    bic_threshold: float = BIC_THRESHOLD,
+    min_improvement: float = MIN_IMPROVEMENT,
+    min_explained: float = MIN_EXPLAINED,
+    candidate_max_iter: int = CANDIDATE_MAX_ITER,
+    progress=None,
+) -> Diagnosis:
+    """Where ``model`` fails on ``record`` and which catalogued effect is missing.
+
+    Parameters
+    ----------
+    record : the measurement.
+    model : the model to diagnose (default: the model of ``fit_result``, else the MR damper, n = 5).
+    fit_result : an existing fit; its model (with effects) is diagnosed and its parameters start
+        the base refit on the fitting part.
+    start : starting parameter values of the base fit (default: those of ``fit_result``, else the
+        paper's tuning procedure with three starts).
+    candidates : effect names to try (default: every catalogued effect the model lacks).
+    fixed : parameters held fixed in every fit (besides the problem defaults: A_f = max|y|, k3 = 0).
+    holdout : fraction of the record held out at its end.
+    noise : the output noise standard deviation, if known (default: estimated from the data).
+    mask : per-sample booleans: samples left out of every objective (whole record; the held-out
+        errors are computed on all samples).
+    candidate_max_iter : IPOPT iterations allowed to each candidate's fit. It starts from the base
+        optimum and the effect's guess, so a candidate that explains the data converges in a few
+        tens of iterations; one that does not (e.g. a play width driven towards 0, where the
+        smooth switch becomes sharp) is reported as not converged instead of costing minutes.
+    progress : a callable taking a message string (e.g. ``print``), or None.
+    """
+    from duffsym.effects import CATALOGUE, apply_effects, extended_start
+
+    t_start = time.perf_counter()
+    say = progress or (lambda msg: None)
+    if fit_result is not None:
+        from duffsym.identify import model_from_result
+
+        model = model if model is not None else model_from_result(fit_result)
+    if model is None:
+        from duffsym.model.library import mr_damper
+
+        model = mr_damper()
+    names = list(CATALOGUE) if candidates is None else list(candidates)
+    unknown = [c for c in names if c not in CATALOGUE]
+    if unknown:
+        raise ModelError(f"unknown effect(s) {unknown}; choose from {sorted(CATALOGUE)} (duffsym effects lists them)")
+    names = [c for c in names if c not in model.effects]
+    k = split_record(record, holdout)
+    rec_fit = _part(record, k)
+    held = slice(k, record.n_times)
+    y = np.asarray(record.y, dtype=float)
+    sigma = float(noise) if noise is not None else noise_level(y)
+    fixed = dict(fixed or {})
+    if "A_f" in model.param_names and "A_f" not in fixed:
+        fixed["A_f"] = float(np.max(np.abs(rec_fit.y)))
+    mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
+
+    say(f"base fit of {model.name} on {k} of {record.n_times} samples")
+    if start is None and fit_result is not None:
+        start = dict(fit_result.params)
+    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, n_starts=1 if start else 3)
+    if not base.success:
+        raise ModelError(f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged base "
+                         "model: check the data and the model, or give a fit with --fit")
+    y_base = _free_run(model, base.params, record, base.x0[0])
+    if y_base is None:
+        raise ModelError("the base model's free run over the whole record failed; the diagnosis needs a stable base model")
+    res = analyse_residuals(record, y_base, noise=sigma)
+    r_base = y - y_base
+    mse_held = float(np.mean(r_base[held] ** 2))
+    ss_fit = float(np.sum(r_base[:k] ** 2))
+    bic_base = _bic(ss_fit, k, _n_estimated(base, model))
+    from duffsym.identify.result import nrmse as _nrmse
+
+    out: list[Candidate] = []
+    y_cands = {}
+    for name in names:
+        effect = CATALOGUE[name]
+        t0 = time.perf_counter()
+        try:
+            ext = apply_effects(model, [effect])
+        except ModelError as exc:
+            say(f"  {name}: not applicable ({exc})")
+            continue
+        say(f"  trying {name}")
+        try:
+            x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
+            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=candidate_max_iter)
+        except (ModelError, DataError) as exc:
+            out.append(_failed(name, effect, str(exc), time.perf_counter() - t0))
+            continue
+        y_ext = _free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
+        if y_ext is None:
+            out.append(_failed(name, effect, fr.message if not fr.success else "free run failed",
+                               time.perf_counter() - t0))
+            continue
+        y_cands[name] = y_ext
+        r = y - y_ext
+        mse_h = float(np.mean(r[held] ** 2))
+        improvement = 1 - math.sqrt(mse_h / mse_held) if mse_held > 0 else 0.0
+        excess = mse_held - sigma**2
+        explained = (mse_held - mse_h) / excess if excess > 0 else 0.0
+        dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, ext)) - bic_base
+        own = [p.name for p in ext.params if p.name not in model.param_names]
+        supported = dbic < bic_threshold and improvement >= min_improvement
+        out.append(Candidate(
+            effect=name, nrmse_after=_nrmse(y[held], y_ext[held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
+            nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
+            explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
+            stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
+            message=fr.message, seconds=time.perf_counter() - t0, supported=supported,
+            needed=supported and explained >= min_explained and not res.at_noise_level, physics=effect.physics))
+    out.sort(key=lambda c: (not c.success, c.nrmse_after if math.isfinite(c.nrmse_after) else math.inf))
+    needed = tuple(c.effect for c in out if c.needed)
+    base_held = _nrmse(y[held], y_base[held])
+    verdict = _verdict(res, out, base_held)
+    return Diagnosis(
+        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
+        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
+        y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
+        noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
+        y_candidates=y_cands,
+    )
+
+
+def _failed(name, effect, message, seconds) -> Candidate:
+    return Candidate(effect=name, nrmse_after=math.nan, nrmse_after_fit=math.nan, nrmse_after_all=math.nan,
+                     delta_bic=math.nan, improvement=math.nan, explained=math.nan, params={}, stderr={},
+                     all_params={}, success=False, message=message, seconds=seconds, physics=effect.physics)
+
+
+def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float) -> str:
+    ok = [c for c in cands if c.success]
+    best = ok[0] if ok else None
+    where = res.findings()
+    if res.at_noise_level and not any(c.needed for c in ok):
+        return (f"No effect is needed: the residual is white and at the noise level "
+                f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}); no catalogued effect improves the held-out error "
+                f"convincingly.")
+    if best is not None and best.needed:
+        s = (f"The model fails: {where[0] if where else 'the residual is structured'}. "
+             f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
+             f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {100 * best.explained:.0f} % of the excess error).")
+        ties = [c for c in ok[1:] if c.needed and c.nrmse_after <= best.nrmse_after * (1 + TIE)]
+        if ties:
+            s += (f" {', '.join(c.effect for c in ties)} explain{'s' if len(ties) == 1 else ''} it almost as well "
+                  "here: this record cannot tell them apart.")
+        return s
+    if best is not None and best.supported:
+        return (f"The model fails: {where[0] if where else 'the residual is structured'}. "
+                f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
+                f"{best.delta_bic:.0f}) but removes only {100 * best.explained:.0f} % of the excess error, so it is not "
+                f"the missing effect with confidence. What remains: {'; '.join(where[:2]) if where else 'unclear'}.")
+    return ("No catalogued effect explains what the model misses: "
+            + ("; ".join(where[:3]) if where else "the residual is structured")
+            + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
+               f"{best.nrmse_after:.3g}." if best is not None else "."))
+
+
+def _lower(s: str) -> str:
+    return s[:1].lower() + s[1:] if s else s
