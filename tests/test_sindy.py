@@ -102,6 +102,18 @@ def test_an_effect_outside_the_library_gives_inconclusive_not_a_wrong_term(model
     assert not any(m["supported"] for m in res.missing_terms())
 
 
+def test_output_offset_of_a_fitted_effect_is_removed_before_the_velocity_is_rebuilt(model):
+    offset_model = apply_effects(model, [CATALOGUE["force-offset"]])
+    truth = {**TRUTH, "off_y0": 0.3}
+    exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=8.0, seed=2)
+    rec = synthetic_record(offset_model, truth, exc, dt=0.002, duration=8.0, noise=0.0, settle=2.0, rng=2)
+    res = crosscheck(rec, offset_model, params=truth, n_models=4)
+    assert res.verdict == "consistent" and set(res.selected) == TRUE_TERMS
+    assert abs(res.term("x_dot^5")["coefficient"] / -TRUTH["c3"] - 1) < 0.01
+    with pytest.raises(ModelError, match="off_y0"):
+        crosscheck(rec, offset_model, n_models=4)
+
+
 def test_single_sine_at_the_paper_sampling_is_inconclusive(model):
     rec = synthetic_record(model, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=5.0, noise=0.02, settle=2.0, rng=0)
     res = crosscheck(rec, model, params=TRUTH, n_models=6)

@@ -7,7 +7,8 @@ support, how they compare with a fit, and when the data cannot decide. The diagn
 """
 from duffsym.sindy.check import SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
 from duffsym.sindy.library import CandidateLibrary, Term, candidate_library, split_terms
-from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
+from duffsym.sindy.states import ReconstructedStates, output_gain, output_split, reconstruct_states
 
 __all__ = ["crosscheck", "sindy_evidence", "SindyCrossCheck", "Thresholds", "candidate_library",
-           "CandidateLibrary", "Term", "split_terms", "reconstruct_states", "ReconstructedStates", "output_gain"]
+           "CandidateLibrary", "Term", "split_terms", "reconstruct_states", "ReconstructedStates", "output_gain",
+           "output_split"]

@@ -466,7 +466,7 @@ def crosscheck(
     width = 2 * max(4, int(round(window_s / max(dts) / 2)))  # even, so that halving the sampling keeps the windows
     stride = 2 * max(1, width // 8)
 
-    parts = [reconstruct_states(r, model, gain_value) for r in records]
+    parts = [reconstruct_states(r, model, gain_value, ref) for r in records]
     G, b, C = _system(parts, lib, method, width, stride)
     G, b = _project_out(C, G, b)
     norms = np.linalg.norm(G, axis=0)
@@ -527,7 +527,8 @@ def crosscheck(
         r2 = float(1.0 - np.sum((bn - Gn[:, sel_cols] @ c_sel) ** 2))
     else:
         r2 = 0.0
-    change = _sampling_change(records, model, lib, method, width, stride, gain_value, relevant, Gn, bn, norms, bnorm)
+    change = _sampling_change(records, model, lib, method, width, stride, gain_value, relevant, Gn, bn, norms, bnorm,
+                              ref)
     spread = _bootstrap_spread(Gn, bn, relevant, n_models, rng)
     # a change within 3 bootstrap standard deviations is noise (half the samples carry other noise), not sampling
     beyond = change > 3.0 * spread
@@ -666,8 +667,9 @@ def crosscheck(
     )
 
 
-def _sampling_change(records, model, lib, method, width, stride, gain, relevant, Gn, bn, norms, bnorm) -> float:
-    """Largest change of a relevant normalised coefficient when every other sample is dropped.
+def _sampling_change(records, model, lib, method, width, stride, gain, relevant, Gn, bn, norms, bnorm,
+                     params=None) -> np.ndarray:
+    """Relative change of each relevant coefficient when every other sample is dropped.
 
     Both systems use the same windows in time (``width`` and ``stride`` are even) and the same
     column scaling; the position is re-integrated from the decimated velocity, so the error of
@@ -680,7 +682,7 @@ def _sampling_change(records, model, lib, method, width, stride, gain, relevant,
         for r in records:
             v = np.asarray(r.velocity())
             half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2]))
-        parts = [reconstruct_states(r, model, gain) for r in half]
+        parts = [reconstruct_states(r, model, gain, params) for r in half]
         G2, b2, C2 = _system(parts, lib, method, width // 2, stride // 2)
     except DataError:
         return np.full(len(relevant), np.inf)
