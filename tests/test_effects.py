@@ -89,8 +89,8 @@ def test_each_effect_adds_the_hand_written_terms(name):
     else:  # backlash
         b, h = sym("b_backlash"), P["bl_h"]
         sig = lambda u: (1 + sp.tanh(u)) / 2  # noqa: E731
-        eps, g, w = h / 10, d - b, sp.Rational(1, 10) * dd / h
-        b_dot = dd * (sig((g - h) / eps + 2) * sig(w) + sig((-g - h) / eps + 2) * sig(-w))
+        eps, g, w = h / 5, d - b, sp.Rational(1, 10) * dd / h
+        b_dot = dd * (sig((g - h) / eps + 1) * sig(w) + sig((-g - h) / eps + 1) * sig(-w))
         exp_rhs, exp_out = [v, accel(b, b_dot), b_dot], A_f * v
     assert len(E.rhs) == len(exp_rhs)
     for got, want in zip(E.rhs, exp_rhs):
@@ -226,8 +226,8 @@ def test_smooth_play_follows_the_exact_play_operator():
         u, _ = apply_backlash(exc(t), exc.derivative(t, 1), h)
         late = t > 0.5
         h_eff = np.max(np.abs(exc(t)[late] - b[late]))
-        assert 1.05 * h < h_eff < 1.2 * h
-        assert np.sqrt(np.mean((b[late] - u[late]) ** 2)) < 0.16 * h
+        assert 1.3 * h < h_eff < 1.52 * h  # measured 1.33-1.49 (docstring of Backlash)
+        assert np.sqrt(np.mean((b[late] - u[late]) ** 2)) < 0.43 * h
 
 
 def test_pade_delay_is_all_pass_with_the_documented_phase():

@@ -15,7 +15,7 @@ input-delay        Pade all-pass state q; d -> 2q - d (also covers a ZOH)       
 backlash           smooth play state b; d -> b                                  bl_h
 =================  ===========================================================  ===============
 """
-from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
+from duffsym.effects.base import Effect, apply_effects, effect_chain, extended_start, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
@@ -27,5 +27,6 @@ CATALOGUE: dict[str, Effect] = {e.name: e for e in (
 )}
 
 __all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "Backlash", "apply_effects", "effect_chain", "initial_states_with_effects",
+           "OutputLag", "InputDelay", "Backlash", "apply_effects", "effect_chain", "extended_start",
+           "initial_states_with_effects",
            "CATALOGUE"]

@@ -241,3 +241,67 @@ def lstsq_coeffs(r: np.ndarray, *columns: np.ndarray) -> np.ndarray:
     A = np.column_stack(columns)
     coef, *_ = np.linalg.lstsq(A, r, rcond=1e-10)
     return np.where(np.isfinite(coef), coef, 0.0)
+
+
+def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Mapping[str, float], y_model,
+                   fixed: Mapping[str, float] | None = None) -> dict[str, float]:
+    """Starting parameters for fitting ``model`` (which includes ``effect``) after a base fit.
+
+    Two candidates, the one whose free run of ``model`` on ``record`` has the smaller error is kept:
+
+    1. the base fit's parameters (``base_params``) with the effect's :meth:`Effect.initial_guess`;
+    2. for effects with an output term (offset, gas, inertia, asymmetry): the base parameters
+       re-guessed by the paper's tuning procedure (:func:`duffsym.identify.initial_guess`) on the
+       record with the effect's output term removed (:meth:`Effect.base_output` at the guessed
+       values), with the same effect guess.
+
+    Why: a base model fitted to data with, e.g., an offset or a compression/extension asymmetry can
+    settle where it mimics the effect (k1 = k2 = 0, a drifting mass carries the mean force); started
+    there, the extended fit can stop in that valley (measured: NRMSE 0.017 instead of the noise
+    level 0.0093 on one seed), while candidate 2 starts it near the truth. For the other effects
+    candidate 1 is used alone (a re-guess, although closer in free run, led the backlash fit to a
+    worse optimum).
+
+    ``fixed``: the values the fit will hold (e.g. ``problem.fixed``; ``A_f`` otherwise defaults to
+    ``max|y|`` in the re-guess). Returns every parameter of ``model`` (clipped to its bounds).
+    """
+    from duffsym.identify.collocation import _input_matrix, initial_states
+    from duffsym.identify.initial import initial_guess
+    from duffsym.simulate import simulate
+
+    fixed = dict(fixed or {})
+    guess = effect.initial_guess(record, y_model)
+    defaults = model.defaults()
+
+    def complete(values: Mapping[str, float]) -> dict[str, float]:
+        out = {}
+        for p in model.params:
+            v = fixed.get(p.name, guess.get(p.name, values.get(p.name, defaults[p.name])))
+            out[p.name] = float(min(max(v, p.lower), p.upper))
+        return out
+
+    candidates = [complete(base_params)]
+    y = np.asarray(record.y, dtype=float)
+    y_b = effect.base_output(y, record, {**defaults, **dict(base_params), **guess})
+    if np.array_equal(y_b, y):  # no output term to remove: the base optimum is the start
+        return candidates[0]
+    try:
+        rec_b = record.replace(y=y_b)
+        chain = effect_chain(model)
+        if chain is not None:
+            base = chain[0]
+            sub_fixed = {k: v for k, v in fixed.items() if k in base.param_names}
+            candidates.append(complete(initial_guess(rec_b, base, fixed=sub_fixed)))
+    except Exception:  # the re-guess is an optional improvement; keep candidate 1
+        pass
+    if len(candidates) == 1:
+        return candidates[0]
+    t = np.asarray(record.t)
+    U = _input_matrix(model, record)
+    costs = []
+    for c in candidates:
+        p = model.param_vector(c)
+        tr = simulate(model, p, t, U, x0=initial_states(model, record, p)[0], on_failure="return")
+        ok = tr.success and np.all(np.isfinite(tr.y))
+        costs.append(float(np.mean((np.asarray(tr.y) - y) ** 2)) if ok else np.inf)
+    return candidates[int(np.argmin(costs))]

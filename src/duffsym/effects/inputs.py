@@ -149,17 +149,20 @@ class Backlash(Effect):
               + \sigma\big(\tfrac{-g-h}{\varepsilon} + c\big)\,\sigma\big(-\tfrac{T\dot d}{h}\big)\Big],
               \qquad g = d - b,\quad \sigma(u) = \tfrac{1 + \tanh u}{2}
 
-    with :math:`\varepsilon = h/10`, :math:`c = 2` and :math:`T = 0.1` s. The first factor engages at
+    with :math:`\varepsilon = h/5`, :math:`c = 1` and :math:`T = 0.1` s. The first factor engages at
     an edge of the gap, the second only while ``d`` moves outwards (without it the smooth switch,
-    never exactly 0 or 1, keeps dragging ``b`` back after a reversal). The trade-off, measured on a
-    unit sine at 2 Hz against the exact play operator
-    (:func:`duffsym.data.synthetic.apply_backlash`): the effective half-width of the smooth play is
-    11–18 % larger than ``h`` for h = 0.1–0.02 (RMS difference of ``b`` 8–15 % of ``h``); with
-    :math:`\varepsilon = h/20, c = 3` it is 3–6 % (3–5 %), but the state is twice as stiff
-    (:math:`\partial\dot b/\partial b \approx |\dot d|/(4\varepsilon)`) and IPOPT, from the base fit and
-    this initial guess, stopped in a local optimum on data with the exact play of h = 0.03 (NRMSE
-    0.048 instead of 0.010; h/10, c = 2 reached 0.010 with h = 0.0289). Fitted to data made with the
-    exact play, ``h`` comes out within ~10 % (tests).
+    never exactly 0 or 1, keeps dragging ``b`` back after a reversal).
+
+    The sharpness is a trade-off between fidelity and a fit that converges. Against the exact play
+    operator (:func:`duffsym.data.synthetic.apply_backlash`) on a unit sine at 2 Hz, the smooth play's
+    largest gap ``max|d - b|`` is 1.33–1.49 h for h = 0.1–0.02 (RMS difference of ``b`` 27–41 % of
+    h); sharper settings follow it closer (h/10, c = 2: 1.11–1.18 h; h/20, c = 3: 1.03–1.06 h) but
+    the engagement, a kink in ``b(t)``, then falls within a fraction of a sampling interval, where
+    the degree-3 collocation cannot represent it: the NLP settles on trajectories the free run
+    does not follow (measured with h/10, c = 2 on five records with h = 0.05, dt = 0.005 s: free-run
+    NRMSE 0.046–0.055 instead of 0.010; ``fit(..., degree=5)`` resolved one such case). With h/5,
+    c = 1 all five reached the noise level (0.009–0.012), and fitted to data made with the *exact*
+    play of h = 0.05, ``h`` came out 0.048 (the base parameters absorb the softer corner).
     :math:`T` sets the velocity :math:`h/T` below which the direction is undecided: ``b`` leaks about
     :math:`(h/T)^2/|\ddot d|` at each reversal (1.6e-3 at h = 0.05 on a unit 2 Hz sine).
 
@@ -174,11 +177,11 @@ class Backlash(Effect):
     physics: str = "joint backlash (play) between actuator and piston: the force stays flat after each reversal (deadzone, Fig. 8)"
     signature: str = ("residual concentrated just after velocity reversals, where the measured force stays flat "
                       "while the model's already changes; zero at high velocity")
-    form: str = "b' = d' [s((g-h)/eps+2) s(T d'/h) + s((-g-h)/eps+2) s(-T d'/h)], g = d - b, eps = h/10; d -> b"
+    form: str = "b' = d' [s((g-h)/eps+1) s(T d'/h) + s((-g-h)/eps+1) s(-T d'/h)], g = d - b, eps = h/5; d -> b"
     guess: str = "half of the extra input travel the measured force needs after a reversal vs y_model"
     n_states: int = 1
-    kappa: float = 10.0
-    offset: float = 2.0
+    kappa: float = 5.0
+    offset: float = 1.0
     direction_time: float = 0.1
 
     def parameters(self) -> tuple[ParamSpec, ...]:

@@ -1,0 +1,106 @@
+"""Each catalogued effect, hidden at a known value in synthetic Table 2 data (0.4 V row, dt = 0.005 s,
+1 % output noise), is recovered by fitting the extended model (collocation + IPOPT) from the base
+fit and the effect's data-based initial guess, and the free-run NRMSE falls at least twofold.
+
+A_f is fixed at its true value: the scaling symmetry x -> s x leaves the base output unchanged but
+rescales effects acting on the internal velocity x' (friction, asymmetry), so with A_f = max|y|
+those would be recovered in rescaled units.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from duffsym import Sine, mr_damper
+from duffsym.data import synthetic_record
+from duffsym.data.record import Record
+from duffsym.effects import CATALOGUE, apply_effects, extended_start
+from duffsym.excitation import Multisine
+from duffsym.identify import Problem, fit
+from duffsym.model.presets import table2_params
+from duffsym.simulate import simulate
+
+M = mr_damper()
+TRUTH = table2_params(0.4)
+FIXED = {"A_f": TRUTH["A_f"]}
+NOISE = 0.01
+SINE = Sine(1.0, 2.0)
+MULTISINE = Multisine((0.7, 0.25, 0.1), (1.0, 2.5, 5.0), (0.0, 1.0, 2.0))
+
+#: effect -> (Table 2 row (V), hidden parameter values, excitation). Rows differ from the model
+#: defaults (the 0.4 V row) except for inertia, so no fit starts at the truth by accident.
+CASES = {
+    "force-offset": (0.8, {"off_y0": 0.3}, SINE),
+    "gas-accumulator": (0.2, {"off_y0": 0.1, "gas_k": 0.2}, SINE),
+    "inertia": (0.4, {"inertia_m": 0.002}, MULTISINE),
+    "coulomb-friction": (0.6, {"fric_mu": 20.0}, SINE),
+    "asymmetry": (0.8, {"asym_a": 0.15}, SINE),
+    "output-lag": (0.2, {"lag_tau": 0.01}, SINE),
+    "input-delay": (0.6, {"delay_tau": 0.01}, SINE),
+    "backlash": (0.3, {"bl_h": 0.05}, SINE),
+}
+
+
+def base_then_extended(record, effect, fixed):
+    """Base fit, then the extended fit from :func:`extended_start` (the base optimum + the effect's
+    initial guess, or the base re-guessed on the effect-corrected record, whichever runs closer)."""
+    base = fit(Problem(M, record, fixed=fixed))
+    assert base.success, base.message
+    ext_model = apply_effects(M, [effect])
+    problem = Problem(ext_model, record, fixed=fixed)
+    start = extended_start(ext_model, effect, record, base.params, base.y_sim[0], fixed=fixed)
+    guess = effect.initial_guess(record, base.y_sim[0])
+    return base, fit(problem, x0={k: start[k] for k in problem.free}), guess
+
+
+def noise_nrmse(record) -> float:
+    return record.metadata["noise_std"] / float(np.std(record.y))
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_hidden_effect_is_recovered_and_the_error_halves(name):
+    volt, values, exc = CASES[name]
+    effect = CATALOGUE[name]
+    truth = {**table2_params(volt), **values}
+    fixed = {"A_f": truth["A_f"]}
+    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5, noise=NOISE, rng=11)
+    base, ext, guess = base_then_extended(record, effect, fixed)
+    assert ext.success, ext.message
+    for k, true in values.items():
+        err = abs(ext.params[k] - true)
+        # a few standard errors, or 3 % where the Laplace stderr is below the discretisation bias
+        assert err <= max(4 * ext.stderr[k], 0.03 * abs(true)), (k, true, ext.params[k], ext.stderr[k], guess)
+    assert ext.nrmse <= base.nrmse / 2, (base.nrmse, ext.nrmse)
+    assert ext.nrmse <= 1.3 * noise_nrmse(record)  # down to the noise
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("h, tol", [(0.03, 0.25), (0.05, 0.1), (0.1, 0.1)])
+def test_backlash_effect_explains_the_exact_play_of_the_rig(h, tol):
+    """Data made with the exact play operator (synthetic_record(backlash=h), paper Fig. 8), fitted with
+    the smooth catalogue form. Measured (seeds 2, 3): h = 0.02 -> 0.0161, 0.0140; 0.03 -> 0.0249, 0.0241;
+    0.05 -> 0.0479, 0.0478; 0.1 -> 0.0971, 0.0973 (the smooth play's h underestimates a small exact
+    gap); NRMSE 0.035-0.097 -> 0.010-0.014 (0.018 once at h = 0.02), noise level 0.010."""
+    record = synthetic_record(M, TRUTH, SINE, dt=0.005, duration=1.5, noise=NOISE, backlash=h, rng=2)
+    base, ext, _ = base_then_extended(record, CATALOGUE["backlash"], FIXED)
+    assert ext.success and abs(ext.params["bl_h"] / h - 1) < tol
+    assert ext.nrmse <= base.nrmse / 2 and ext.nrmse <= 1.5 * noise_nrmse(record)
+
+
+@pytest.mark.slow
+def test_gas_stiffness_and_inertia_separate_under_a_multisine():
+    """Under one sine d'' = -w^2 d makes them one term; a multisine separates them."""
+    effects = [CATALOGUE["gas-accumulator"], CATALOGUE["inertia"]]
+    model = apply_effects(M, effects)
+    values = {"off_y0": 0.1, "gas_k": 0.3, "inertia_m": 0.002}
+    record = synthetic_record(model, {**TRUTH, **values}, MULTISINE, dt=0.005, duration=2.0, noise=NOISE, rng=5)
+    base = fit(Problem(M, record, fixed=FIXED))
+    problem = Problem(model, record, fixed=FIXED)
+    x0 = {k: float(np.clip(v, *problem.bounds[k])) for k, v in base.params.items() if k in problem.free}
+    for e in effects:
+        x0.update(e.initial_guess(record, base.y_sim[0]))
+    ext = fit(problem, x0=x0)  # base optimum + both guesses
+    assert ext.success
+    for k, true in values.items():
+        assert abs(ext.params[k] - true) <= max(4 * ext.stderr[k], 0.03 * abs(true)), (k, ext.params[k])
+    assert ext.nrmse <= 1.3 * noise_nrmse(record)
