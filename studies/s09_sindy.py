@@ -17,8 +17,10 @@ Scenarios (Table 2, 0.4 V row; truth known):
   smoothed-finite-difference forms;
 - real MR damper (UTFSM, 1 kHz tests 5 mm 3 Hz and 10 mm 1 Hz, 0 A and 1 A): each test alone and both pooled.
 
-Result (full run, 47-88 s on 2 shared cores): noise-free rich record: exactly the model's terms, largest
-coefficient error 0.03 %; 1 % noise: the exact term set in 20/20 seeds, coefficient errors up to 2.1 %;
+Result (full run, 165 s on 2 shared cores, of which ~100 s for the comparison selections): noise-free
+rich record: exactly the model's terms, largest coefficient error 0.03 %; 1 % noise: the exact term set
+in 20/20 seeds, coefficient errors up to 2.1 % (plain pysindy selections on the same records and
+states: SSR path 7/20, STLSQ 0/20, both keeping or swapping in x'^3, x'^7, x'|x'| for x'^5);
 hidden friction (mu = 5): tanh(x'/0.01) flagged in 5/5 seeds, mu estimated 4.45-5.12. Single sine at
 5 ms with 2 % noise: inconclusive (collinear velocity powers, unstable inclusion); the same noise-free:
 the weak form recovers the model exactly ("consistent" is then the truth); smoothed finite differences
