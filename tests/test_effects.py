@@ -49,7 +49,7 @@ def same(a, b) -> bool:
 
 def test_catalogue_has_every_effect_of_the_issue_with_prefixed_parameters():
     assert set(CATALOGUE) == {"force-offset", "gas-accumulator", "inertia", "coulomb-friction", "asymmetry",
-                              "output-lag", "input-delay", "backlash"}
+                              "output-lag", "input-delay", "input-shift", "backlash"}
     for name, e in CATALOGUE.items():
         assert e.name == name and e.physics and e.signature and e.form and e.guess
         for p in e.parameters():
@@ -86,6 +86,10 @@ def test_each_effect_adds_the_hand_written_terms(name):
         q, tau = sym("q_delay"), P["delay_tau"]
         exp_rhs = [v, accel(2 * q - d, 4 * (d - q) / tau - dd), 2 * (d - q) / tau]
         exp_out = A_f * v
+    elif name == "input-shift":
+        tau = P["shift_tau"]
+        assert [c.name for c in E.inputs] == ["d", "d_dot", "d_ddot"]
+        exp_rhs, exp_out = [v, accel(d - tau * dd, dd - tau * dddot)], A_f * v
     else:  # backlash
         b, h = sym("b_backlash"), P["bl_h"]
         sig = lambda u: (1 + sp.tanh(u)) / 2  # noqa: E731
@@ -115,14 +119,15 @@ def test_derivation_report_runs_on_each_extended_model(name, base_report):
 
 
 def test_all_effects_compose_and_simulate():
-    order = ["coulomb-friction", "asymmetry", "gas-accumulator", "inertia", "output-lag", "input-delay", "backlash"]
+    order = ["coulomb-friction", "asymmetry", "gas-accumulator", "inertia", "output-lag", "input-shift",
+             "input-delay", "backlash"]
     E = apply_effects(M, [CATALOGUE[n] for n in order])
     assert E.effects == tuple(order) and E.n_states == 5
     assert [c.name for c in E.inputs] == ["d", "d_dot", "d_ddot"]
     # the backlash and the delay replace d'' as well: no bare d_ddot left in the output outside the chain
     t = np.arange(0, 1.0, 0.005)
     p = {**TRUTH, "fric_mu": 2.0, "asym_a": 0.1, "off_y0": 0.1, "gas_k": 0.1, "inertia_m": 0.001,
-         "lag_tau": 0.01, "delay_tau": 0.005, "bl_h": 0.05}
+         "lag_tau": 0.01, "delay_tau": 0.005, "shift_tau": 0.002, "bl_h": 0.05}
     tr = simulate(E, p, t, Sine(1.0, 2.0))
     assert tr.success and np.all(np.isfinite(tr.y))
 
@@ -204,6 +209,8 @@ def test_initial_guesses_on_the_residual_they_target(sine_record):
     shifted = np.interp(t - 0.012, t, y)
     g = CATALOGUE["input-delay"].initial_guess(sine_record.replace(y=shifted), y)
     assert g["delay_tau"] == pytest.approx(0.012, abs=0.001)
+    g = CATALOGUE["input-shift"].initial_guess(sine_record.replace(y=np.interp(t + 0.004, t, y)), y)
+    assert g["shift_tau"] == pytest.approx(-0.004, abs=0.001)
     g = CATALOGUE["output-lag"].initial_guess(sine_record.replace(y=y - 0.01 * np.gradient(y, t)), y)
     assert g["lag_tau"] == pytest.approx(0.01, rel=0.1)
 

@@ -26,6 +26,7 @@ FIXED = {"A_f": TRUTH["A_f"]}
 NOISE = 0.01
 SINE = Sine(1.0, 2.0)
 MULTISINE = Multisine((0.7, 0.25, 0.1), (1.0, 2.5, 5.0), (0.0, 1.0, 2.0))
+FAST = Multisine((0.6, 0.3, 0.15), (1.0, 4.0, 10.0), (0.0, 1.0, 2.0))  # up to dt*f = 0.05
 
 #: effect -> (Table 2 row (V), hidden parameter values, excitation). Rows differ from the model
 #: defaults (the 0.4 V row) except for inertia, so no fit starts at the truth by accident.
@@ -37,6 +38,7 @@ CASES = {
     "asymmetry": (0.8, {"asym_a": 0.15}, SINE),
     "output-lag": (0.2, {"lag_tau": 0.01}, SINE),
     "input-delay": (0.6, {"delay_tau": 0.01}, SINE),
+    "input-shift": (0.2, {"shift_tau": 0.0025}, FAST),
     "backlash": (0.3, {"bl_h": 0.05}, SINE),
 }
 
@@ -63,7 +65,7 @@ def test_hidden_effect_is_recovered_and_the_error_halves(name):
     effect = CATALOGUE[name]
     truth = {**table2_params(volt), **values}
     fixed = {"A_f": truth["A_f"]}
-    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5, noise=NOISE, rng=11)
+    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5 if exc is SINE else 2.0, noise=NOISE, rng=11)
     base, ext, guess = base_then_extended(record, effect, fixed)
     assert ext.success, ext.message
     for k, true in values.items():
@@ -104,3 +106,18 @@ def test_gas_stiffness_and_inertia_separate_under_a_multisine():
     for k, true in values.items():
         assert abs(ext.params[k] - true) <= max(4 * ext.stderr[k], 0.03 * abs(true)), (k, ext.params[k])
     assert ext.nrmse <= 1.3 * noise_nrmse(record)
+
+
+@pytest.mark.parametrize("name", ["input-shift", "input-delay"])
+def test_a_held_input_is_found_as_half_a_sample_of_delay(name):
+    """Data simulated with a zero-order hold of the sampled input; the fit interpolates linearly.
+    Measured: base NRMSE 0.079; input-shift 0.0125 (2.70 ms), input-delay 0.0103 (2.81 ms)."""
+    dt = 0.005
+    t = np.arange(0.0, 2.0, dt)
+    tr = simulate(M, TRUTH, t, {"d": FAST(t), "d_dot": FAST.derivative(t, 1)}, reconstruction="hold")
+    y = tr.y + NOISE * np.std(tr.y) * np.random.default_rng(0).standard_normal(t.size)
+    record = Record(t=t, d=FAST(t), d_dot=FAST.derivative(t, 1), y=y)
+    base, ext, _ = base_then_extended(record, CATALOGUE[name], FIXED)
+    tau = ext.params[f"{CATALOGUE[name].prefix}tau"]
+    assert ext.success and tau == pytest.approx(dt / 2, rel=0.2)
+    assert ext.nrmse <= base.nrmse / 5

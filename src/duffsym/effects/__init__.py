@@ -11,22 +11,23 @@ inertia            y += inertia_m d''                                           
 coulomb-friction   x'' += -fric_mu tanh(x'/0.01)                                fric_mu
 asymmetry          y += asym_a F tanh(x'/0.05)                                  asym_a
 output-lag         z' = (y - z)/lag_tau, output z                               lag_tau
-input-delay        Pade all-pass state q; d -> 2q - d (also covers a ZOH)       delay_tau
+input-delay        Pade all-pass state q; d -> 2q - d                           delay_tau
+input-shift        d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)  shift_tau
 backlash           smooth play state b; d -> b                                  bl_h
 =================  ===========================================================  ===============
 """
 from duffsym.effects.base import Effect, apply_effects, effect_chain, extended_start, initial_states_with_effects
-from duffsym.effects.inputs import Backlash, InputDelay
+from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
 
 #: Effects by name.
 CATALOGUE: dict[str, Effect] = {e.name: e for e in (
     ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), Asymmetry(), OutputLag(),
-    InputDelay(), Backlash(),
+    InputDelay(), InputShift(), Backlash(),
 )}
 
 __all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "Backlash", "apply_effects", "effect_chain", "extended_start",
+           "OutputLag", "InputDelay", "InputShift", "Backlash", "apply_effects", "effect_chain", "extended_start",
            "initial_states_with_effects",
            "CATALOGUE"]
