@@ -57,7 +57,7 @@ class Config:
 
     @classmethod
     def smoke(cls) -> "Config":
-        return cls(n_walkers=16, n_steps=300, ridge_steps=300, n_bands=40, duration=1.0)
+        return cls(n_walkers=16, n_steps=200, ridge_steps=200, n_bands=30, duration=1.0)
 
     def summary(self) -> str:
         return (f"s08 config: Table 2 {self.voltage:g} V, {self.frequency:g} Hz sine, {self.duration:g} s at dt "

@@ -224,3 +224,15 @@ def test_cli_sample(sine_fit, tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
     assert main(["sample", str(csv), "--fit", str(fitp), "--walkers", "4", "--steps", "10", "--quiet"]) == 2
     assert "n_walkers" in capsys.readouterr().err
+
+
+def test_serial_and_vectorized_chains_agree(sine_fit):
+    """The per-walker path (used with a pool) and the batch path give the same chain for the same seed."""
+    rec, res = sine_fit
+    kw = dict(n_walkers=12, n_steps=25, rng=4, recheck_draws=0, sigma_draws=0)
+    with pytest.warns(ConvergenceWarning):
+        a = sample(res, rec, **kw)
+    with pytest.warns(ConvergenceWarning):
+        b = sample(res, rec, vectorize=False, **kw)
+    np.testing.assert_allclose(a.chain, b.chain, rtol=1e-12)
+    assert a.counts == b.counts and sum(a.counts.values()) == 12 * 26

@@ -370,13 +370,11 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
         raise ModelError(f"n_walkers must be an integer >= 2 x {post.n_dim} (the dimension); got {n_walkers!r}")
     phi0 = 0.0
     if noise == "ar1":
-        ssr0 = []
         z_opt = post.coords(np.r_[[float(result.params[n]) for n in result.free], 0.0])
         P = post.params(z_opt)
         rs = [(sim.run(P)[0][0] - y)[k] for sim, y, k in zip(post.simulators, post.ys, post.keep)]
         r = np.concatenate(rs)
         phi0 = float(np.clip(np.sum(r[1:] * r[:-1]) / np.sum(r * r), -0.9, 0.9)) if r.size > 2 else 0.0
-        del ssr0
     p0, z_opt = _initial_walkers(post, result, int(n_walkers), float(init_spread), rng, phi0)
     t_setup = time.perf_counter() - t_start
     vectorize = pool is None if vectorize is None else bool(vectorize)
@@ -449,7 +447,7 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
                   "moves": move_label, "emcee": emcee.__version__,
                   "threads": threads},
         timings={"setup": t_setup, "sampling": t_run, "sampling_cpu": cpu_run, "per_step": t_run / n_steps,
-                 "per_evaluation": t_run / max(n_eval, 1) if vectorize or pool is None else t_run / (n_steps * n_walkers),
+                 "per_walker_step": t_run / (n_steps * n_walkers),
                  "total": time.perf_counter() - t_start},
         fit={"model": result.model, "effects": list(result.effects), "params": dict(result.params),
              "free": list(result.free), "fixed": dict(result.fixed), "nrmse": float(result.nrmse)},
