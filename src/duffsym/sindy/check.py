@@ -114,7 +114,7 @@ def _strong_rows(rs: ReconstructedStates, theta: np.ndarray, width: int, stride:
     dt = float(rs.t[1] - rs.t[0])
     window = max(5, width // 2 + (1 - (width // 2) % 2))
     diff = ps.SmoothedFiniteDifference(smoother_kws={"window_length": window, "polyorder": 3})
-    acc = np.asarray(diff._differentiate(rs.velocity.reshape(-1, 1), dt)).reshape(-1)
+    acc = np.asarray(diff(rs.velocity.reshape(-1, 1), dt)).reshape(-1)
     keep = np.arange(window, rs.t.size - window, max(1, stride // 4))
     return theta[keep], acc[keep], np.column_stack([np.ones(keep.size), rs.t[keep]])
 
