@@ -181,3 +181,18 @@ def test_cli_sindy_with_a_fit_compares_coefficients(tmp_path, model, capsys):
         if t["name"] in TRUE_TERMS:
             assert t["agrees"] is True, t
             assert t["model_stderr"] is not None
+
+
+def test_real_damper_single_sine_is_not_given_a_confident_verdict():
+    """UTFSM 1 kHz test (skipped without the external data): inconclusive, with measured reasons."""
+    from duffsym.data import external_data_dir, load_mr_damper_utfsm
+
+    try:
+        path = external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed" / "10mm1Hz1A.txt"
+    except DataError:
+        pytest.skip("external data folder absent")
+    if not path.is_file():
+        pytest.skip(f"{path} absent")
+    res = crosscheck(load_mr_damper_utfsm(path, velocity="derive"), n_models=6)
+    assert res.verdict == "inconclusive" and res.reasons
+    assert res.gain == pytest.approx(float(np.max(np.abs(load_mr_damper_utfsm(path).y))))
