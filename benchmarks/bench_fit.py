@@ -158,6 +158,7 @@ class Baseline:
         p0 = np.array([start[k] for k in FREE], dtype=float)
         self.nsim = 0
         self._t0 = time.perf_counter()
+        c0 = time.process_time()
         try:
             res = least_squares(self.residual, p0, method="trf", bounds=(0.0, np.inf), max_nfev=self.max_nfev,
                                 diff_step=self.diff_step)
@@ -168,6 +169,7 @@ class Baseline:
             out = {"params": None, "converged": False, "status": None, "message": "per-start time limit reached",
                    "nfev": None, "njev": None, "cost": None, "timed_out": True}
         out["wall_s"] = time.perf_counter() - self._t0
+        out["cpu_s"] = time.process_time() - c0
         out["n_simulations"] = self.nsim
         return out
 
@@ -182,14 +184,23 @@ def duffsym_command() -> list[str]:
 
 def run_cli(csv: Path, extra=()) -> tuple[float, dict, int, str]:
     cmd = [*duffsym_command(), "fit", str(csv), "--json", "--quiet", *extra]
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), children_cpu()
     pr = subprocess.run(cmd, capture_output=True, text=True)
     wall = time.perf_counter() - t0
     try:
         out = json.loads(pr.stdout)
     except json.JSONDecodeError:
         out = {}
+    out["_cpu_s"] = children_cpu() - c0
     return wall, out, pr.returncode, pr.stderr.strip()[-400:]
+
+
+def children_cpu() -> float:
+    """CPU seconds (user + system) used so far by finished child processes."""
+    import resource
+
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
 
 
 def part_main(args) -> dict:
@@ -209,10 +220,11 @@ def part_main(args) -> dict:
     for _ in range(args.repeat):
         ld = load()
         wall, js, rc, err = run_cli(csv)
-        cli.append({"wall_s": wall, "returncode": rc, "load": ld, "nrmse_reported": js.get("nrmse"),
+        cli.append({"wall_s": wall, "cpu_s": js.get("_cpu_s"), "returncode": rc, "load": ld, "nrmse_reported": js.get("nrmse"),
                     "success": js.get("success"), "n_iter": js.get("n_iter"), "timings": js.get("timings"),
                     "params": js.get("params"), "x0": js.get("x0"), "stderr_tail": err})
-        print(f"  duffsym fit CLI: {wall:.2f} s (rc {rc}, nrmse {js.get('nrmse')}, load {ld})", flush=True)
+        print(f"  duffsym fit CLI: {wall:.2f} s, CPU {js.get('_cpu_s'):.2f} s (rc {rc}, nrmse {js.get('nrmse')}, load {ld})",
+              flush=True)
     out["cli"] = cli
     # ---- in-process fit, build/solve split
     problem = Problem(model, rec)
@@ -256,6 +268,7 @@ def part_main(args) -> dict:
                                    if bt["params"] else math.inf)
     out["ratio_cli_vs_baseline_tuned"] = bt["wall_s"] / min(c["wall_s"] for c in cli)
     out["ratio_inprocess_vs_baseline_tuned"] = bt["wall_s"] / min(c["wall_s"] for c in inproc)
+    out["ratio_cli_vs_baseline_tuned_cpu"] = bt["cpu_s"] / min(c["cpu_s"] for c in cli)
     # ---- one solve_ivp simulation (for scale)
     t0 = time.perf_counter()
     for _ in range(5):
@@ -349,7 +362,7 @@ t0 = time.perf_counter()
 pr = subprocess.run(sys.argv[1:], capture_output=True, text=True, timeout=float({timeout}))
 wall = time.perf_counter() - t0
 ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(json.dumps({{"wall_s": wall, "maxrss_kb": ru.ru_maxrss, "returncode": pr.returncode,
+print(json.dumps({{"wall_s": wall, "cpu_s": ru.ru_utime + ru.ru_stime, "maxrss_kb": ru.ru_maxrss, "returncode": pr.returncode,
                   "stdout": pr.stdout, "stderr": pr.stderr[-400:]}}))
 """
 
@@ -385,13 +398,13 @@ def part_sweep(args) -> dict:
             js = json.loads(w["stdout"])
         except json.JSONDecodeError:
             js = {}
-        row = {"n": n, "wall_s": w["wall_s"], "peak_rss_gb": w["maxrss_kb"] / 1024**2, "returncode": w["returncode"],
+        row = {"n": n, "wall_s": w["wall_s"], "cpu_s": w.get("cpu_s"), "peak_rss_gb": w["maxrss_kb"] / 1024**2, "returncode": w["returncode"],
                "load": ld, "load_after": load(), "success": js.get("success"), "status": js.get("status"),
                "n_iter": js.get("n_iter"), "nrmse": js.get("nrmse"), "timings": js.get("timings"),
                "stderr_tail": w["stderr"]}
         rows.append(row)
         tm = row["timings"] or {}
-        print(f"  n = {n:6d}: {row['wall_s']:7.2f} s, peak RSS {row['peak_rss_gb']:.2f} GB, build "
+        print(f"  n = {n:6d}: {row['wall_s']:7.2f} s (CPU {row['cpu_s']:.2f} s), peak RSS {row['peak_rss_gb']:.2f} GB, build "
               f"{tm.get('build', float('nan')):.2f} s, solve {tm.get('solve', float('nan')):.2f} s, "
               f"iter {row['n_iter']}, nrmse {row['nrmse']}, load {ld}", flush=True)
     return {"rows": rows, "note": note, "growth": growth(rows), "limits": {"seconds": MAX_SECONDS, "rss_gb": MAX_RSS_GB}}
@@ -401,7 +414,7 @@ def growth(rows: list[dict]) -> dict:
     """Local growth exponents between consecutive sizes: log(q_b / q_a) / log(n_b / n_a) (1 = linear)."""
     ok = [r for r in rows if r.get("wall_s")]
     out = {}
-    for key in ("wall_s", "build", "solve", "peak_rss_gb"):
+    for key in ("wall_s", "cpu_s", "build", "solve", "peak_rss_gb"):
         vals = []
         for a, b in zip(ok[:-1], ok[1:]):
             qa = a.get(key, (a.get("timings") or {}).get(key))
@@ -435,8 +448,9 @@ def print_table(out: dict) -> None:
         b = m["baseline"]
         print(f"\n(i) {m['record']['n']}-sample record, Table 2 0.4 V, 2 % noise  (nproc {out['machine']['nproc']})")
         print(f"  {'method':44s} {'wall s':>8s} {'free-run NRMSE':>15s}")
+        cli_cpu = [c.get("cpu_s") for c in m["cli"] if c.get("cpu_s") is not None]
         print(f"  {'duffsym fit (CLI, end to end, best of %d)' % len(m['cli']):44s} {cli:8.2f} "
-              f"{m['nrmse_duffsym']:15.5f}")
+              f"{m['nrmse_duffsym']:15.5f}" + (f"   (CPU {min(cli_cpu):.2f} s)" if cli_cpu else ""))
         print(f"  {'duffsym fit() in process: build / solve':44s} {ip['wall_s']:8.2f}   "
               f"({ip['timings']['build']:.2f} / {ip['timings']['solve']:.2f})")
         print(f"  {'scipy least_squares + solve_ivp LSODA':44s} {b['wall_s']:8.2f} {m['nrmse_baseline']:15.5f}"
@@ -444,12 +458,15 @@ def print_table(out: dict) -> None:
         bt = m.get("baseline_tuned")
         if bt:
             print(f"  {'  same, LSODA rtol 1e-6 atol 1e-9, diff_step 1e-3':44s} {bt['wall_s']:8.2f} {m['nrmse_baseline_tuned']:15.5f}"
-                  f"   (nfev {bt['nfev']}, {bt['n_simulations']} simulations)")
+                  f"   (nfev {bt['nfev']}, {bt['n_simulations']} simulations"
+                  + (f", CPU {bt['cpu_s']:.2f} s)" if "cpu_s" in bt else ")"))
         print(f"  {'truth (free run)':44s} {'':8s} {m['nrmse_truth']:15.5f}")
         ip_best = min(c["wall_s"] for c in m["in_process"])
         if bt:
             print(f"  speed-up at equal NRMSE (tuned baseline): CLI end to end {bt['wall_s'] / cli:.1f}x, "
                   f"in-process fit() {bt['wall_s'] / ip_best:.1f}x  (target >= 20x)")
+            if cli_cpu and "cpu_s" in bt:
+                print(f"  same in CPU time (less sensitive to the machine's load): CLI {bt['cpu_s'] / min(cli_cpu):.1f}x")
         print(f"  vs the default baseline (stops at its start, NRMSE {m['nrmse_baseline']:.4f}): CLI "
               f"{m['ratio_cli_vs_baseline']:.2f}x, in-process {m['ratio_inprocess_vs_baseline']:.2f}x")
         print(f"  load average during (i): {m['cli'][0]['load']} ... {m['load_end']}")
@@ -464,13 +481,13 @@ def print_table(out: dict) -> None:
     w = out.get("sweep")
     if w:
         print("\n(ii) duffsym fit (CLI, fresh process) vs record length")
-        print(f"  {'N':>7s} {'wall s':>8s} {'build s':>8s} {'solve s':>8s} {'iter':>5s} {'peak GB':>8s} {'load':>16s}")
+        print(f"  {'N':>7s} {'wall s':>8s} {'CPU s':>8s} {'build s':>8s} {'solve s':>8s} {'iter':>5s} {'peak GB':>8s} {'load':>16s}")
         for r in w["rows"]:
             if not r.get("wall_s"):
                 print(f"  {r['n']:7d} {r.get('error')}")
                 continue
             tm = r["timings"] or {}
-            print(f"  {r['n']:7d} {r['wall_s']:8.2f} {tm.get('build', math.nan):8.2f} {tm.get('solve', math.nan):8.2f} "
+            print(f"  {r['n']:7d} {r['wall_s']:8.2f} {r.get('cpu_s') or math.nan:8.2f} {tm.get('build', math.nan):8.2f} {tm.get('solve', math.nan):8.2f} "
                   f"{r['n_iter'] or 0:5d} {r['peak_rss_gb']:8.2f} {str(r['load']):>16s}")
         if w["note"]:
             print("  " + w["note"])
@@ -481,7 +498,7 @@ def print_table(out: dict) -> None:
         g = growth(w["rows"])
         w["growth"] = g
         print(f"  growth exponents between consecutive sizes ({', '.join(g['pairs'])}; 1 = linear):")
-        for key in ("wall_s", "build", "solve", "peak_rss_gb"):
+        for key in ("wall_s", "cpu_s", "build", "solve", "peak_rss_gb"):
             print(f"    {key:12s} " + "  ".join(f"{v:5.2f}" for v in g[key]))
 
 

@@ -256,3 +256,25 @@ def test_structured_derivatives_follow_casadi_autodiff():
             assert runs[0].params[k] == pytest.approx(v, rel=1e-7, abs=1e-9)
     with pytest.raises(Exception, match="derivatives must be"):
         fit(problem, derivatives="numeric")
+
+
+def test_linear_parameter_constraints_hold_per_group():
+    """k2 - 2 k1 <= 100 binds in the 0.2 V group (its truth is 680 - 2*54); both derivative paths agree."""
+    import math
+
+    recs = [synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.02, rng=3)
+            .replace(voltage=v) for v in (0.2, 0.8)]
+    cons = [({"k1": -2.0, "k2": 1.0}, -math.inf, 100.0), ({"c1": 1, "c2": 1}, 0, math.inf)]
+    problem = Problem(MODEL, recs, groups="voltage", per_group=("c1", "k2"), constraints=cons)
+    free_fit = fit(Problem(MODEL, recs, groups="voltage", per_group=("c1", "k2")), compute_stderr=False)
+    p_free = free_fit.params_for("0.2V")
+    assert p_free["k2"] - 2 * p_free["k1"] > 200  # unconstrained, the constraint would be violated
+    runs = [fit(problem, derivatives=d, compute_stderr=False) for d in ("structured", "casadi")]
+    assert all(r.success for r in runs) and len(runs[0].settings["constraints"]) == 4
+    for lab in ("0.2V", "0.8V"):
+        p = runs[0].params_for(lab)
+        assert p["k2"] - 2 * p["k1"] <= 100 + 1e-6 and p["c1"] + p["c2"] >= -1e-9
+    p = runs[0].params_for("0.2V")
+    assert p["k2"] - 2 * p["k1"] == pytest.approx(100, abs=1e-5)  # active
+    for k, v in runs[1].params.items():
+        assert runs[0].params[k] == pytest.approx(v, rel=1e-7, abs=1e-9)

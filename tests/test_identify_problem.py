@@ -122,3 +122,14 @@ def test_group_arguments_checked(rec):
     assert p.slot_names == ("c1", "c2", "k1", "k2", "c3[lo]", "c3[hi]")
     assert p.slot_index(1) == [0, 1, 5, 2, 3]  # free order c1, c2, c3, k1, k2
     assert p.fixed_value(1, "A_f") == pytest.approx(np.max(np.abs(rec.y)))
+
+
+def test_constraints_checked(rec):
+    p = Problem(MODEL, rec, constraints=[({"k1": 1, "k2": 1}, 0, math.inf)])
+    assert p.constraints == (({"k1": 1.0, "k2": 1.0}, 0.0, math.inf),)
+    with pytest.raises(ModelError, match=r"constraints\[0\]: \['A_f'\] not free"):
+        Problem(MODEL, rec, constraints=[({"A_f": 1}, 0, 1)])
+    with pytest.raises(ModelError, match=r"constraints\[0\]: need finite coefficients and lower <= upper"):
+        Problem(MODEL, rec, constraints=[({"k1": 1}, 2, 1)])
+    with pytest.raises(ModelError, match=r"constraints\[0\] must be \(coefficients by name, lower, upper\)"):
+        Problem(MODEL, rec, constraints=[({"k1": 1}, 0)])

@@ -371,6 +371,26 @@ def fit(
         offset += n_var + n_free * nb
         U_list.append(U)
         X_init_list.append(X_init)
+    # linear inequalities on the parameters (Problem.constraints): one row per distinct set of slots
+    con_r, con_c, con_v, lbg, ubg = [], [], [], np.zeros(n_g), np.zeros(n_g)
+    con_info = []
+    for coeffs, lo, hi in problem.constraints:
+        seen = set()
+        for i in range(len(problem.records)):
+            sidx = problem.slot_index(i)
+            key = tuple(sidx[free.index(n)] for n in coeffs)
+            if key in seen:
+                continue
+            seen.add(key)
+            row = n_g + len(con_info)
+            vals = [coeffs[n] * p_scale[j] for n, j in zip(coeffs, key)]
+            g_parts.append(sum(v * theta[j] for v, j in zip(vals, key)))
+            con_r += [row] * len(key)
+            con_c += list(key)
+            con_v += vals
+            lbg, ubg = np.append(lbg, lo), np.append(ubg, hi)
+            con_info.append({"coefficients": {slot_names[j]: coeffs[n] for n, j in zip(coeffs, key)},
+                             "lower": lo, "upper": hi})
     g = ca.vertcat(*g_parts)
     opts = {
         "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
@@ -380,7 +400,7 @@ def fit(
     if derivatives == "structured":
         jac_g, hess_lag = _structured_derivatives(
             wsym, g, blocks, interval, out_fn, model, free, p_scale_free, theta_size=n_slots, n_g=n_g, K=K,
-            y_norm=y_norm, stride=stride)
+            y_norm=y_norm, stride=stride, extra=(con_r, con_c, con_v), n_g_total=lbg.size)
         opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
     elif derivatives != "casadi":
         raise ModelError(f"derivatives must be 'structured' or 'casadi'; got {derivatives!r}")
@@ -400,7 +420,7 @@ def fit(
         for i, (off, N, S, p_off, nb) in enumerate(layout):
             sidx = problem.slot_index(i)
             w_start[p_off: p_off + n_free * nb] = np.tile(th[sidx] * p_scale[sidx] / p_scale_free, nb)
-        runs.append(_solve(solver, w_start, lbw, ubw, max_iter))
+        runs.append(_solve(solver, w_start, lbw, ubw, max_iter, lbg, ubg))
     ok = [r for r in runs if r[1]]
     best = min(ok, key=lambda r: r[4]) if ok else runs[0]
     status, success, n_iter, w_opt, cost_scaled, message = best
@@ -462,7 +482,7 @@ def fit(
         settings={"method": "direct collocation", "scheme": "legendre", "degree": int(degree),
                   "expand": bool(expand), "tol": tol, "acceptable_tol": acceptable_tol, "max_iter": int(max_iter),
                   "linear_solver": linear_solver, "start": start,
-                  "n_starts": n_starts, "starts_converged": len(ok),
+                  "n_starts": n_starts, "starts_converged": len(ok), "constraints": con_info,
                   "start_costs": [r[4] * 2 * y_norm**2 for r in runs], "y_norm": y_norm},
         versions={"casadi": casadi.__version__, "duffsym": getattr(duffsym, "__version__", "?")},
         n_samples=int(sum(r.n_times for r in problem.records)),
@@ -473,7 +493,7 @@ def fit(
 
 
 def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale_free, *, theta_size, n_g, K, y_norm,
-                            stride=1):
+                            stride=1, extra=((), (), ()), n_g_total=None):
     """The NLP's constraint Jacobian and the triangle of the Lagrangian's Hessian, assembled by blocks.
 
     Every collocation interval k depends only on ``z_k = (x_k, xc_k, x_k+1, p_k)`` (scaled states at
@@ -515,7 +535,7 @@ def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale
     orr, occ = (np.asarray(a) for a in Ho.sparsity().get_triplet())
 
     lam_f = ca.MX.sym("lam_f")
-    lam_g = ca.MX.sym("lam_g", n_g)
+    lam_g = ca.MX.sym("lam_g", n_g if n_g_total is None else n_g_total)
     p_empty = ca.MX.sym("p", 0)
     J_rows, J_cols, J_vals, H_rows, H_cols, H_vals = [], [], [], [], [], []
     for b in blocks:
@@ -554,6 +574,11 @@ def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale
         J_cols += [pb_idx[:, 0], np.asarray(b["sidx"]), pb_idx[:, 1:].ravel(order="F"), pb_idx[:, :-1].ravel(order="F")]
         n_lin = n_free * (nb - 1)
         J_vals.append(ca.DM(np.concatenate([np.ones(n_free), -np.ones(n_free), np.ones(n_lin), -np.ones(n_lin)])))
+    if len(extra[0]):  # linear parameter constraints: constant rows after the dynamics
+        J_rows.append(np.asarray(extra[0]))
+        J_cols.append(np.asarray(extra[1]))
+        J_vals.append(ca.DM(np.asarray(extra[2], dtype=float)))
+    n_g = n_g if n_g_total is None else n_g_total
     n_w = w.numel()
     jac = _scatter(np.concatenate(J_rows), np.concatenate(J_cols), ca.vertcat(*J_vals), n_g, n_w, upper=False)
     hess = _scatter(np.concatenate(H_rows), np.concatenate(H_cols), ca.vertcat(*H_vals), n_w, n_w, upper=True)
@@ -607,10 +632,10 @@ def _grouped_params(problem, slot_values) -> dict[str, float]:
     return out
 
 
-def _solve(solver, w_start, lbw, ubw, max_iter):
+def _solve(solver, w_start, lbw, ubw, max_iter, lbg=0, ubg=0):
     """One IPOPT run: ``(status, success, n_iter, w_opt, scaled cost, message)``, never raising."""
     try:
-        sol = solver(x0=w_start, lbx=lbw, ubx=ubw, lbg=0, ubg=0)
+        sol = solver(x0=w_start, lbx=lbw, ubx=ubw, lbg=lbg, ubg=ubg)
         stats = solver.stats()
         status = str(stats.get("return_status", "unknown"))
         success = bool(stats.get("success", False))

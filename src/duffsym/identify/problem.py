@@ -81,6 +81,25 @@ def _per_record(name: str, value, records: tuple[Record, ...], dtype) -> tuple[n
     return tuple(out)
 
 
+def _check_constraints(constraints, free: tuple[str, ...]) -> tuple:
+    """Normalise ``constraints`` to ``((coefficients dict, lower, upper), ...)``, checked."""
+    out = []
+    for i, item in enumerate(constraints or ()):
+        try:
+            coeffs, lo, hi = item
+            coeffs = {str(k): float(v) for k, v in dict(coeffs).items()}
+            lo, hi = float(lo), float(hi)
+        except (TypeError, ValueError):
+            raise ModelError(f"constraints[{i}] must be (coefficients by name, lower, upper); got {item!r}") from None
+        bad = sorted(set(coeffs) - set(free))
+        if bad:
+            raise ModelError(f"constraints[{i}]: {bad} not free parameters (free: {list(free)}); constrain free ones only")
+        if not coeffs or not all(math.isfinite(v) for v in coeffs.values()) or math.isnan(lo) or math.isnan(hi) or lo > hi:
+            raise ModelError(f"constraints[{i}]: need finite coefficients and lower <= upper; got {coeffs}, {lo}, {hi}")
+        out.append((coeffs, lo, hi))
+    return tuple(out)
+
+
 @dataclass(frozen=True, eq=False, init=False)
 class Problem:
     """A model, its records and the parameters to identify.
@@ -104,6 +123,11 @@ class Problem:
         dependence of Table 2 in one fit), the others stay shared. With groups, the default
         ``A_f`` is fixed per group to the group's ``max|y|``.
     per_group : free parameters identified once per group.
+    constraints : linear inequalities on the free parameters, each ``(coefficients, lower, upper)``
+        meaning ``lower <= sum(coefficients[name] * name) <= upper`` (use ``math.inf`` for no
+        upper bound); e.g. ``[({"k1": 1, "k2": 1}, 0, math.inf)]`` keeps the total stiffness of
+        ``mr_damper`` non-negative. With groups, a constraint on a per-group parameter holds in
+        every group.
 
     Raises
     ------
@@ -112,6 +136,7 @@ class Problem:
         with ``lower >= upper``, no free parameter.
     DataError
         Bad records, weights or masks, or every sample masked.
+        (ModelError also for constraints on unknown or non-free parameters, or with lower > upper.)
     """
 
     model: object
@@ -128,10 +153,12 @@ class Problem:
     per_group: tuple[str, ...] = ()
     group_fixed: Mapping[tuple[str, str], float] = field(default_factory=dict)
     slots: tuple[tuple[str, str | None], ...] = ()
+    constraints: tuple = ()
 
     def __init__(self, model, records, *, free: Sequence[str] | None = None, fixed: Mapping[str, float] | None = None,
                  bounds: Mapping[str, tuple[float, float]] | None = None, weights=None, mask=None,
-                 mask_info: Mapping[str, object] | None = None, groups=None, per_group: Sequence[str] = ()):
+                 mask_info: Mapping[str, object] | None = None, groups=None, per_group: Sequence[str] = (),
+                 constraints=None):
         recs = _as_records(records)
         labels = _group_labels(groups, recs)
         names = list(model.param_names)
@@ -233,6 +260,7 @@ class Problem:
         object.__setattr__(self, "per_group", tuple(n for n in free_t if n in per_group))
         object.__setattr__(self, "group_fixed", group_fixed)
         object.__setattr__(self, "slots", tuple(slots))
+        object.__setattr__(self, "constraints", _check_constraints(constraints, free_t))
 
     # ------------------------------------------------------------------
     @property
