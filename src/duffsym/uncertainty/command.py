@@ -55,7 +55,7 @@ def cmd_sample(args) -> int:
             chains = sample(result, record, n_walkers=args.walkers, n_steps=args.steps, burn=args.burn, thin=args.thin,
                             noise="ar1" if args.ar1 else "gaussian", mask=mask, rng=args.seed, pool=pool,
                             progress=not args.quiet, on_short="raise" if args.strict else "warn",
-                            threads=args.threads)
+                            threads=args.threads, moves="stretch" if args.moves == "stretch" else None)
     except ChainTooShort as exc:
         if exc.chains is not None and args.chains:
             exc.chains.save(args.chains)
@@ -121,9 +121,11 @@ def register(sub) -> None:
     s.add_argument("--fit", required=True, help="FIT.json written by `duffsym fit --out`")
     s.add_argument("--walkers", type=int, default=32, help="number of walkers (default 32; at least 2x the free "
                    "parameters)")
-    s.add_argument("--steps", type=int, default=5000, help="steps per walker (default 5000; emcee wants >= 50 tau, "
-                   "tau is typically 70-150 steps here)")
+    s.add_argument("--steps", type=int, default=8000, help="steps per walker (default 8000; emcee wants >= 50 tau "
+                   "after burn-in, and tau is typically 60-150 steps for a 5-parameter damper fit)")
     s.add_argument("--burn", type=int, default=None, help="steps discarded (default 3 tau, at most a third)")
+    s.add_argument("--moves", choices=("de", "stretch"), default="de", help="emcee moves: differential evolution + "
+                   "snooker (default; shorter tau on correlated posteriors) or the stretch move")
     s.add_argument("--thin", type=int, default=None, help="thinning of the kept chain (default 1)")
     s.add_argument("--seed", type=int, default=0, help="seed of the walker starts and moves")
     s.add_argument("--ar1", action="store_true", help="AR(1) noise instead of white (samples its coefficient)")

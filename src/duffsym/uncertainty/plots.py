@@ -36,7 +36,7 @@ def plot_bands(bands, *, period: float | None = None, title: str = ""):
 
     b = bands
     n_in = b.u.shape[1]
-    fig, axes = plt.subplots(1, n_in + 1, figsize=(4.0 * (n_in + 1), 3.4), constrained_layout=True)
+    fig, axes = plt.subplots(1, n_in + 2, figsize=(3.6 * (n_in + 2), 3.4), constrained_layout=True)
     axes = np.atleast_1d(axes)
     sel = slice(None)
     if period:
@@ -56,7 +56,7 @@ def plot_bands(bands, *, period: float | None = None, title: str = ""):
         ax.set_xlabel({"d": "displacement d", "d_dot": "velocity d'"}.get(name, name))
         ax.set_ylabel("output y")
     axes[0].legend(fontsize="x-small", loc="upper left")
-    ax = axes[-1]
+    ax = axes[-2]
     ax.fill_between(b.t, pb[0], pb[-1], color="tab:orange", alpha=0.25, lw=0, label="95 % predictive")
     ax.fill_between(b.t, mb[0], mb[-1], color="tab:blue", alpha=0.45, lw=0, label="95 % model band")
     ax.plot(b.t, b.y, ".", color="0.4", ms=1.5, label="data")
@@ -64,7 +64,14 @@ def plot_bands(bands, *, period: float | None = None, title: str = ""):
     ax.set_xlabel("time, s")
     ax.set_ylabel("output y")
     ax.set_title(f"95 % predictive band holds {b.coverage95:.0%} of the data", fontsize=9)
-    ax.legend(fontsize="x-small", loc="lower right")
+    ax.legend(fontsize="x-small", loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2)
+    ax = axes[-1]  # the bands' half-widths: parameter uncertainty (model) against noise (predictive)
+    ax.plot(b.t, 0.5 * (pb[-1] - pb[0]), color="tab:orange", lw=0.8, label="95 % predictive")
+    ax.plot(b.t, 0.5 * (mb[-1] - mb[0]), color="tab:blue", lw=0.8, label="95 % model (parameters)")
+    ax.set_xlabel("time, s")
+    ax.set_ylabel("band half-width")
+    ax.set_ylim(bottom=0)
+    ax.legend(fontsize="x-small", loc="upper right")
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
