@@ -40,7 +40,9 @@ MIN_EXPLAINED = 0.50
 #: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
 TIE = 0.05
 #: IPOPT iterations for a candidate's fit (see :func:`diagnose`)
-CANDIDATE_MAX_ITER = 150
+CANDIDATE_MAX_ITER = 100
+#: IPOPT CPU seconds for a candidate's fit (see :func:`diagnose`)
+CANDIDATE_CPU_TIME = 30.0
 
 
 @dataclass(frozen=True)
@@ -176,7 +178,7 @@ def _n_estimated(result, model) -> int:
 
 
 def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
-         n_starts: int = 1, rng=0, max_iter: int = 500):
+         n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in fixed.items() if k in model.param_names}
@@ -188,7 +190,9 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
             lo, hi = problem.bounds[k]
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
-    return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter)
+    options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else None
+    return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
+               ipopt_options=options)
 
 
 # ---------------------------------------------------------------------------------------------- main
@@ -207,6 +211,7 @@ def diagnose(
     min_improvement: float = MIN_IMPROVEMENT,
     min_explained: float = MIN_EXPLAINED,
     candidate_max_iter: int = CANDIDATE_MAX_ITER,
+    candidate_cpu_time: float | None = CANDIDATE_CPU_TIME,
     progress=None,
 ) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
@@ -218,7 +223,7 @@ def diagnose(
     fit_result : an existing fit; its model (with effects) is diagnosed and its parameters start
         the base refit on the fitting part.
     start : starting parameter values of the base fit (default: those of ``fit_result``, else the
-        paper's tuning procedure with three starts).
+        paper's tuning procedure, :func:`~duffsym.identify.initial_guess`).
     candidates : effect names to try (default: every catalogued effect the model lacks).
     fixed : parameters held fixed in every fit (besides the problem defaults: A_f = max|y|, k3 = 0).
     holdout : fraction of the record held out at its end.
@@ -229,6 +234,9 @@ def diagnose(
         optimum and the effect's guess, so a candidate that explains the data converges in a few
         tens of iterations; one that does not (e.g. a play width driven towards 0, where the
         smooth switch becomes sharp) is reported as not converged instead of costing minutes.
+    candidate_cpu_time : IPOPT CPU seconds allowed to each candidate's fit (None: no limit). A
+        budget, not evidence: a candidate stopped by it is reported as not converged, and the
+        verdict does not rest on it (use None for a reproducible run on a loaded machine).
     progress : a callable taking a message string (e.g. ``print``), or None.
     """
     from duffsym.effects import CATALOGUE, apply_effects, extended_start
@@ -261,7 +269,7 @@ def diagnose(
     say(f"base fit of {model.name} on {k} of {record.n_times} samples")
     if start is None and fit_result is not None:
         start = dict(fit_result.params)
-    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, n_starts=1 if start else 3)
+    base = _fit(model, rec_fit, fixed, start, mask=mask_fit)
     if not base.success:
         raise ModelError(f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged base "
                          "model: check the data and the model, or give a fit with --fit")
@@ -288,7 +296,8 @@ def diagnose(
         say(f"  trying {name}")
         try:
             x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
-            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=candidate_max_iter)
+            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=candidate_max_iter,
+                      max_cpu_time=candidate_cpu_time)
         except (ModelError, DataError) as exc:
             out.append(_failed(name, effect, str(exc), time.perf_counter() - t0))
             continue
@@ -313,7 +322,7 @@ def diagnose(
             stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
             message=fr.message, seconds=time.perf_counter() - t0, supported=supported,
             needed=supported and explained >= min_explained and not res.at_noise_level, physics=effect.physics))
-    out.sort(key=lambda c: (not c.success, c.nrmse_after if math.isfinite(c.nrmse_after) else math.inf))
+    out = _rank(out)
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
     verdict = _verdict(res, out, base_held)
@@ -324,6 +333,18 @@ def diagnose(
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
         y_candidates=y_cands,
     )
+
+
+def _rank(cands: list[Candidate]) -> list[Candidate]:
+    """Best first: lowest held-out NRMSE; among candidates within ``TIE`` of the best, lowest ΔBIC
+    first (of two effects that predict equally well, the one with fewer parameters, e.g. a force
+    offset before a gas accumulator whose stiffness comes out zero)."""
+    ok = sorted((c for c in cands if c.success and math.isfinite(c.nrmse_after)), key=lambda c: c.nrmse_after)
+    rest = [c for c in cands if c not in ok]
+    if ok:
+        tie = [c for c in ok if c.nrmse_after <= ok[0].nrmse_after * (1 + TIE)]
+        ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie):]
+    return ok + rest
 
 
 def _failed(name, effect, message, seconds) -> Candidate:

@@ -1,0 +1,153 @@
+"""The diagnosis on data with a known hidden effect: the right effect first, its parameter recovered,
+the held-out error at least halved; no false positive on clean data; no confident wrong verdict for
+an effect outside the catalogue; the ladder adds two hidden effects and stops at the noise.
+
+The default run restricts the candidates to a few effects to stay fast; the slow tests try the whole
+catalogue on every effect (``pytest -m slow``), and ``benchmarks/bench_diagnose.py`` gives the
+confusion matrix over ten seeds per effect.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from duffsym.cli import main
+from duffsym.data import synthetic_record, write_csv
+from duffsym.diagnose import diagnose, ladder
+from duffsym.diagnose.scenarios import HIDDEN, hidden_effect_record, noise_nrmse
+from duffsym.effects import CATALOGUE, apply_effects
+from duffsym.excitation import Sine
+from duffsym.model.library import mr_damper
+from duffsym.model.presets import table2_params
+
+FEW = ["force-offset", "output-lag", "coulomb-friction"]
+
+
+def check_found(dg, hidden: str, record) -> None:
+    """``hidden`` is first and needed, its parameters recovered, the held-out error at least halved."""
+    best = dg.best
+    assert best.effect == hidden and dg.needed == (hidden,), dg.summary()
+    for p, true in HIDDEN[hidden].items():
+        assert best.params[p] == pytest.approx(true, rel=0.15), (p, best.params, best.stderr)
+    assert best.nrmse_after <= dg.nrmse_heldout / 2
+    k = dg.split["n_fit"]
+    assert best.nrmse_after <= 2 * noise_nrmse(record, slice(k, None))  # close to the noise floor
+    assert hidden in dg.verdict
+
+
+def test_hidden_output_lag_is_found_first_and_recovered():
+    rec = hidden_effect_record("output-lag", seed=0)  # sine, 0.2 V row
+    dg = diagnose(rec, fixed={"A_f": rec.metadata["truth"]["A_f"]}, candidates=FEW)
+    check_found(dg, "output-lag", rec)
+    assert [c.effect for c in dg.candidates][0] == "output-lag"
+    assert not dg.residuals.at_noise_level
+
+
+def test_hidden_friction_under_random_input_is_found():
+    rec = hidden_effect_record("coulomb-friction", seed=2)  # band-limited random, 0.4 V row
+    dg = diagnose(rec, fixed={"A_f": rec.metadata["truth"]["A_f"]}, candidates=FEW)
+    check_found(dg, "coulomb-friction", rec)
+
+
+def test_clean_data_need_no_effect():
+    rec = hidden_effect_record("clean", seed=1)  # multisine, 0.3 V row
+    dg = diagnose(rec, candidates=FEW)
+    assert dg.needed == ()
+    assert dg.residuals.at_noise_level
+    assert dg.verdict.startswith("No effect is needed")
+    # nothing improves the held-out error by more than a few per cent
+    assert all(c.nrmse_after >= 0.95 * dg.nrmse_heldout for c in dg.candidates if c.success)
+
+
+def test_drift_outside_the_catalogue_gets_no_confident_wrong_verdict():
+    rec = hidden_effect_record("drift", seed=0)  # c1 and c3 fall by half over the record
+    dg = diagnose(rec, candidates=["input-delay", "output-lag", "inertia", "force-offset"])
+    assert dg.needed == ()
+    assert dg.verdict.startswith("No catalogued effect explains")
+    assert "grows with time" in dg.verdict
+
+
+@pytest.mark.slow
+def test_ladder_adds_two_hidden_effects_and_stops_at_the_noise():
+    m = mr_damper()
+    truth = {**table2_params(0.5), "off_y0": 0.2, "lag_tau": 0.008}
+    hidden = apply_effects(m, [CATALOGUE["force-offset"], CATALOGUE["output-lag"]])
+    rec = synthetic_record(hidden, truth, Sine(1.0, 2.0), dt=0.005, duration=4.0, noise=0.01, rng=5)
+    lad = ladder(rec, m, candidates=FEW, fixed={"A_f": truth["A_f"]})
+    assert [s.effects for s in lad.steps] in (
+        [(), ("force-offset",), ("force-offset", "output-lag")],
+        [(), ("output-lag",), ("output-lag", "force-offset")],
+    ), lad.summary()
+    held = [s.nrmse_heldout for s in lad.steps]
+    assert held[0] > held[1] > held[2]
+    assert held[2] <= 1.5 * noise_nrmse(rec, slice(lad.steps[0].diagnosis.split["n_fit"], None))
+    final = lad.final_fit
+    assert final.success
+    assert final.params["off_y0"] == pytest.approx(0.2, rel=0.05)
+    assert final.params["lag_tau"] == pytest.approx(0.008, rel=0.1)
+
+
+# ------------------------------------------------------------------------------------------------ CLI
+@pytest.fixture(scope="module")
+def offset_csv(tmp_path_factory):
+    m = apply_effects(mr_damper(), [CATALOGUE["force-offset"]])
+    rec = synthetic_record(m, {**table2_params(0.4), "off_y0": 0.15}, Sine(1.0, 2.0), dt=0.005, duration=3.0,
+                           noise=0.01, rng=1)
+    path = tmp_path_factory.mktemp("diag") / "offset.csv"
+    write_csv(rec, path)
+    return path
+
+
+def test_cli_diagnose_json_follows_the_contract(offset_csv, capsys, tmp_path):
+    code = main(["diagnose", str(offset_csv), "--candidates", "force-offset,output-lag", "--json", "--quiet",
+                 "--report", str(tmp_path / "rep")])
+    out = capsys.readouterr()
+    assert code == 0
+    doc = json.loads(out.out)
+    assert doc["needed"] == ["force-offset"]
+    assert [c["effect"] for c in doc["candidates"]] == ["force-offset", "output-lag"]
+    first = doc["candidates"][0]
+    assert first["params"]["off_y0"] == pytest.approx(0.15, rel=0.05)
+    assert first["delta_bic"] < -100 and first["nrmse_after"] < doc["nrmse"] / 5
+    assert isinstance(doc["verdict"], str) and "force-offset" in doc["verdict"]
+    md = (tmp_path / "rep" / "diagnosis.md").read_text()
+    assert "force-offset" in md and (tmp_path / "rep" / "where_it_fails.png").stat().st_size > 10_000
+
+
+def test_cli_ladder_saves_a_fit_that_validate_reads(offset_csv, capsys, tmp_path):
+    fit_path = tmp_path / "fit.json"
+    code = main(["ladder", str(offset_csv), "--candidates", "force-offset,output-lag", "--json", "--quiet",
+                 "--out", str(fit_path)])
+    out = capsys.readouterr()
+    assert code == 0
+    doc = json.loads(out.out)
+    assert [s["effects"] for s in doc["steps"]] == [[], ["force-offset"]]
+    assert doc["steps"][1]["nrmse"] < doc["steps"][0]["nrmse"] / 5
+    assert all(np.isfinite(s["bic"]) for s in doc["steps"])
+    code = main(["validate", str(fit_path), str(offset_csv), "--json"])
+    val = json.loads(capsys.readouterr().out)
+    assert code == 0 and val["nrmse"] < 0.02
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--candidates", "viscous-heating"], "unknown effect"),
+    (["--holdout", "0.95"], "holdout must be between"),
+    (["--mask", "/nonexistent/mask.txt"], "no such file"),
+])
+def test_cli_diagnose_bad_options_exit_2_with_one_line(offset_csv, capsys, argv, message):
+    code = main(["diagnose", str(offset_csv), "--quiet", *argv])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+
+
+# ------------------------------------------------------------------------------------------------ slow
+@pytest.mark.slow
+@pytest.mark.parametrize("hidden", list(HIDDEN))
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_hidden_effect_is_found_with_the_whole_catalogue(hidden, seed):
+    rec = hidden_effect_record(hidden, seed)
+    dg = diagnose(rec, fixed={"A_f": rec.metadata["truth"]["A_f"]})
+    check_found(dg, hidden, rec)
