@@ -100,7 +100,7 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
     ax.set_yticks(range(len(cands)), [f"+ {c.effect}\n(ΔBIC {c.delta_bic:.0f})" for c in cands], fontsize="small")
     ax.invert_yaxis()
     ax.set_xlabel("held-out free-run NRMSE (lower is better)")
-    ax.legend(fontsize="small", loc="lower right")
+    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title(title or "which effect is missing: green = needed, olive = helps partly", fontsize="medium")
     return fig
 
