@@ -94,6 +94,10 @@ class Config:
     joint : also fit all tests of each current together (shared parameters), decimated to
         ``joint_samples_per_period``. loo_currents : currents at which each test is also predicted by
         a joint fit of the *other* tests (leave-one-out; needs at least 3 tests).
+    n_starts : IPOPT runs per single-test fit (the start from the paper's tuning procedure, then random
+        starts within a factor 10; the best converged one is kept). The joint fits use one start.
+    stiffness_constraint : constrain the total stiffness k1 + k2 >= 0 (a negative one has no static
+        equilibrium; without it some single-test fits drift there, e.g. k2 = -4460 at 25 mm 0.5 Hz 0 A).
     """
 
     tests: tuple[str, ...] = TESTS
@@ -104,11 +108,14 @@ class Config:
     joint: bool = True
     joint_samples_per_period: int = 100
     loo_currents: tuple[float, ...] = (0.0, 1.0)
+    n_starts: int = 3
+    stiffness_constraint: bool = True
 
     @classmethod
     def smoke(cls) -> "Config":
         """Two tests at two currents (the short 5 Hz test and the 0.25 Hz test decimated to 100 samples per period; 0 and 1 A)."""
-        return cls(tests=("2mm5Hz", "25mm0x25Hz"), currents=(0.0, 1.0), samples_per_period=100, loo_currents=())
+        return cls(tests=("2mm5Hz", "25mm0x25Hz"), currents=(0.0, 1.0), samples_per_period=100, loo_currents=(),
+                   n_starts=1)
 
     def summary(self) -> str:
         return (f"s06 config: {len(self.tests)} tests x {len(self.currents)} currents, decimation to about "
@@ -192,10 +199,17 @@ def invariants(p: dict, n: int = 5) -> dict:
             "k1*A_f": p["k1"] * p["A_f"], "k1+k2": p["k1"] + p["k2"]}
 
 
+def _problem(model, recs, cfg: Config):
+    from duffsym.identify import Problem
+
+    cons = [({"k1": 1.0, "k2": 1.0}, 0.0, math.inf)] if cfg.stiffness_constraint else None
+    return Problem(model, recs, constraints=cons)
+
+
 def compute(cfg: Config) -> dict:
     """Fit every test, cross-validate, write the derived files; return the metadata."""
     from duffsym.data import load_mr_damper_utfsm
-    from duffsym.identify import Problem, fit, validate
+    from duffsym.identify import fit, validate
     from duffsym.model import mr_damper
 
     t_all = time.perf_counter()
@@ -207,7 +221,7 @@ def compute(cfg: Config) -> dict:
             t0 = time.perf_counter()
             rec, q, n_raw = load_test(test, cur, cfg)
             t_load = time.perf_counter() - t0
-            res = fit(Problem(model, rec))
+            res = fit(_problem(model, rec, cfg), n_starts=cfg.n_starts, rng=len(fits))
             wall = time.perf_counter() - t0
             key = rec.name
             v = np.asarray(rec.velocity())
@@ -222,7 +236,8 @@ def compute(cfg: Config) -> dict:
                 dt=rec.dt, periods=rec.duration * rec.metadata["frequency_hz"],
                 params={k: res.params[k] for k in (*FREE, "A_f")}, stderr={k: res.stderr[k] for k in FREE},
                 invariants=invariants(res.params), nrmse=res.nrmse, success=res.success, status=res.status,
-                n_iter=res.n_iter, timings=res.timings, wall_s=wall, load_s=t_load, nrmse_near_reversal=near,
+                n_iter=res.n_iter, timings=res.timings, wall_s=wall, start_costs=res.settings["start_costs"],
+                starts_converged=res.settings["starts_converged"], load_s=t_load, nrmse_near_reversal=near,
                 nrmse_elsewhere=far, nrmse_viscous=visc, friction_index=fric, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
                 peak_force=float(np.max(np.abs(rec.y))), peak_velocity=float(np.max(np.abs(v))),
             )
@@ -268,7 +283,7 @@ def compute(cfg: Config) -> dict:
         for cur in cfg.currents:
             recs = [load_test(t, cur, jcfg)[0] for t in cfg.tests]
             t1 = time.perf_counter()
-            res = fit(Problem(model, recs))
+            res = fit(_problem(model, recs, cfg))
             lab = _cur_label(cur)
             joint[lab] = dict(current=cur, params={k: res.params[k] for k in (*FREE, "A_f")},
                               stderr={k: res.stderr[k] for k in FREE}, invariants=invariants(res.params),
@@ -286,7 +301,7 @@ def compute(cfg: Config) -> dict:
             if cur in cfg.loo_currents and len(recs) >= 3:
                 for i, held in enumerate(recs):
                     others = [r for j, r in enumerate(recs) if j != i]
-                    r_loo = fit(Problem(model, others))
+                    r_loo = fit(_problem(model, others, cfg))
                     vr = validate(r_loo, records[held.name], model=model)
                     loo[held.name] = dict(current=cur, nrmse=vr.nrmse, success=vr.success and r_loo.success,
                                           fit_nrmse=r_loo.nrmse, own_nrmse=fits[held.name]["nrmse"])
