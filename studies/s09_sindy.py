@@ -85,7 +85,7 @@ class Config:
 
     @classmethod
     def smoke(cls) -> "Config":
-        return cls(duration=8.0, n_seeds=1, n_friction_seeds=1, n_models=4, n_models_comparison=2, real=False)
+        return cls(duration=8.0, n_seeds=1, n_friction_seeds=1, n_models=10, n_models_comparison=2, real=False)
 
     def summary(self) -> str:
         return (f"s09 config: random records of {self.duration:g} s, {self.n_seeds} noisy seeds, "

@@ -61,7 +61,7 @@ def test_library_takes_the_catalogue_terms_that_reach_the_velocity_equation(mode
 
 def test_noise_free_rich_excitation_recovers_terms_and_coefficients(model):
     rec = _rich(model, 0.0)
-    res = crosscheck(rec, model, params=TRUTH, n_models=6)
+    res = crosscheck(rec, model, params=TRUTH, n_models=10)
     assert res.verdict == "consistent", res.summary()
     assert set(res.selected) == TRUE_TERMS
     for name in TRUE_TERMS:
@@ -71,7 +71,7 @@ def test_noise_free_rich_excitation_recovers_terms_and_coefficients(model):
 
 
 def test_one_percent_noise_keeps_the_term_set(model):
-    res = crosscheck(_rich(model, 0.01, seed=1), model, params=TRUTH, n_models=6)
+    res = crosscheck(_rich(model, 0.01, seed=1), model, params=TRUTH, n_models=10)
     assert set(res.selected) == TRUE_TERMS, res.summary()
     assert res.verdict == "consistent"
     assert abs(res.term("x_dot^5")["coefficient"] / -TRUTH["c3"] - 1) < 0.05
@@ -83,7 +83,7 @@ def test_hidden_friction_is_flagged_as_a_missing_sign_term(model):
     exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=20.0, seed=3)
     rec = synthetic_record(truth_model, {**TRUTH, "fric_mu": 5.0}, exc, dt=0.002, duration=20.0, noise=0.01,
                            settle=2.0, rng=3)
-    ev = sindy_evidence(rec, model=model, params=TRUTH, n_models=6)
+    ev = sindy_evidence(rec, model=model, params=TRUTH, n_models=10)
     assert ev["verdict"] == "missing-terms" and ev["conclusive"]
     top = ev["missing_terms"][0]
     assert top["effect"] == "coulomb-friction" and top["supported"]
@@ -97,7 +97,7 @@ def test_an_effect_outside_the_library_gives_inconclusive_not_a_wrong_term(model
     exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=12.0, seed=2)
     rec = synthetic_record(lag_model, {**TRUTH, "lag_tau": 0.01}, exc, dt=0.002, duration=12.0, noise=0.01,
                            settle=2.0, rng=2)
-    res = crosscheck(rec, model, params=TRUTH, n_models=6)
+    res = crosscheck(rec, model, params=TRUTH, n_models=10)
     assert res.verdict == "inconclusive", res.summary()
     assert not any(m["supported"] for m in res.missing_terms())
 
@@ -107,16 +107,16 @@ def test_output_offset_of_a_fitted_effect_is_removed_before_the_velocity_is_rebu
     truth = {**TRUTH, "off_y0": 0.3}
     exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=8.0, seed=2)
     rec = synthetic_record(offset_model, truth, exc, dt=0.002, duration=8.0, noise=0.0, settle=2.0, rng=2)
-    res = crosscheck(rec, offset_model, params=truth, n_models=4)
+    res = crosscheck(rec, offset_model, params=truth, n_models=10)
     assert res.verdict == "consistent" and set(res.selected) == TRUE_TERMS
     assert abs(res.term("x_dot^5")["coefficient"] / -TRUTH["c3"] - 1) < 0.01
     with pytest.raises(ModelError, match="off_y0"):
-        crosscheck(rec, offset_model, n_models=4)
+        crosscheck(rec, offset_model, n_models=10)
 
 
 def test_single_sine_at_the_paper_sampling_is_inconclusive(model):
     rec = synthetic_record(model, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=5.0, noise=0.02, settle=2.0, rng=0)
-    res = crosscheck(rec, model, params=TRUTH, n_models=6)
+    res = crosscheck(rec, model, params=TRUTH, n_models=10)
     assert res.verdict == "inconclusive", res.summary()
     assert res.reasons and not res.evidence()["conclusive"]
     assert all(not m["supported"] for m in res.missing_terms())
@@ -124,9 +124,15 @@ def test_single_sine_at_the_paper_sampling_is_inconclusive(model):
 
 def test_smoothed_differences_at_coarse_sampling_are_inconclusive(model):
     rec = synthetic_record(model, TRUTH, Sine(1.0, 2.0), dt=0.005, duration=5.0, noise=0.0, settle=2.0, rng=0)
-    res = crosscheck(rec, model, params=TRUTH, method="smoothed", n_models=4)
+    res = crosscheck(rec, model, params=TRUTH, method="smoothed", n_models=10)
     assert res.verdict == "inconclusive"
     assert res.diagnostics["sampling_change"] > res.thresholds["max_sampling_change"]
+
+
+def test_too_few_bootstrap_fits_cannot_conclude(model):
+    res = crosscheck(_rich(model, 0.0, duration=6.0), model, params=TRUTH, n_models=4)
+    assert set(res.selected) == TRUE_TERMS  # the selection is right, but its stability is not measured
+    assert res.verdict == "inconclusive" and "too few" in res.reasons[0]
 
 
 def test_bad_input(model):
@@ -148,7 +154,7 @@ def test_cli_sindy_json(tmp_path, model, capsys):
     from duffsym.data import write_csv
 
     path = write_csv(_rich(model, 0.0, duration=8.0), tmp_path / "rich.csv")
-    assert main(["sindy", str(path), "--json", "--models", "4", "--quiet"]) == 0
+    assert main(["sindy", str(path), "--json", "--models", "10", "--quiet"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["verdict"] == "consistent" and set(out["selected"]) == TRUE_TERMS
     assert main(["sindy", str(tmp_path / "missing.csv")]) == 2
@@ -174,7 +180,7 @@ def test_cli_sindy_with_a_fit_compares_coefficients(tmp_path, model, capsys):
     fit_path = tmp_path / "fit.json"
     assert main(["fit", str(path), "--out", str(fit_path), "--quiet"]) == 0
     capsys.readouterr()
-    assert main(["sindy", str(path), "--fit", str(fit_path), "--json", "--quiet", "--models", "6"]) == 0
+    assert main(["sindy", str(path), "--fit", str(fit_path), "--json", "--quiet", "--models", "10"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["reference"] == "fit" and out["verdict"] == "consistent"
     for t in out["terms"]:
@@ -193,6 +199,6 @@ def test_real_damper_single_sine_is_not_given_a_confident_verdict():
         pytest.skip("external data folder absent")
     if not path.is_file():
         pytest.skip(f"{path} absent")
-    res = crosscheck(load_mr_damper_utfsm(path, velocity="derive"), n_models=6)
+    res = crosscheck(load_mr_damper_utfsm(path, velocity="derive"), n_models=10)
     assert res.verdict == "inconclusive" and res.reasons
     assert res.gain == pytest.approx(float(np.max(np.abs(load_mr_damper_utfsm(path).y))))
