@@ -36,7 +36,7 @@ RESULTS = HERE / "results"
 OUT_OF_CATALOGUE = "drift"
 
 
-def run_one(hidden: str, seed: int) -> dict:
+def run_one(hidden: str, seed: int, screen=4) -> dict:
     import numpy as np
 
     from duffsym.diagnose import diagnose
@@ -45,7 +45,7 @@ def run_one(hidden: str, seed: int) -> dict:
     rec = hidden_effect_record(hidden, seed)
     truth = rec.metadata["truth"]
     t0 = time.perf_counter()
-    dg = diagnose(rec, fixed={"A_f": truth["A_f"]})
+    dg = diagnose(rec, fixed={"A_f": truth["A_f"]}, screen=screen)
     seconds = time.perf_counter() - t0
     k = dg.split["n_fit"]
     best = dg.best
@@ -129,9 +129,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--screen", default="4", help="candidates refitted after screening, or 'all'")
     ap.add_argument("--only", help="comma-separated scenarios (effects, clean, drift)")
     ap.add_argument("--out", default=str(RESULTS / "diagnose.json"))
     args = ap.parse_args(argv)
+    screen = None if args.screen == "all" else int(args.screen)
     labels = list(HIDDEN) + ["clean", OUT_OF_CATALOGUE]
     if args.only:
         labels = [s.strip() for s in args.only.split(",")]
@@ -143,7 +145,7 @@ def main(argv=None) -> int:
 
     def save():
         summary = summarise(rows)
-        doc = dict(benchmark="diagnose", python=sys.version.split()[0], machine=platform.machine(),
+        doc = dict(benchmark="diagnose", screen=args.screen, python=sys.version.split()[0], machine=platform.machine(),
                    cpus=os.cpu_count(), workers=args.workers, wall_seconds=time.perf_counter() - t0,
                    summary=summary, runs=rows)
         out_path.write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
@@ -151,7 +153,7 @@ def main(argv=None) -> int:
 
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(run_one, h, s): (h, s) for h, s in jobs}
+            futures = {pool.submit(run_one, h, s, screen): (h, s) for h, s in jobs}
             for f in futures:
                 rows.append(f.result())
                 r = rows[-1]
@@ -160,7 +162,7 @@ def main(argv=None) -> int:
                 save()
     else:
         for h, s in jobs:
-            rows.append(run_one(h, s))
+            rows.append(run_one(h, s, screen))
             r = rows[-1]
             print(f"{h:>17} seed {s:2d}: called {r['needed'] or '-'} top {r['top1']} ({r['seconds']:.0f} s)", flush=True)
             save()

@@ -17,6 +17,14 @@ def _common(args):
                            "(duffsym effects lists them)")
     mask, _ = _mask_from_args(args.mask, record)
     fixed = _parse_assignments(args.fix, "--fix")
+    if args.screen != "all":
+        try:
+            screen = int(args.screen)
+        except ValueError:
+            raise CLIError(f"--screen must be a positive integer or 'all'; got {args.screen!r}") from None
+        if screen < 1:
+            raise CLIError(f"--screen must be a positive integer or 'all'; got {args.screen!r}")
+    args.screen_n = None if args.screen == "all" else int(args.screen)
     return record, cands, mask, fixed
 
 
@@ -40,7 +48,7 @@ def cmd_diagnose(args) -> int:
     else:
         model = _fit_model(args)
     dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
-                  noise=args.noise, mask=mask, progress=_progress(args))
+                  noise=args.noise, mask=mask, screen=args.screen_n, progress=_progress(args))
     if args.report:
         from duffsym.diagnose.report import write_diagnosis_report
 
@@ -63,7 +71,7 @@ def cmd_ladder(args) -> int:
     record, cands, mask, fixed = _common(args)
     model = _fit_model(args)
     lad = ladder(record, model, max_steps=args.max_steps, candidates=cands, fixed=fixed, holdout=args.holdout,
-                 noise=args.noise, mask=mask, progress=_progress(args))
+                 noise=args.noise, mask=mask, screen=args.screen_n, progress=_progress(args))
     if args.out:
         lad.final_fit.save(args.out)
     if args.report:
@@ -94,6 +102,7 @@ def _shared(s) -> None:
                    "(default 0.3; snapped to whole input cycles)")
     s.add_argument("--noise", type=float, default=None, help="output noise standard deviation if known "
                    "(default: estimated from the measurement)")
+    s.add_argument("--screen", default="4", help="candidates refitted after screening (default 4), or 'all'")
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
     s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")

@@ -29,6 +29,7 @@ HIDDEN = {
     "asymmetry": {"asym_a": 0.15},
     "output-lag": {"lag_tau": 0.01},
     "input-delay": {"delay_tau": 0.01},
+    "input-shift": {"shift_tau": 0.004},
     "backlash": {"bl_h": 0.05},
 }
 #: Table 2 rows (coil voltage, V) the seeds cycle through
