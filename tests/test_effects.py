@@ -47,9 +47,13 @@ def same(a, b) -> bool:
     return sp.simplify(sp.expand(a - b)) == 0
 
 
+#: The effects issue 4 asks for (the catalogue may hold more).
+ISSUE_EFFECTS = ("force-offset", "gas-accumulator", "inertia", "coulomb-friction", "asymmetry", "output-lag",
+                 "input-delay", "input-shift", "backlash")
+
+
 def test_catalogue_has_every_effect_of_the_issue_with_prefixed_parameters():
-    assert set(CATALOGUE) == {"force-offset", "gas-accumulator", "inertia", "coulomb-friction", "asymmetry",
-                              "output-lag", "input-delay", "input-shift", "backlash"}
+    assert set(ISSUE_EFFECTS) <= set(CATALOGUE)
     for name, e in CATALOGUE.items():
         assert e.name == name and e.physics and e.signature and e.form and e.guess
         for p in e.parameters():
@@ -61,7 +65,7 @@ def test_base_equation_as_written_here_is_the_library_model():
     assert same(M.rhs[1], accel(d, dd)) and M.rhs[0] == v and M.output == A_f * v
 
 
-@pytest.mark.parametrize("name", list(CATALOGUE))
+@pytest.mark.parametrize("name", ISSUE_EFFECTS)
 def test_each_effect_adds_the_hand_written_terms(name):
     e = CATALOGUE[name]
     E = e.apply(M)
@@ -108,7 +112,13 @@ def base_report():
     return derivation_report(M)
 
 
-@pytest.mark.parametrize("name", list(CATALOGUE))
+#: One effect of each kind runs by default (state equation, output map, added state, input
+#: substitution); the derivation takes ~3-5 s per model, so the others are slow tests.
+DERIVE_DEFAULT = ("coulomb-friction", "force-offset", "output-lag", "backlash")
+
+
+@pytest.mark.parametrize("name", [n if n in DERIVE_DEFAULT else pytest.param(n, marks=pytest.mark.slow)
+                                  for n in CATALOGUE])
 def test_derivation_report_runs_on_each_extended_model(name, base_report):
     rep = derivation_report(CATALOGUE[name].apply(M))
     text = rep.item("lyapunov_derivative").text

@@ -93,6 +93,7 @@ class Effect:
         dict
             Parameter name -> value, inside the parameter's bounds.
         """
+        residual(record, y_model)  # checks the length
         return {p.name: p.default for p in self.parameters()}
 
     def initial_states(self, X_base: np.ndarray, record, params: Mapping[str, float]) -> np.ndarray:

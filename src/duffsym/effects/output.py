@@ -140,7 +140,9 @@ class PistonInertia(Effect):
 
     Under a single sine it is collinear with the gas stiffness (:math:`\\ddot d = -\\omega^2 d`).
 
-    Initial guess: least squares of the (mean-removed) residual on :math:`\\ddot d`.
+    Initial guess: the :math:`\\ddot d` coefficient of the least-squares fit of the residual on
+    :math:`[1, \\dot d, \\ddot d]` (the velocity column takes up a damping misfit of the base fit,
+    in quadrature with the acceleration on a sine).
     """
 
     name: str = "inertia"
@@ -149,7 +151,7 @@ class PistonInertia(Effect):
     signature: str = ("residual proportional to d'' (in phase with -d on a sine), growing with frequency squared; "
                       "loops wider at high frequency")
     form: str = "y += inertia_m * d_ddot"
-    guess: str = "least squares of the residual on d'' (record acceleration)"
+    guess: str = "d'' coefficient of the least squares of the residual on [1, d', d''] (record acceleration)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
         return (ParamSpec(f"{self.prefix}m", "m_{p}", 0.0, 0.0, 1e9, unit="output unit / (input unit/s^2)",
@@ -164,7 +166,8 @@ class PistonInertia(Effect):
     def initial_guess(self, record, y_model) -> dict[str, float]:
         r = residual(record, y_model)
         a = np.asarray(record.acceleration(), dtype=float)
-        (c,) = lstsq_coeffs(r - r.mean(), a - a.mean())
+        v = np.asarray(record.velocity(), dtype=float)
+        _, _, c = lstsq_coeffs(r, np.ones_like(a), v, a)
         return {f"{self.prefix}m": self._clip(f"{self.prefix}m", c)}
 
     def base_output(self, y, record, params):
