@@ -1,10 +1,15 @@
-"""Each catalogued effect, hidden at a known value in synthetic Table 2 data (0.4 V row, dt = 0.005 s,
-1 % output noise), is recovered by fitting the extended model (collocation + IPOPT) from the base
-fit and the effect's data-based initial guess, and the free-run NRMSE falls at least twofold.
+"""Each catalogued effect, hidden at a known value in synthetic Table 2 data (rows 0.2-0.8 V, dt = 0.005 s,
+1 % output noise, steady state: 1 s simulated before the record starts) is recovered by fitting the
+extended model (collocation + IPOPT) from the base fit and the effect's data-based initial guess
+(:func:`duffsym.effects.extended_start`), and the free-run NRMSE falls at least twofold, to the noise.
 
 A_f is fixed at its true value: the scaling symmetry x -> s x leaves the base output unchanged but
 rescales effects acting on the internal velocity x' (friction, asymmetry), so with A_f = max|y|
 those would be recovered in rescaled units.
+
+Lag, delay and shift are tested under a multisine up to 10 Hz: under one 2 Hz sine in steady state
+the base parameters absorb most of a 10 ms lag or delay (measured for the lag: base NRMSE 0.0125,
+extended 0.0096, noise 0.010), which is a fact about the data, not a failure of the fit.
 """
 from __future__ import annotations
 
@@ -36,8 +41,8 @@ CASES = {
     "inertia": (0.4, {"inertia_m": 0.002}, MULTISINE),
     "coulomb-friction": (0.6, {"fric_mu": 20.0}, SINE),
     "asymmetry": (0.8, {"asym_a": 0.15}, SINE),
-    "output-lag": (0.2, {"lag_tau": 0.01}, SINE),
-    "input-delay": (0.6, {"delay_tau": 0.01}, SINE),
+    "output-lag": (0.2, {"lag_tau": 0.01}, FAST),  # one sine: base NRMSE only 0.0125 -> 0.0096
+    "input-delay": (0.6, {"delay_tau": 0.01}, FAST),  # one 2 Hz sine absorbs it in the base parameters
     "input-shift": (0.2, {"shift_tau": 0.0025}, FAST),
     "backlash": (0.3, {"bl_h": 0.05}, SINE),
 }
@@ -65,7 +70,8 @@ def test_hidden_effect_is_recovered_and_the_error_halves(name):
     effect = CATALOGUE[name]
     truth = {**table2_params(volt), **values}
     fixed = {"A_f": truth["A_f"]}
-    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5 if exc is SINE else 2.0, noise=NOISE, rng=11)
+    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5 if exc is SINE else 2.0, noise=NOISE, rng=11,
+                              settle=1.0)
     base, ext, guess = base_then_extended(record, effect, fixed)
     assert ext.success, ext.message
     for k, true in values.items():
