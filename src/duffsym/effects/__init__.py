@@ -14,20 +14,24 @@ output-lag         z' = (y - z)/lag_tau, output z                               
 input-delay        Pade all-pass state q; d -> 2q - d                           delay_tau
 input-shift        d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)  shift_tau
 backlash           smooth play state b; d -> b                                  bl_h
+quadratic-stiffness x'' += -quad_k x^2 (polynomial.py)                           quad_k
+cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         cdamp_c
+input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
 =================  ===========================================================  ===============
 """
 from duffsym.effects.base import Effect, apply_effects, effect_chain, extended_start, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
+from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
 
 #: Effects by name.
 CATALOGUE: dict[str, Effect] = {e.name: e for e in (
     ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), Asymmetry(), OutputLag(),
-    InputDelay(), InputShift(), Backlash(),
+    InputDelay(), InputShift(), Backlash(), QuadraticStiffness(), CubicDamping(), InputCurvature(),
 )}
 
 __all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "InputShift", "Backlash", "apply_effects", "effect_chain", "extended_start",
+           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain", "extended_start",
            "initial_states_with_effects",
            "CATALOGUE"]

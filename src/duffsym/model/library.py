@@ -5,6 +5,7 @@ The state-space form is not typed here: :func:`from_second_order` solves the equ
 """
 from __future__ import annotations
 
+import math
 from typing import Callable, Mapping, Sequence
 
 import sympy as sp
@@ -87,11 +88,33 @@ def _p(name, latex, default, lower, upper, description, unit="1", scale=None) ->
                      scale=scale, description=description)
 
 
-def duffing() -> SymbolicModel:
+def duffing(*, gain: bool = False) -> SymbolicModel:
     """The Duffing equation, Eq. 1: :math:`\\ddot x + \\gamma\\dot x + \\alpha x + \\beta x^3 = F`.
 
     The input is the force F and the output the displacement x (as in the Silverbox benchmark).
+
+    With ``gain=True`` (model name ``duffing-gain``) the force enters through an input gain,
+    :math:`\\ddot x + \\gamma\\dot x + \\alpha x + \\beta x^3 = g F`: a measured input and output in
+    their own units (the Silverbox's V1 -> V2 volts) need it, since the output x is observed
+    directly and the mass is normalised to 1. All four parameters are identifiable from x(t)
+    (no scaling symmetry: x -> s x changes the output). Its defaults and scales are those of an
+    oscillator near 60 Hz with a unit static gain (alpha = g = (2 pi 60 s^-1)^2), the Silverbox's
+    order of magnitude; the fit starts the states from the data.
     """
+    if gain:
+        w2 = (2 * math.pi * 60.0) ** 2
+        gamma = _p("gamma", r"\gamma", 50.0, -1e5, 1e5, "linear damping (per unit mass)", unit="1/s", scale=50.0)
+        alpha = _p("alpha", r"\alpha", w2, -1e8, 1e8, "linear stiffness (per unit mass)", unit="1/s^2", scale=w2)
+        beta = _p("beta", r"\beta", 0.0, -1e12, 1e12, "cubic stiffness (>0 hardening, <0 softening)",
+                  unit="1/(s^2 x^2)", scale=w2)
+        gp = _p("g", "g", w2, -1e9, 1e9, "input gain (force per unit mass per input unit)", unit="x/(s^2 F)",
+                scale=w2)
+        g, a, b, k = gamma.symbol, alpha.symbol, beta.symbol, gp.symbol
+        eq = sp.Eq(X_DDOT + g * X_DOT + a * X + b * X**3, k * FORCE.symbol)
+        return from_second_order(
+            "duffing-gain", eq, inputs=(FORCE,), params=(gamma, alpha, beta, gp), output=lambda x1, x2: x1,
+            output_name="x", description="Duffing oscillator, Eq. 1 with an input gain g (input F, output x)",
+        )
     gamma = _p("gamma", r"\gamma", 0.5, 0.0, 1e4, "linear damping")
     alpha = _p("alpha", r"\alpha", 1.0, -1e6, 1e6, "linear stiffness")
     beta = _p("beta", r"\beta", 1.0, -1e8, 1e8, "cubic stiffness (>0 hardening, <0 softening)")
@@ -101,6 +124,11 @@ def duffing() -> SymbolicModel:
         "duffing", eq, inputs=(FORCE,), params=(gamma, alpha, beta), output=lambda x1, x2: x1,
         output_name="x", description="Duffing oscillator, Eq. 1 (input F, output x)",
     )
+
+
+def duffing_gain() -> SymbolicModel:
+    """Eq. 1 with an input gain (``duffing(gain=True)``; CLI name ``duffing-gain``)."""
+    return duffing(gain=True)
 
 
 def duffing_like(n: int | sp.Symbol = 3, *, n_x: int | sp.Symbol | None = None, n_v: int | sp.Symbol | None = None,
@@ -183,6 +211,7 @@ MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "mr-damper": mr_damper,
     "duffing-like": duffing_like,
     "duffing": duffing,
+    "duffing-gain": duffing_gain,
 }
 
 
@@ -190,8 +219,8 @@ def get_model(name: str, n: int | None = None, **kwargs) -> SymbolicModel:
     """A model of the library by name, with its power ``n`` if it has one."""
     if name not in MODELS:
         raise ModelError(f"unknown model {name!r}; choose one of {{{', '.join(MODELS)}}}")
-    if name == "duffing":
+    if name in ("duffing", "duffing-gain"):
         if n not in (None, 3):
-            raise ModelError("model duffing has a fixed cubic term (Eq. 1); drop --n or use duffing-like")
-        return duffing()
+            raise ModelError(f"model {name} has a fixed cubic term (Eq. 1); drop --n or use duffing-like")
+        return MODELS[name](**kwargs)
     return MODELS[name](**({} if n is None else {"n": n}), **kwargs)
