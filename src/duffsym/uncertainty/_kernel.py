@@ -92,13 +92,14 @@ class ScheduleSimulator:
     def total_substeps(self) -> int:
         return int(self.schedule.sum())
 
-    def run(self, P: np.ndarray):
-        """Outputs ``Y`` (n_sets, n_times; NaN after a failure), ``status``, ``failed_at``, ``worst_hrho``."""
+    def run(self, P: np.ndarray, X0: np.ndarray | None = None):
+        """Outputs ``Y`` (n_sets, n_times; NaN after a failure), ``status``, ``failed_at``, ``worst_hrho``
+        for the parameter sets ``P`` from initial states ``X0`` (n_sets, n_states; default the record's)."""
         if self._mod is None:
             self._mod = kernel_module(self.model)
         P = np.ascontiguousarray(np.atleast_2d(P), dtype=float)
         n = P.shape[0]
-        X0 = np.ascontiguousarray(np.broadcast_to(self.x0, (n, self.x0.size)))
+        X0 = np.ascontiguousarray(np.broadcast_to(self.x0 if X0 is None else X0, (n, self.x0.size)), dtype=float)
         Y = np.empty((n, self.t.size))
         status = np.zeros(n, dtype=np.int64)
         fail = np.zeros(n, dtype=np.int64)

@@ -75,7 +75,7 @@ def record_mask(result, i, record, mask):
 
 def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[float, float]] | None = None,
                     noise: str = "gaussian", mask=None, h_rho: float = 1.0, hrho_max: float = _kernel.HRHO_MAX,
-                    reconstruction: str = "linear"):
+                    reconstruction: str = "linear", sample_x0: bool = False):
     """The :class:`LogPosterior` of ``result``'s free parameters on ``records`` plus setup details."""
     from duffsym.identify import model_from_result
     from duffsym.simulate import input_matrix
@@ -93,15 +93,21 @@ def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[f
         spec = model.param(n)
         lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))
         priors.append(make_prior(n, lo, hi, float(result.params[n])))
-    if noise == "ar1":
-        priors.append(Prior(PHI_NAME, "uniform", -PHI_BOUND, PHI_BOUND))
     sims, ys, weights, info = [], [], [], []
+    x0_priors = []
     for i, rec in enumerate(records):
         t = np.asarray(rec.t, dtype=float)
         U = input_matrix(model, t, rec.inputs_for(model))
         x0 = record_x0(model, result, i, rec, base)
         m = record_mask(result, i, rec, mask)
         sched, ref = stiffness_schedule(model, base, t, U, x0, h_rho=h_rho)
+        if sample_x0:
+            # uniform around the fit's value, half the state's range along the optimum's trajectory each way
+            span = 0.5 * np.max(np.abs(ref.x), axis=0)
+            for j, sname in enumerate(model.state_names):
+                w = max(float(span[j]), 1e-6)
+                label = f"x0_{sname}" if len(records) == 1 else f"x0[{i}]_{sname}"
+                x0_priors.append(Prior(label, "uniform", float(x0[j]) - w, float(x0[j]) + w))
         sims.append(_kernel.ScheduleSimulator(model, t, U, x0, sched, hold=reconstruction == "hold",
                                               hrho_max=hrho_max))
         ys.append(np.asarray(rec.y, dtype=float))
@@ -109,5 +115,8 @@ def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[f
         info.append({"record": rec.name, "n_times": int(t.size), "n_obs": int((~m).sum()), "n_masked": int(m.sum()),
                      "x0": x0.tolist(), "schedule_total_substeps": int(sched.sum()),
                      "schedule_max_substeps": int(sched.max()), "adaptive_total_substeps": int(ref.substeps.sum())})
-    post = LogPosterior(model, base, free, priors, sims, ys, weights, noise=noise)
+    priors += x0_priors
+    if noise == "ar1":
+        priors.append(Prior(PHI_NAME, "uniform", -PHI_BOUND, PHI_BOUND))
+    post = LogPosterior(model, base, free, priors, sims, ys, weights, noise=noise, x0_free=sample_x0)
     return post, model, records, info

@@ -86,6 +86,10 @@ def make_prior(name: str, lower: float, upper: float, value: float) -> Prior:
 class LogPosterior:
     """Log-posterior in the sampling coordinates ``z`` (one row per walker when vectorized).
 
+    With ``x0_free`` the initial state of each record is sampled as well (its priors follow the
+    parameters' in ``priors``): the fit's initial state is a nuisance parameter, and holding it at
+    the optimum penalises every other parameter set.
+
     Calling it with ``z`` of shape ``(n_walkers, n_dim)`` returns ``(n_walkers, 2)``: the
     log-posterior and a status code (0 ok, 1 blow-up, 2 too stiff, 3 outside the prior); with
     ``(n_dim,)`` a pair. Failed simulations give ``-inf``.
@@ -100,7 +104,7 @@ class LogPosterior:
     """
 
     def __init__(self, model, base, free: Sequence[str], priors: Sequence[Prior], simulators, ys, weights, *,
-                 noise: str = "gaussian"):
+                 noise: str = "gaussian", x0_free: bool = False):
         if noise not in ("gaussian", "ar1"):
             raise ModelError(f"noise must be one of {{'gaussian', 'ar1'}}; got {noise!r}")
         self.model = model
@@ -110,6 +114,9 @@ class LogPosterior:
         self.noise = noise
         self.index = np.array([model.param_names.index(n) for n in self.free], dtype=np.int64)
         self.simulators = list(simulators)
+        # initial states sampled too: coordinates n_free + i * n_states ... (one block per record)
+        self.x0_free = bool(x0_free)
+        self.n_free = len(self.free)
         self.ys = [np.asarray(y, dtype=float) for y in ys]
         self.keep = [np.asarray(w) > 0 for w in weights]
         self.n_obs = [int(k.sum()) for k in self.keep]
@@ -132,6 +139,14 @@ class LogPosterior:
         for j, (i, pr) in enumerate(zip(self.index, self.priors)):
             P[:, i] = pr.from_coord(z[:, j])
         return P
+
+    def initial_states(self, z: np.ndarray, r: int) -> np.ndarray | None:
+        """Initial states (n, n_states) of record ``r`` from coordinates, or None when they are not sampled."""
+        if not self.x0_free:
+            return None
+        ns = self.model.n_states
+        z = np.atleast_2d(z)
+        return z[:, self.n_free + r * ns:self.n_free + (r + 1) * ns]
 
     def natural(self, z: np.ndarray) -> np.ndarray:
         """Sampled quantities in natural units (n, n_dim) from coordinates."""
@@ -157,7 +172,7 @@ class LogPosterior:
         P = self.params(z[rows])
         phi = z[rows, self.n_dim - 1] if self.noise == "ar1" else None
         for r, (sim, y, keep) in enumerate(zip(self.simulators, self.ys, self.keep)):
-            Y, status, _, _ = sim.run(P)
+            Y, status, _, _ = sim.run(P, self.initial_states(z[rows], r))
             bad = status != 0
             code[rows[bad]] = np.maximum(code[rows[bad]], status[bad])
             res = Y - y

@@ -60,7 +60,7 @@ def posterior_predictive(chains, result, records, *, model=None, n_draws: int = 
     base = model.param_vector(result.params)
     P = np.tile(base, (draws.shape[0], 1))
     for j, n in enumerate(chains.names):
-        if n != PHI_NAME:
+        if n in model.param_names:
             P[:, model.param_names.index(n)] = draws[:, j]
     phi = draws[:, list(chains.names).index(PHI_NAME)] if PHI_NAME in chains.names else None
     sig = chains.sigma
@@ -68,7 +68,11 @@ def posterior_predictive(chains, result, records, *, model=None, n_draws: int = 
     for i, (rec, info) in enumerate(zip(records, chains.setup)):
         t = np.asarray(rec.t, dtype=float)
         U = input_matrix(model, t, rec.inputs_for(model))
-        batch = simulate_batch(model, P, t, U, x0=np.asarray(info["x0"], dtype=float))
+        names = list(chains.names)
+        cols = [names.index(f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}") for s in model.state_names
+                if (f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}") in names]
+        x0 = draws[:, cols] if len(cols) == model.n_states else np.asarray(info["x0"], dtype=float)
+        batch = simulate_batch(model, P, t, U, x0=x0)
         ok = batch.success
         Y = batch.y[ok]
         s = sig[rng.integers(sig.shape[0], size=Y.shape[0]), i] if sig.size else np.full(Y.shape[0], np.nan)
