@@ -1,9 +1,9 @@
 """Study s09 — SINDy cross-check of the terms of the MR damper model (weak form, pysindy).
 
 Which terms of the velocity equation x'' = f(x, x', d, d') do the data support? The candidate
-library holds the model's own terms (read off the SymPy right-hand side of Eq. 12), the effects
-catalogue's term (coulomb-friction: tanh(x'/0.01)) and generic odd powers of x and x' up to 7
-plus x'|x'|. The states are rebuilt from the data (x' = y/A_f, x its integral); no model
+library holds the model's own terms (read off the SymPy right-hand side of Eq. 12), the terms the
+effects catalogue adds to the velocity equation (coulomb-friction tanh(x'/0.01), quadratic-stiffness
+x^2, cubic-damping x'^3 when this was run) and generic odd powers of x and x' up to 7 plus x'|x'|. The states are rebuilt from the data (x' = y/A_f, x its integral); no model
 derivative is used. See :mod:`duffsym.sindy.check` for the method and the verdict rules.
 
 Scenarios (Table 2, 0.4 V row; truth known):
