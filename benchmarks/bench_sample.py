@@ -87,7 +87,9 @@ class ScipyLogPosterior:
             ddi = np.interp(tt, t, dd)
             return [x[1], k1 * (di - x[0]) + c1 * (ddi - x[1]) - c2 * x[1] - k2 * x[0] - k3 * x[0] ** 5 - c3 * x[1] ** 5]
 
-        sol = solve_ivp(rhs, (t[0], t[-1]), self.x0, method="LSODA", t_eval=t, rtol=self.rtol, atol=self.atol)
+        x0 = self.post.initial_states(z, 0)
+        x0 = self.x0 if x0 is None else x0[0]
+        sol = solve_ivp(rhs, (t[0], t[-1]), x0, method="LSODA", t_eval=t, rtol=self.rtol, atol=self.atol)
         if not sol.success or sol.y.shape[1] != t.size:
             self.n_fail += 1
             return -np.inf
@@ -190,11 +192,13 @@ def main(argv=None) -> int:
           f"{1e3 * ch.timings['per_step']:.2f} ms/step), load {ld0} -> {load()}", flush=True)
     print(ch.summary(), flush=True)
     # baseline: same sampler, scipy likelihood, short chain
-    post, _, _, setup = build_posterior(res, rec)
+    post, _, _, setup = build_posterior(res, rec, sample_x0=ch.settings["sample_x0"])
     base = ScipyLogPosterior(post, rec, setup[0]["x0"])
     p0 = ch.chain[-1].copy()  # start in the posterior (no failures from the start ball)
     z0 = post.coords(p0)
-    sampler = emcee.EnsembleSampler(32, post.n_dim, base)
+    from duffsym.uncertainty.sampler import default_moves
+
+    sampler = emcee.EnsembleSampler(32, post.n_dim, base, moves=default_moves())
     ld1 = load()
     t0 = time.perf_counter()
     c0 = time.process_time()

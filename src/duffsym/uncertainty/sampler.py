@@ -397,7 +397,7 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     move_label = "de+snooker" if moves is None else ("stretch" if moves == "stretch" else str(moves))
     moves = default_moves() if moves is None else (None if moves == "stretch" else moves)
     sampler = emcee.EnsembleSampler(int(n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg, moves=moves)
-    sampler._random = np.random.mtrand.RandomState(int(rng.integers(2**31 - 1)))
+    sampler.random_state = np.random.RandomState(int(rng.integers(2**31 - 1))).get_state()
     import numba
 
     old_threads = numba.get_num_threads()
