@@ -129,7 +129,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--screen", default="4", help="candidates refitted after screening, or 'all'")
+    ap.add_argument("--screen", default="4", help="candidates continued after the screening budget, or 'all'")
     ap.add_argument("--only", help="comma-separated scenarios (effects, clean, drift)")
     ap.add_argument("--out", default=str(RESULTS / "diagnose.json"))
     args = ap.parse_args(argv)

@@ -102,7 +102,8 @@ def _shared(s) -> None:
                    "(default 0.3; snapped to whole input cycles)")
     s.add_argument("--noise", type=float, default=None, help="output noise standard deviation if known "
                    "(default: estimated from the measurement)")
-    s.add_argument("--screen", default="4", help="candidates refitted after screening (default 4), or 'all'")
+    s.add_argument("--screen", default="4", help="candidates not converged within the screening budget that continue to the full "
+                   "budget (the best by free-run error; default 4), or 'all'")
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
     s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")

@@ -8,9 +8,8 @@ The procedure (:func:`diagnose`):
    (:func:`~duffsym.diagnose.residuals.analyse_residuals`).
 3. **Each candidate** effect of the catalogue is added to the model and started from the base
    optimum and the effect's data-based initial guess (``Effect.initial_guess(record, y_model)``,
-   via :func:`~duffsym.effects.extended_start`). *Screening*: every candidate's free run at that
-   start is scored on the fitting part, and the best ``screen`` (default 4) are refitted by
-   collocation + IPOPT; the rest are reported as screened out.
+   via :func:`~duffsym.effects.extended_start`), and refitted by collocation + IPOPT on an
+   iteration budget (optionally with screening, see ``screen``).
 4. **Evidence** per candidate, from free runs of the fitted models over the whole record:
    the held-out NRMSE (prediction on data the fit never saw), ΔBIC on the fitting part
    (free-run sum of squares, penalising the added parameters and initial states), and the share
@@ -45,7 +44,8 @@ TIE = 0.05
 CANDIDATE_MAX_ITER = 100
 #: IPOPT CPU seconds for a candidate's fit (see :func:`diagnose`)
 CANDIDATE_CPU_TIME = 30.0
-#: candidates refitted after screening (see :func:`diagnose`)
+#: IPOPT iterations of a candidate's first, screening fit; candidates continued after it (see :func:`diagnose`)
+SCREEN_ITER = 30
 SCREEN = 4
 
 
@@ -242,10 +242,10 @@ def diagnose(
     candidate_cpu_time : IPOPT CPU seconds allowed to each candidate's fit (None: no limit). A
         budget, not evidence: a candidate stopped by it is reported as not converged, and the
         verdict does not rest on it (use None for a reproducible run on a loaded machine).
-    screen : how many candidates to refit after screening (None: all). Screening scores each
-        candidate at its data-based start (the base optimum and the effect's initial guess, no
-        optimisation) by its free-run error on the fitting part; only the best ``screen`` are
-        refitted, the others are reported as screened out. ``bench_diagnose.py`` measures what
+    screen : with screening (an int), every candidate is first fitted on a budget of
+        ``SCREEN_ITER`` IPOPT iterations; those not converged by then continue to the full budget
+        only if their free-run error on the fitting part ranks among the best ``screen``; the
+        others are reported as screened out (default 4). None: every candidate gets the full budget. ``bench_diagnose.py`` measures what
         this costs in correct verdicts against refitting all.
     progress : a callable taking a message string (e.g. ``print``), or None.
     """
@@ -295,9 +295,10 @@ def diagnose(
 
     out: list[Candidate] = []
     y_cands = {}
-    # screening: every candidate at its data-based start (no optimisation), scored by the free-run
-    # sum of squares on the fitting part; the best ``screen`` are refitted
-    starts = []
+    # every candidate is fitted; with screening, first on a short iteration budget: those that have
+    # not converged by then continue only if their free-run error ranks among the best ``screen``
+    budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
+    runs = []
     for name in names:
         effect = CATALOGUE[name]
         t0 = time.perf_counter()
@@ -306,32 +307,40 @@ def diagnose(
         except ModelError as exc:
             say(f"  {name}: not applicable ({exc})")
             continue
-        try:
-            x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
-        except (ModelError, DataError) as exc:
-            out.append(_failed(name, effect, str(exc), time.perf_counter() - t0))
-            continue
-        starts.append((_screen_score(ext, x0, rec_fit, mask_fit), name, effect, ext, x0, time.perf_counter() - t0))
-    starts.sort(key=lambda item: item[0])
-    n_refit = len(starts) if screen is None else max(1, int(screen))
-    for rank, (score, name, effect, ext, x0, t_screen) in enumerate(starts):
-        t0 = time.perf_counter() - t_screen
-        if rank >= n_refit:
-            out.append(_failed(name, effect, f"screened out: at its data-based start it leaves a free-run error "
-                               f"{math.sqrt(score / max(k, 1)):.3g} (RMS) on the fitting part, rank {rank + 1} of "
-                               f"{len(starts)}; not refitted (screen={screen})", time.perf_counter() - t0))
-            continue
         say(f"  trying {name}")
         try:
-            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=candidate_max_iter,
-                      max_cpu_time=candidate_cpu_time)
+            x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
+            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=budget, max_cpu_time=candidate_cpu_time)
         except (ModelError, DataError) as exc:
             out.append(_failed(name, effect, str(exc), time.perf_counter() - t0))
             continue
-        y_ext = _free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
-        if y_ext is None:
-            out.append(_failed(name, effect, fr.message if not fr.success else "free run failed",
-                               time.perf_counter() - t0))
+        y_ext = _free_run(ext, fr.params, record, fr.x0[0])
+        ss = float(np.sum((y[:k] - y_ext[:k]) ** 2)) if y_ext is not None else math.inf
+        runs.append([ss, name, effect, ext, fr, y_ext, time.perf_counter() - t0])
+    if screen is not None:
+        runs.sort(key=lambda item: item[0])
+        for rank, run in enumerate(runs):
+            ss, name, effect, ext, fr, y_ext, secs = run
+            if fr.success or fr.status not in ("Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded"):
+                continue
+            if rank >= screen:
+                run[4] = None
+                run[5] = (f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
+                          f"{rank + 1} of {len(runs)} (screen={screen})")
+                continue
+            t0 = time.perf_counter()
+            say(f"  continuing {name}")
+            fr = _fit(ext, rec_fit, fixed, fr.params, mask=mask_fit, max_iter=candidate_max_iter,
+                      max_cpu_time=candidate_cpu_time)
+            run[4] = fr
+            run[5] = _free_run(ext, fr.params, record, fr.x0[0])
+            run[6] = secs + time.perf_counter() - t0
+    for ss, name, effect, ext, fr, y_ext, secs in runs:
+        if fr is None:
+            out.append(_failed(name, effect, y_ext, secs))
+            continue
+        if not fr.success or y_ext is None:
+            out.append(_failed(name, effect, fr.message if not fr.success else "free run failed", secs))
             continue
         y_cands[name] = y_ext
         r = y - y_ext
@@ -347,7 +356,7 @@ def diagnose(
             nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
             explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
             stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
-            message=fr.message, seconds=time.perf_counter() - t0, supported=supported,
+            message=fr.message, seconds=secs, supported=supported,
             needed=supported and explained >= min_explained and not res.at_noise_level, physics=effect.physics))
     out = _rank(out)
     needed = tuple(c.effect for c in out if c.needed)
@@ -360,22 +369,6 @@ def diagnose(
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
         y_candidates=y_cands,
     )
-
-
-def _screen_score(model, params: Mapping[str, float], record: Record, mask) -> float:
-    """Free-run sum of squared output errors of ``model`` at ``params`` on ``record`` (unmasked
-    samples), started from the data-based state guess; inf when the run fails."""
-    from duffsym.identify.collocation import initial_states
-
-    p = model.param_vector(params)
-    y_run = _free_run(model, params, record, initial_states(model, record, p)[0])
-    if y_run is None:
-        return math.inf
-    r = np.asarray(record.y) - y_run
-    if mask is not None:
-        r = r[~np.asarray(mask, dtype=bool)]
-    ss = float(np.sum(r**2))
-    return ss if math.isfinite(ss) else math.inf
 
 
 def _rank(cands: list[Candidate]) -> list[Candidate]:
