@@ -220,10 +220,12 @@ def part_main(args) -> dict:
     for _ in range(args.repeat):
         ld = load()
         wall, js, rc, err = run_cli(csv)
-        cli.append({"wall_s": wall, "cpu_s": js.get("_cpu_s"), "returncode": rc, "load": ld, "nrmse_reported": js.get("nrmse"),
+        cli.append({"wall_s": wall, "cpu_s": js.get("_cpu_s"), "returncode": rc, "load": ld,
+                    "nrmse_reported": js.get("nrmse"),
                     "success": js.get("success"), "n_iter": js.get("n_iter"), "timings": js.get("timings"),
                     "params": js.get("params"), "x0": js.get("x0"), "stderr_tail": err})
-        print(f"  duffsym fit CLI: {wall:.2f} s, CPU {js.get('_cpu_s'):.2f} s (rc {rc}, nrmse {js.get('nrmse')}, load {ld})",
+        print(f"  duffsym fit CLI: {wall:.2f} s, CPU {js.get('_cpu_s'):.2f} s (rc {rc}, nrmse {js.get('nrmse')}, "
+              f"load {ld})",
               flush=True)
     out["cli"] = cli
     # ---- in-process fit, build/solve split
@@ -429,7 +431,7 @@ def growth(rows: list[dict]) -> dict:
 # ---------------------------------------------------------------------------------------------- report
 def merge() -> dict:
     out = {"benchmark": "bench_fit", "machine": machine(), "load_at_merge": load()}
-    for part in ("main", "starts", "sweep", "sweep_100k", "main_load4"):  # optional re-runs
+    for part in ("main", "starts", "sweep", "sweep_100k", "main_load4", "starts_rerun"):  # optional re-runs
         p = RESULTS / f"fit_{part}.json"
         if p.is_file():
             out[part] = json.loads(p.read_text())
@@ -478,6 +480,12 @@ def print_table(out: dict) -> None:
         print(f"    duffsym {s['success_duffsym']}, baseline {s['success_baseline']}, tuned baseline "
               f"{s['success_baseline_tuned']} (baselines capped at max_nfev {cap['max_nfev']} and "
               f"{cap['time_limit_s']:g} s per start)")
+        rr = out.get("starts_rerun")
+        if rr:
+            walls = sorted(r["wall_s"] for r in rr["duffsym"])
+            print(f"    re-run of the duffsym starts with the current code: {rr['success_duffsym']} (success judged "
+                  f"against its own best NRMSE {rr['best_nrmse']:.5f}), {walls[0]:.2f}-{walls[-1]:.2f} s each, "
+                  f"load {rr['duffsym'][0]['load']}")
     w = out.get("sweep")
     if w:
         print("\n(ii) duffsym fit (CLI, fresh process) vs record length")
@@ -513,6 +521,8 @@ def main(argv=None) -> int:
     ap.add_argument("--baseline-limit", type=float, default=120.0, help="baseline wall-time cap per start, s")
     ap.add_argument("--sizes", type=lambda s: [int(v) for v in s.split(",")], default=list(SIZES))
     ap.add_argument("--sweep-timeout", type=float, default=400.0)
+    ap.add_argument("--tag", default="", help="write results/fit_<part>_<tag>.json (a partial re-run, kept beside "
+                    "the full part; merge reads the tag 'rerun')")
     args = ap.parse_args(argv)
     RESULTS.mkdir(exist_ok=True)
     parts = ("main", "starts", "sweep") if args.part == "all" else (() if args.part == "merge" else (args.part,))
@@ -520,7 +530,8 @@ def main(argv=None) -> int:
         print(f"[{part}] load {load()}", flush=True)
         res = {"main": part_main, "starts": part_starts, "sweep": part_sweep}[part](args)
         res["machine"] = machine()
-        (RESULTS / f"fit_{part}.json").write_text(json.dumps(res, indent=1, default=float) + "\n")
+        name = f"fit_{part}_{args.tag}.json" if args.tag else f"fit_{part}.json"
+        (RESULTS / name).write_text(json.dumps(res, indent=1, default=float) + "\n")
     merge()
     return 0
 
