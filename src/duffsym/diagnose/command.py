@@ -48,7 +48,8 @@ def cmd_diagnose(args) -> int:
     else:
         model = _fit_model(args)
     dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
-                  noise=args.noise, mask=mask, screen=args.screen_n, progress=_progress(args))
+                  noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                  progress=_progress(args))
     if args.report:
         from duffsym.diagnose.report import write_diagnosis_report
 
@@ -71,7 +72,8 @@ def cmd_ladder(args) -> int:
     record, cands, mask, fixed = _common(args)
     model = _fit_model(args)
     lad = ladder(record, model, max_steps=args.max_steps, candidates=cands, fixed=fixed, holdout=args.holdout,
-                 noise=args.noise, mask=mask, screen=args.screen_n, progress=_progress(args))
+                 noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                  progress=_progress(args))
     if args.out:
         lad.final_fit.save(args.out)
     if args.report:
@@ -106,6 +108,7 @@ def _shared(s) -> None:
                    "budget (the best by free-run error; default 4), or 'all'")
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
+    s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")
     s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")

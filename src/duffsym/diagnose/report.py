@@ -49,6 +49,8 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
               "is the free-run error on data the fit never saw.", ""]
     lines += _candidates_table(diag)
     lines += ["", f"![candidates]({f2})", ""]
+    if diag.sindy is not None:
+        lines += ["## SINDy cross-check", "", f"{diag.sindy.get('verdict')}: {diag.sindy.get('message', '')}", ""]
     (folder / "diagnosis.json").write_text(json.dumps(jsonable(diag.to_dict()), indent=2, allow_nan=False, default=str))
     path = folder / "diagnosis.md"
     path.write_text("\n".join(lines) + "\n")

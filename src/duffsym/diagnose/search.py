@@ -109,6 +109,7 @@ class Diagnosis:
     bic_base: float
     timings: dict = field(default_factory=dict)
     y_candidates: dict = field(default_factory=dict)
+    sindy: dict | None = None
 
     @property
     def best(self) -> Candidate | None:
@@ -120,6 +121,7 @@ class Diagnosis:
             verdict=self.verdict, model=self.model, effects=list(self.effects), nrmse_heldout=self.nrmse_heldout,
             noise=self.noise, bic_base=self.bic_base, split=self.split, findings=self.residuals.findings(),
             residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
+            sindy=self.sindy,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
@@ -134,6 +136,8 @@ class Diagnosis:
             pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
             lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
                          f"{flag:<7} {pv}" + ("" if c.success else f"  [fit failed: {c.message}]"))
+        if self.sindy is not None:
+            lines.append(f"SINDy cross-check: {self.sindy.get('verdict')}: {self.sindy.get('message', '')}")
         lines.append(f"verdict: {self.verdict}")
         return "\n".join(lines)
 
@@ -217,6 +221,7 @@ def diagnose(
     candidate_max_iter: int = CANDIDATE_MAX_ITER,
     candidate_cpu_time: float | None = CANDIDATE_CPU_TIME,
     screen: int | None = SCREEN,
+    sindy: bool = True,
     progress=None,
 ) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
@@ -247,6 +252,10 @@ def diagnose(
         only if their free-run error on the fitting part ranks among the best ``screen``; the
         others are reported as screened out (default 4). None: every candidate gets the full budget. ``bench_diagnose.py`` measures what
         this costs in correct verdicts against refitting all.
+    sindy : also run the SINDy cross-check (:func:`duffsym.sindy.sindy_evidence`) on the record
+        with the base fit: an independent, data-driven view of which terms the data support. Its
+        supported missing terms are quoted in the verdict as corroboration (or contradiction) of
+        the ranking; they never decide it, and an inconclusive check is reported as such.
     progress : a callable taking a message string (e.g. ``print``), or None.
     """
     from duffsym.effects import CATALOGUE, apply_effects, extended_start
@@ -361,13 +370,14 @@ def diagnose(
     out = _rank(out)
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
-    verdict = _verdict(res, out, base_held)
+    evidence = _sindy_evidence(record, base, model, say) if sindy else None
+    verdict = _verdict(res, out, base_held) + _sindy_sentence(evidence, out)
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
         y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
-        y_candidates=y_cands,
+        y_candidates=y_cands, sindy=evidence,
     )
 
 
@@ -381,6 +391,31 @@ def _rank(cands: list[Candidate]) -> list[Candidate]:
         tie = [c for c in ok if c.nrmse_after <= ok[0].nrmse_after * (1 + TIE)]
         ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie):]
     return ok + rest
+
+
+def _sindy_evidence(record, base_fit, model, say) -> dict:
+    """The SINDy cross-check's evidence, or why it could not run on this model."""
+    from duffsym.sindy import sindy_evidence
+
+    say("  SINDy cross-check")
+    try:
+        return sindy_evidence([record], fit=base_fit, model=model)
+    except (ModelError, DataError) as exc:
+        return {"verdict": "not applicable", "conclusive": False, "missing_terms": [], "message": str(exc)}
+
+
+def _sindy_sentence(evidence: dict | None, cands: Sequence[Candidate]) -> str:
+    if not evidence or not evidence.get("conclusive"):
+        return ""
+    found = [m for m in evidence.get("missing_terms", []) if m.get("supported")]
+    if not found:
+        return ""
+    terms = ", ".join(f"{m['term']}" + (f" ({m['effect']})" if m.get("effect") else "") for m in found)
+    best = next((c for c in cands if c.success), None)
+    effects = {m.get("effect") for m in found}
+    if best is not None and best.needed and best.effect in effects:
+        return f" The SINDy cross-check independently selects {terms}, the term of {best.effect}."
+    return f" The SINDy cross-check selects term(s) the model lacks: {terms}."
 
 
 def _failed(name, effect, message, seconds) -> Candidate:
