@@ -19,7 +19,8 @@ cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         
 input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
 =================  ===========================================================  ===============
 """
-from duffsym.effects.base import Effect, apply_effects, effect_chain, extended_start, initial_states_with_effects
+from duffsym.effects.base import (Effect, apply_effects, effect_chain, extended_start, fit_with_effects,
+                                  initial_states_with_effects)
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
@@ -32,6 +33,6 @@ CATALOGUE: dict[str, Effect] = {e.name: e for e in (
 )}
 
 __all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain", "extended_start",
+           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain", "extended_start", "fit_with_effects",
            "initial_states_with_effects",
            "CATALOGUE"]
