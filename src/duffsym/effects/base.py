@@ -26,7 +26,7 @@ from typing import Iterable, Mapping
 import numpy as np
 import sympy as sp
 
-from duffsym.errors import ModelError
+from duffsym.errors import DataError, DuffsymError, ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
@@ -216,7 +216,7 @@ def initial_states_with_effects(model: SymbolicModel, record, params: np.ndarray
     if not np.array_equal(y, record.y):
         try:
             rec_base = record.replace(y=y)
-        except Exception:  # a degenerate corrected output: start from the measured one
+        except DataError:  # a degenerate corrected output (e.g. constant): start from the measured one
             rec_base = record
     X = base_states(base, rec_base, np.array([values[n] for n in base.param_names]))
     for eff, _ in steps:
@@ -293,7 +293,7 @@ def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Ma
             base = chain[0]
             sub_fixed = {k: v for k, v in fixed.items() if k in base.param_names}
             candidates.append(complete(initial_guess(rec_b, base, fixed=sub_fixed)))
-    except Exception:  # the re-guess is an optional improvement; keep candidate 1
+    except DuffsymError:  # the re-guess is an optional improvement; keep candidate 1
         pass
     if len(candidates) == 1:
         return candidates[0]
@@ -347,7 +347,7 @@ def fit_with_effects(problem, effects: Iterable[Effect], base_params: Mapping[st
             rec_b = record if np.array_equal(y, record.y) else record.replace(y=y)
             starts.append({**initial_guess(rec_b, base, fixed={k: v for k, v in fixed.items()
                                                               if k in base.param_names}), **guesses})
-        except Exception:  # the second start is optional
+        except DuffsymError:  # the second start is optional (e.g. a degenerate corrected record)
             pass
     results = []
     for s in starts:
