@@ -151,3 +151,11 @@ def test_every_hidden_effect_is_found_with_the_whole_catalogue(hidden, seed):
     rec = hidden_effect_record(hidden, seed)
     dg = diagnose(rec, fixed={"A_f": rec.metadata["truth"]["A_f"]})
     check_found(dg, hidden, rec)
+
+
+def test_cli_derive_shows_what_an_added_effect_does_to_the_lyapunov_argument(capsys):
+    assert main(["derive", "--add", "coulomb-friction"]) == 0
+    text = capsys.readouterr().out
+    # the friction term dissipates: it enters dV/dt with its sign condition
+    assert "-fric_mu*x2*tanh(100.0*x2) <= 0 when fric_mu >= 0" in text
+    assert "dV/dt negative semi-definite: if (sufficient) c3 >= 0 and fric_mu >= 0 and c1 + c2 >= 0" in text

@@ -82,10 +82,9 @@ def cmd_models(args) -> int:
 
 # ---------------------------------------------------------------------------------------- derive
 def cmd_derive(args) -> int:
-    from duffsym.model.library import get_model
-
-    model = get_model(args.model, args.n)
     from duffsym.derive.report import derivation_report
+
+    model = _fit_model(args)  # the model with --add effects, so the report shows what they change
 
     report = derivation_report(model)
     if args.json:
@@ -358,6 +357,8 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("derive", help="the paper's derivations for a model: state space, Lyapunov, invariant set, "
                        "stability conditions, scaling symmetry")
     _add_model_arguments(s)
+    s.add_argument("--add", help="effects to add to the model first, comma-separated (see duffsym effects): the "
+                   "report then shows what they do to the Lyapunov argument")
     fmt = s.add_mutually_exclusive_group()
     fmt.add_argument("--latex", action="store_true", help="print LaTeX")
     fmt.add_argument("--json", action="store_true", help="print one JSON object")
