@@ -93,8 +93,10 @@ def _check_constraints(constraints, free: tuple[str, ...]) -> tuple:
             raise ModelError(f"constraints[{i}] must be (coefficients by name, lower, upper); got {item!r}") from None
         bad = sorted(set(coeffs) - set(free))
         if bad:
-            raise ModelError(f"constraints[{i}]: {bad} not free parameters (free: {list(free)}); constrain free ones only")
-        if not coeffs or not all(math.isfinite(v) for v in coeffs.values()) or math.isnan(lo) or math.isnan(hi) or lo > hi:
+            raise ModelError(f"constraints[{i}]: {bad} not free parameters (free: {list(free)}); "
+                             "constrain free ones only")
+        finite = all(math.isfinite(v) for v in coeffs.values())
+        if not coeffs or not finite or math.isnan(lo) or math.isnan(hi) or lo > hi:
             raise ModelError(f"constraints[{i}]: need finite coefficients and lower <= upper; got {coeffs}, {lo}, {hi}")
         out.append((coeffs, lo, hi))
     return tuple(out)
