@@ -178,8 +178,8 @@ def fit(
     linear_solver : IPOPT's linear solver (``"mumps"`` ships with CasADi).
     degree : degree of the Legendre collocation polynomial in each sample interval.
     print_level : IPOPT verbosity (0 silent).
-    expand : expand the CasADi graph to scalar form: evaluation per iteration ~10x faster, build
-        ~5x slower (about 1 ms per sample). ``"auto"`` expands only for multistart fits (``n_starts >= 3``)
+    expand : (``derivatives="casadi"`` only) expand the CasADi graph to scalar form: evaluation per
+        iteration ~10x faster, build ~5x slower (about 1 ms per sample). ``"auto"`` expands only for multistart fits (``n_starts >= 3``)
         of up to ``EXPAND_AUTO_SAMPLES`` samples in total, where the faster iterations repay the
         build (a single 400-sample fit: 0.47 s unexpanded, 0.82 s expanded); otherwise it keeps the
         mapped graph, whose build is linear in N.
@@ -483,7 +483,8 @@ def fit(
         x0=tuple(x0s), y_sim=y_sims, records=tuple(r.name for r in problem.records),
         mask_info=dict(problem.mask_info),
         settings={"method": "direct collocation", "scheme": "legendre", "degree": int(degree),
-                  "expand": bool(expand), "tol": tol, "acceptable_tol": acceptable_tol, "max_iter": int(max_iter),
+                  "expand": bool(expand) and derivatives == "casadi", "derivatives": derivatives,
+                  "param_stride": stride, "tol": tol, "acceptable_tol": acceptable_tol, "max_iter": int(max_iter),
                   "linear_solver": linear_solver, "start": start,
                   "n_starts": n_starts, "starts_converged": len(ok), "constraints": con_info,
                   "start_costs": [r[4] * 2 * y_norm**2 for r in runs], "y_norm": y_norm},
