@@ -298,12 +298,15 @@ def plot() -> list:
         k = np.arange(len(steps))
         full = [s["rmse_full_mV"] for s in steps]
         part = [s["rmse_noextrap_mV"] for s in steps]
-        ax.semilogy(k, full, "o-", color="C0", label="this ladder: arrow, full")
-        ax.semilogy(k, part, "s-", color="C1", label="this ladder: arrow, no extrapolation")
-        for i, s in enumerate(steps):
-            if s.get("beyond_rule"):
-                ax.semilogy([i - 1, i], full[i - 1: i + 1], "o--", color="C0", mfc="w")
-                ax.semilogy([i - 1, i], part[i - 1: i + 1], "s--", color="C1", mfc="w")
+        n_rule = sum(1 for s in steps if not s.get("beyond_rule"))
+        ax.semilogy(k[:n_rule], full[:n_rule], "o-", color="C0", label="this ladder: arrow, full")
+        ax.semilogy(k[:n_rule], part[:n_rule], "s-", color="C1", label="this ladder: arrow, no extrapolation")
+        if n_rule < len(steps):
+            kk = k[n_rule - 1:]
+            ax.semilogy(kk, full[n_rule - 1:], "--", color="C0")
+            ax.semilogy(kk, part[n_rule - 1:], "--", color="C1")
+            ax.semilogy(kk[1:], full[n_rule:], "o", color="C0", mfc="w", label="supported, beyond the ladder's rule")
+            ax.semilogy(kk[1:], part[n_rule:], "s", color="C1", mfc="w")
         for (name, (a, b)), ls in zip(PUBLISHED.items(), (":", "-.", "--")):
             ax.axhline(a, color="C0", ls=ls, lw=0.8)
             ax.axhline(b, color="C1", ls=ls, lw=0.8)
