@@ -13,15 +13,17 @@ report names it and asks for several amplitudes. Sampling again on three records
 0.3, 0.6 and 1.0 (same total length per record) makes the ridge disappear: k3 is pinned near its
 true 0 and the correlations drop.
 
-Result (full run, seed 808, 2026-11-21). (a) acceptance 0.12 (DE moves), longest tau 130 steps
-(k1, k2), chain 74 tau, ESS > 2000 for every parameter; all five 90 % intervals hold the truth; the
-posterior's 68 % half-widths are 0.84-0.94 of the Laplace standard errors (no disagreement flag);
-the 95 % predictive band holds 95 % of the samples. k1 and k2 are correlated +0.98 even with k3
-fixed (the report calls them weakly identified, variance inflation ~1000). (b) One amplitude:
-posterior correlations k1-k3 -0.94, k2-k3 -0.96, k3 90 % interval [-1.9e6, 6.6e5] (true 0) and
-tau ~500 steps along the ridge (12 000 steps are only ~24 tau there: the ridge is what slows the
-chain); the report names k3 with k2, k1 as unidentifiable and asks for several amplitudes. Three
-amplitudes: k1-k3 +0.63, k2-k3 -0.06, k3 in [-2.1e5, 1.8e5] (9x narrower), tau 27.
+Result (full run, seed 808, 2026-11-21; the initial state is sampled with the parameters). (a)
+acceptance 0.10 (DE moves); tau 76-140 steps for c1, c2, c3 and the initial state, 236 for k1 and k2
+(correlated +0.99 even with k3 fixed: weakly identified, variance inflation ~1000), so 10 000 steps
+are 39 tau, short of the 50 tau rule (flagged), ESS >= 1260 for every quantity; all five 90 %
+intervals hold the truth; the posterior's 68 % half-widths are 0.99-1.00 of the Laplace standard
+errors (no disagreement flag: the Laplace covariance of the fit includes the initial state too;
+holding the initial state fixed gave 0.84-0.94); the 95 % predictive band holds 95 % of the samples.
+(b) One amplitude: posterior correlations k1-k3 -0.89, k2-k3 -0.93, k3 90 % interval [-1.6e6, 4.9e5]
+(true 0) and tau ~520 steps along the ridge (12 000 steps are ~23 tau there: the ridge is what slows
+the chain); the report names k3 with k2, k1 as unidentifiable and asks for several amplitudes.
+Three amplitudes: k1-k3 +0.58, k2-k3 -0.29, k3 in [-2.6e5, 2.3e5] (4x narrower), tau 54.
 
 Files: ``data/derived/s08_uncertainty.{npz,json}``; figures ``paper/figures/s08_uncertainty_corner.png``,
 ``..._bands.png``, ``..._ridge.png``; numbers ``paper/output/s08_*.tex``.
