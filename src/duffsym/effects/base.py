@@ -17,6 +17,11 @@ Every effect provides, for the diagnosis (``duffsym diagnose``/``ladder``) and f
   the collocation fit, :func:`duffsym.identify.collocation.initial_states`);
 - :meth:`Effect.base_output`: the measured output with the effect's own output term removed
   (so the base model's states can be started from the data).
+
+Helpers: :func:`apply_effects`; :func:`effect_chain` (base model and the models after each effect);
+:func:`initial_states_with_effects` (used by the collocation fit's state guess);
+:func:`extended_start` (one start for the extended fit) and :func:`fit_with_effects` (two starts,
+the better free run kept).
 """
 from __future__ import annotations
 
