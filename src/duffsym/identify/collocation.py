@@ -228,6 +228,8 @@ def fit(
         expand = sum(r.n_times for r in problem.records) <= EXPAND_AUTO_SAMPLES and n_starts >= 3
     elif not isinstance(expand, bool):
         raise ModelError(f"expand must be True, False or 'auto'; got {expand!r}")
+    if derivatives not in ("structured", "casadi"):
+        raise ModelError(f"derivatives must be 'structured' or 'casadi'; got {derivatives!r}")
     if degree < 1 or int(degree) != degree:
         raise ModelError(f"degree must be a positive integer; got {degree}")
     if max_iter < 0 or tol <= 0:
@@ -405,8 +407,6 @@ def fit(
             wsym, g, blocks, interval, out_fn, model, free, p_scale_free, theta_size=n_slots, n_g=n_g, K=K,
             y_norm=y_norm, stride=stride, extra=(con_r, con_c, con_v), n_g_total=lbg.size)
         opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
-    elif derivatives != "casadi":
-        raise ModelError(f"derivatives must be 'structured' or 'casadi'; got {derivatives!r}")
     for k, v in (ipopt_options or {}).items():
         opts[k if k.startswith("ipopt.") else f"ipopt.{k}"] = v
     solver = ca.nlpsol("duffsym_fit", "ipopt", {"x": wsym, "f": obj, "g": g}, opts)
