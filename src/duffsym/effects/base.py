@@ -288,16 +288,19 @@ def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Ma
 
     candidates = [complete(base_params)]
     y = np.asarray(record.y, dtype=float)
-    y_b = effect.base_output(y, record, {**defaults, **dict(base_params), **guess})
-    if np.array_equal(y_b, y):  # no output term to remove: the base optimum is the start
-        return candidates[0]
+    if np.array_equal(effect.base_output(y, record, {**defaults, **dict(base_params), **guess}), y):
+        return candidates[0]  # no output term to remove: the base optimum is the start
+    chain = effect_chain(model)
     try:
-        rec_b = record.replace(y=y_b)
-        chain = effect_chain(model)
         if chain is not None:
-            base = chain[0]
+            base, steps = chain
+            values = {**defaults, **dict(base_params), **guess}
+            y_b = y
+            for e, _ in reversed(steps):  # every output term of the chain
+                y_b = e.base_output(y_b, record, values)
             sub_fixed = {k: v for k, v in fixed.items() if k in base.param_names}
-            candidates.append(complete(initial_guess(rec_b, base, fixed=sub_fixed)))
+            reguess = initial_guess(record.replace(y=y_b), base, fixed=sub_fixed)
+            candidates.append(complete({**dict(base_params), **reguess}))
     except DuffsymError:  # the re-guess is an optional improvement; keep candidate 1
         pass
     if len(candidates) == 1:
@@ -316,11 +319,13 @@ def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Ma
 def fit_with_effects(problem, effects: Iterable[Effect], base_params: Mapping[str, float], y_model, **fit_kwargs):
     """Fit ``problem`` (whose model includes ``effects``) from two starts; keep the better free run.
 
-    Starts: (1) the base fit's parameters ``base_params`` with each effect's
-    :meth:`Effect.initial_guess` from ``y_model`` (the base model's free run on the problem's first
-    record); (2) the base parameters re-guessed by the paper's tuning procedure
-    (:func:`duffsym.identify.initial_guess`) on that record with the effects' output terms removed,
-    with the same effect guesses. The result with the smaller free-run NRMSE among the successful
+    ``effects`` are the effects being added (their guesses are made); ``base_params`` the fit of the
+    model without them (for a ladder step: the previous step's fit, which may hold earlier effects).
+    Starts: (1) ``base_params`` with each added effect's :meth:`Effect.initial_guess` from
+    ``y_model`` (the previous model's free run on the problem's first record); (2) the same, with
+    the root model's parameters re-guessed by the paper's tuning procedure
+    (:func:`duffsym.identify.initial_guess`) on that record with the output terms of every effect of
+    the chain removed. The result with the smaller free-run NRMSE among the successful
     fits is returned (the first if none succeeded). Costs two fits.
 
     Why: a base fit can fail on its own (measured: inertia hidden under a band-limited random input
@@ -341,17 +346,17 @@ def fit_with_effects(problem, effects: Iterable[Effect], base_params: Mapping[st
     for e in effects:
         guesses.update(e.initial_guess(record, y_model))
     values = {**model.defaults(), **dict(base_params), **guesses}
-    y = np.asarray(record.y, dtype=float)
-    for e in reversed(effects):
-        y = e.base_output(y, record, values)
     starts = [{**dict(base_params), **guesses}]
     chain = effect_chain(model)
     if chain is not None:
-        base = chain[0]
+        base, steps = chain
+        y = np.asarray(record.y, dtype=float)
+        for e, _ in reversed(steps):  # every output term of the chain, earlier effects included
+            y = e.base_output(y, record, values)
         try:
             rec_b = record if np.array_equal(y, record.y) else record.replace(y=y)
-            starts.append({**initial_guess(rec_b, base, fixed={k: v for k, v in fixed.items()
-                                                              if k in base.param_names}), **guesses})
+            reguess = initial_guess(rec_b, base, fixed={k: v for k, v in fixed.items() if k in base.param_names})
+            starts.append({**dict(base_params), **reguess, **guesses})
         except DuffsymError:  # the second start is optional (e.g. a degenerate corrected record)
             pass
     results = []
