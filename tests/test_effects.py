@@ -185,6 +185,10 @@ def test_extended_models_start_their_states_from_the_data():
     assert np.allclose(X[:, 2], y)  # lag state: the measured force
     b, _ = apply_backlash(rec.d, rec.velocity(), 0.05)
     assert np.allclose(X[:, 3], b)
+    # offset then gas: the shared constant off_y0 is removed once
+    G = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["gas-accumulator"]])
+    X = initial_states(G, rec, G.param_vector({**TRUTH, "off_y0": 0.25, "gas_k": 0.1}))
+    assert np.allclose(X[:, 1], (y - 0.25 - 0.1 * np.asarray(rec.d)) / TRUTH["A_f"])
 
 
 @pytest.fixture(scope="module")

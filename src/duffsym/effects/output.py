@@ -76,6 +76,8 @@ class ForceOffset(Effect):
         return {OFFSET.name: self._clip(OFFSET.name, whole_cycle_mean(record))}
 
     def base_output(self, y, record, params):
+        if "gas_k" in params:  # a gas accumulator added after it shares off_y0 and removes it itself
+            return y
         return y - params[OFFSET.name]
 
 
