@@ -382,6 +382,7 @@ def write_numbers(meta: dict) -> list:
         rows.append(f"{name} & {n_par} & {s['rmse_full_mV']:.3f} & {s['rmse_noextrap_mV']:.3f} \\\\")
     rows.append(r"\hline")
     for name, (a, b) in PUBLISHED.items():
+        name = name.replace("~", r"$\sim$")
         rows.append(f"{name} & & {a:.3f} & {b:.3f} \\\\")
     files.append(C.write_number(STUDY, "table", "\n".join(rows)))
     return files
