@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -392,7 +392,8 @@ def summarize(meta: dict) -> str:
     lines = [f"s10 Silverbox: noise estimate {meta['noise_mV']:.4f} mV; ladder chose "
              f"{', '.join(meta['effects']) or 'no effect'}"]
     for i, s in enumerate(meta["steps"]):
-        lines.append(f"  step {i}{'*' if s.get('beyond_rule') else ' '}: {' + '.join(['base'] + s['effects']):<55} arrow RMSE {s['rmse_full_mV']:8.3f} mV "
+        mark = "*" if s.get("beyond_rule") else " "
+        lines.append(f"  step {i}{mark}: {' + '.join(['base'] + s['effects']):<55} arrow RMSE {s['rmse_full_mV']:8.3f} mV "
                      f"full, {s['rmse_noextrap_mV']:7.3f} mV no-extrap.; segment held-out NRMSE "
                      f"{s['nrmse_heldout']:.4g}")
     lines.append("  published: " + "; ".join(f"{k} {a} / {b}" for k, (a, b) in PUBLISHED.items()))

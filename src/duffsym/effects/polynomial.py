@@ -25,7 +25,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import sympy as sp
 
 from duffsym.effects.base import Effect, residual
 from duffsym.model.core import InputChannel, SymbolicModel
