@@ -90,6 +90,8 @@ class Config:
         slicing) or "savgol" (the record's default Savitzky–Golay derivative, 5 samples here).
     substeps : RK4 substeps per sample of the test free runs (the automatic choice, 3 here, leaves
         an integrator error of ~0.01 mV; the last model is also run with twice as many).
+    accept : the ladder's rule: "supported" (add the best supported effect at each step, see
+        :func:`duffsym.diagnose.ladder`) or "needed" (only effects that remove half the excess error).
     extra_supported : after the ladder stops, add at most this many further effects that the last
         diagnosis *supports* (dBIC < -10 and >= 10 % lower held-out error) but does not call
         *needed* (they remove < 50 % of the excess error); reported as steps beyond the ladder's rule.
@@ -104,7 +106,8 @@ class Config:
     test_len: int | None = None  # None: the whole arrow
     derivative: str = "bandlimited"
     substeps: int = 16
-    extra_supported: int = 1
+    accept: str = "supported"
+    extra_supported: int = 0
 
     @classmethod
     def smoke(cls) -> "Config":
@@ -234,7 +237,7 @@ def compute(cfg: Config) -> dict:
     seg = train.slice(cfg.seg_start, cfg.seg_start + cfg.seg_len)
     print(f"  noise estimate (bins above 250 Hz): {1e3 * sigma:.4f} mV; ladder on {seg.n_times} samples", flush=True)
     t0 = time.perf_counter()
-    lad = ladder(seg, build(()), noise=sigma, max_steps=cfg.max_steps, holdout=cfg.holdout,
+    lad = ladder(seg, build(()), noise=sigma, max_steps=cfg.max_steps, holdout=cfg.holdout, accept=cfg.accept,
                  candidates=None if cfg.candidates is None else list(cfg.candidates),
                  progress=lambda m: print(f"  [{time.perf_counter() - t0:7.1f} s] {m}", flush=True))
     t_ladder = time.perf_counter() - t0

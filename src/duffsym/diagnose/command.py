@@ -71,9 +71,9 @@ def cmd_ladder(args) -> int:
 
     record, cands, mask, fixed = _common(args)
     model = _fit_model(args)
-    lad = ladder(record, model, max_steps=args.max_steps, candidates=cands, fixed=fixed, holdout=args.holdout,
-                 noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                  progress=_progress(args))
+    lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
+                 holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                 progress=_progress(args))
     if args.out:
         lad.final_fit.save(args.out)
     if args.report:
@@ -124,5 +124,9 @@ def register(sub) -> None:
                        "supports it; the error at each step")
     _shared(s)
     s.add_argument("--max-steps", type=int, default=4, help="add at most this many effects (default 4)")
+    s.add_argument("--accept", choices=("needed", "supported"), default="needed",
+                   help="add an effect when the diagnosis calls it needed (default: it removes at least half of "
+                   "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
+                   "held-out error)")
     s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
     s.set_defaults(func=cmd_ladder)

@@ -70,13 +70,19 @@ class Ladder:
 
 def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
            fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           progress=None, **rules) -> Ladder:
+           accept: str = "needed", progress=None, **rules) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
 
     Parameters
     ----------
     record, model, candidates, fixed, holdout, noise, mask, progress : as for :func:`diagnose`.
     max_steps : at most this many effects are added.
+    accept : ``"needed"`` (default): add an effect only when the diagnosis calls it needed (it removes
+        at least half of the excess held-out error: a confident verdict). ``"supported"``: also add
+        the best *supported* effect (ΔBIC and held-out improvement pass, but it explains less than
+        half of what is left) — for records where several small real effects remain, each too small
+        to dominate the residual. Stricter evidence against an effect outside the catalogue is then
+        the user's call: each step's held-out error is reported.
     rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose`.
     """
     from duffsym.effects import CATALOGUE, apply_effects
@@ -101,14 +107,18 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
             effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
             nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
             stderr=dict(dg.base_fit.stderr), diagnosis=dg))
-        if not dg.needed:
+        if accept not in ("needed", "supported"):
+            raise ValueError(f"accept must be 'needed' or 'supported'; got {accept!r}")
+        chosen = dg.needed[0] if dg.needed else None
+        if chosen is None and accept == "supported":
+            chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
+        if chosen is None:
             stopped = "no further effect is supported by the evidence: " + dg.verdict
             break
         if len(steps) > max_steps:
-            stopped = f"reached max_steps={max_steps}; the last diagnosis still asked for {dg.needed[0]}"
+            stopped = f"reached max_steps={max_steps}; the last diagnosis still supported {chosen}"
             break
-        best = dg.candidates[0] if dg.candidates[0].effect == dg.needed[0] else \
-            next(c for c in dg.candidates if c.effect == dg.needed[0])
+        best = next(c for c in dg.candidates if c.effect == chosen)
         model = apply_effects(model, [CATALOGUE[best.effect]])
         start = dict(best.all_params)
     say("final fit on the whole record")
