@@ -189,3 +189,17 @@ def test_validate_reports_a_failed_free_run(table2_csv, tmp_path, capsys):
     code, stdout, _ = run(["validate", str(out), str(table2_csv), "--json"], capsys)
     d = json.loads(stdout)
     assert code == 1 and d["success"] is False and d["nrmse"] is None and d["rmse"] is None
+
+
+def test_every_help_text_renders(capsys):
+    """argparse formats help strings with %: a stray "90 % intervals" once crashed `duffsym --help`."""
+    from duffsym.cli import build_parser
+
+    parser = build_parser()
+    commands = sorted(parser._subparsers._group_actions[0].choices)
+    assert {"fit", "diagnose", "ladder", "effects", "sample", "sindy"} <= set(commands)
+    for argv in [["--help"]] + [[c, "--help"] for c in commands]:
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        assert exc.value.code == 0, argv
+        assert "usage: duffsym" in capsys.readouterr().out

@@ -115,7 +115,7 @@ def cmd_sample(args) -> int:
 def register(sub) -> None:
     from duffsym.cli import _add_file_arguments
 
-    s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 % intervals, "
+    s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, "
                        "tau, ESS, Laplace comparison)")
     s.add_argument("data", help="the CSV record the fit was made on")
     s.add_argument("--fit", required=True, help="FIT.json written by `duffsym fit --out`")
