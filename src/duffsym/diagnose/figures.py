@@ -116,8 +116,12 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
     x = np.arange(len(steps))
     ax.plot(x, [s.nrmse_fit for s in steps], "o-", color="0.5", label="fitting part")
     ax.plot(x, [s.nrmse_heldout for s in steps], "s-", color="k", label="held out")
-    ax.axhline(steps[-1].diagnosis.noise / max(np.std(record.y), 1e-300), color="tab:blue", ls=":",
-               label="noise level")
+    floor = steps[-1].diagnosis.noise / max(float(np.std(record.y)), 1e-300)
+    lowest = min(min(s.nrmse_fit for s in steps), min(s.nrmse_heldout for s in steps))
+    if floor >= lowest / 10:
+        ax.axhline(floor, color="tab:blue", ls=":", label="noise level")
+    else:  # e.g. pre-smoothed measurements: the noise floor would squash the scale
+        ax.plot([], [], " ", label=f"noise level {floor:.1e} (off the scale)")
     ax.set_yscale("log")
     ax.set_xticks(x, names, rotation=20, ha="right", fontsize="small")
     ax.set_ylabel("free-run NRMSE")

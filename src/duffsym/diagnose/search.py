@@ -400,8 +400,10 @@ def _sindy_evidence(record, base_fit, model, say) -> dict:
     say("  SINDy cross-check")
     try:
         return sindy_evidence([record], fit=base_fit, model=model)
-    except (ModelError, DataError) as exc:
-        return {"verdict": "not applicable", "conclusive": False, "missing_terms": [], "message": str(exc)}
+    except (ModelError, DataError, ValueError, ArithmeticError) as exc:
+        # the cross-check is corroboration only: a failure here must not cost the diagnosis
+        return {"verdict": "not applicable", "conclusive": False, "missing_terms": [],
+                "message": f"the SINDy cross-check could not run on this model: {type(exc).__name__}: {exc}"}
 
 
 def _sindy_sentence(evidence: dict | None, cands: Sequence[Candidate]) -> str:

@@ -179,7 +179,8 @@ def candidate_library(model, *, effects: Mapping | None = None, max_power: int =
 
     def order(item):  # position terms, velocity terms, then inputs; by degree within each
         basis = item[0]
-        first = min((variables.index(s) for s in basis.free_symbols), default=-1)
+        first = min((variables.index(s) if s in variables else len(variables) for s in basis.free_symbols),
+                    default=-1)
         return first, sp.Poly(basis, *variables).total_degree() if basis.is_polynomial(*variables) else 99
 
     for basis, coeff in sorted(split_terms(model.rhs[iv], variables).items(), key=order):
