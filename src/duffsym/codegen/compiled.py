@@ -174,8 +174,11 @@ def generate_source(model: SymbolicModel) -> str:
 @lru_cache(maxsize=64)
 def compiled_module(model: SymbolicModel) -> ModuleType:
     """Import (generating on first use) the compiled module of ``model``."""
-    source = generate_source(model)
-    key = f"duffsym_gen_{model.key}_v{_GENERATOR_VERSION}"
+    return load_generated(f"duffsym_gen_{model.key}_v{_GENERATOR_VERSION}", generate_source(model))
+
+
+def load_generated(key: str, source: str) -> ModuleType:
+    """Write ``source`` to ``<cache>/<key>.py`` (unless it is there already) and import it as ``key``."""
     path = cache_dir() / f"{key}.py"
     with _lock:
         if not path.exists() or path.read_text() != source:

@@ -35,7 +35,7 @@ def _progress(args):
 
 
 def cmd_diagnose(args) -> int:
-    from duffsym.cli import _emit_json, _fit_model
+    from duffsym.cli import _fit_model
     from duffsym.diagnose import diagnose
 
     record, cands, mask, fixed = _common(args)
@@ -50,23 +50,28 @@ def cmd_diagnose(args) -> int:
     dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
                   noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
                   progress=_progress(args))
-    if args.report:
-        from duffsym.diagnose.report import write_diagnosis_report
+    from duffsym.diagnose.report import write_diagnosis_report
 
-        path = write_diagnosis_report(dg, record, args.report)
-        if not args.quiet:
-            from duffsym.cli import _err
-
-            _err(f"report written to {path}")
-    if args.json:
-        _emit_json(dg.to_dict())
-    else:
-        print(dg.summary())
+    _output(args, dg, record, write_diagnosis_report)
     return 0
 
 
+def _output(args, obj, record, write_report) -> None:
+    """The report (``--report DIR``), then the JSON or the text summary of a diagnosis or ladder."""
+    from duffsym.cli import _emit_json, _err
+
+    if args.report:
+        path = write_report(obj, record, args.report)
+        if not args.quiet:
+            _err(f"report written to {path}")
+    if args.json:
+        _emit_json(obj.to_dict())
+    else:
+        print(obj.summary())
+
+
 def cmd_ladder(args) -> int:
-    from duffsym.cli import _emit_json, _err, _fit_model
+    from duffsym.cli import _err, _fit_model
     from duffsym.diagnose import ladder
 
     record, cands, mask, fixed = _common(args)
@@ -76,16 +81,9 @@ def cmd_ladder(args) -> int:
                  progress=_progress(args))
     if args.out:
         lad.final_fit.save(args.out)
-    if args.report:
-        from duffsym.diagnose.report import write_ladder_report
+    from duffsym.diagnose.report import write_ladder_report
 
-        path = write_ladder_report(lad, record, args.report)
-        if not args.quiet:
-            _err(f"report written to {path}")
-    if args.json:
-        _emit_json(lad.to_dict())
-    else:
-        print(lad.summary())
+    _output(args, lad, record, write_ladder_report)
     if not lad.final_fit.success:
         _err(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
         return 1

@@ -9,11 +9,6 @@ returning a silently wrong trajectory; a non-finite state is a *blow-up*.
 """
 from __future__ import annotations
 
-import importlib.util
-import os
-import sys
-import tempfile
-import threading
 from functools import lru_cache
 from pathlib import Path
 from types import ModuleType
@@ -24,7 +19,6 @@ from duffsym.errors import ModelError
 
 _TEMPLATE = Path(__file__).with_name("_kernel_template.py")
 _VERSION = "1"
-_lock = threading.Lock()
 
 #: A walker is stopped (too stiff) above this h*rho; RK4's real-axis stability limit is 2.785, and
 #: well before it the error grows, so 2.0 stops a trajectory before it is silently wrong.
@@ -36,24 +30,10 @@ STATUS = {0: "ok", 1: "blow-up", 2: "too stiff"}
 @lru_cache(maxsize=32)
 def kernel_module(model) -> ModuleType:
     """Import (generating on first use) the model's compiled module with the schedule kernel."""
-    from duffsym.codegen.compiled import _GENERATOR_VERSION, cache_dir, generate_source
+    from duffsym.codegen.compiled import _GENERATOR_VERSION, generate_source, load_generated
 
     source = generate_source(model) + "\n\n" + _TEMPLATE.read_text()
-    key = f"duffsym_unc_{model.key}_v{_GENERATOR_VERSION}_{_VERSION}"
-    path = cache_dir() / f"{key}.py"
-    with _lock:
-        if not path.exists() or path.read_text() != source:
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "w") as fh:
-                fh.write(source)
-            os.replace(tmp, path)
-        if key in sys.modules:
-            return sys.modules[key]
-        spec = importlib.util.spec_from_file_location(key, path)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[key] = module
-        spec.loader.exec_module(module)
-    return module
+    return load_generated(f"duffsym_unc_{model.key}_v{_GENERATOR_VERSION}_{_VERSION}", source)
 
 
 class ScheduleSimulator:

@@ -23,20 +23,10 @@ def cmd_sample(args) -> int:
     result = load_result(args.fit)
     record = _read_record(args, args.data)
     mask = None
-    if args.mask == "auto":
-        from duffsym.identify import auto_mask
+    if args.mask not in ("fit",):
+        from duffsym.cli import _mask_from_args
 
-        mask, _ = auto_mask(record)
-    elif args.mask not in (None, "none", "fit"):
-        import numpy as np
-
-        path = Path(args.mask)
-        if not path.is_file():
-            raise CLIError(f"--mask {args.mask}: no such file; give fit, none, auto or a file of 0/1 per sample")
-        try:
-            mask = np.loadtxt(path, dtype=float).astype(bool).reshape(-1)
-        except ValueError as exc:
-            raise CLIError(f"--mask {args.mask}: not a column of 0/1 values ({exc})") from None
+        mask, _ = _mask_from_args(args.mask, record)
     n_masked = result.to_dict().get("n_masked", [0])
     if args.mask in (None, "fit") and n_masked and n_masked[0] and not result.mask:
         _err(f"note: the fit left {n_masked[0]} sample(s) out by a mask that FIT.json does not store; "
