@@ -88,7 +88,9 @@ class Diagnosis:
     nrmse : the base model's free-run NRMSE over the whole record; ``nrmse_heldout`` over the tail.
     residuals : the structure of the base model's free-run residual.
     candidates : every tried effect, best (lowest held-out NRMSE) first.
-    needed : effects the evidence supports adding (see the module docstring); [] when none.
+    needed : the effect the evidence supports adding, best first (see the module docstring); () when
+        none. One at a time: two effects each needed alone may explain the same residual, so the
+        ladder adds the best and diagnoses the extended model again.
     verdict : one or two sentences for a person.
     base_fit : the base model's fit on the fitting part; ``y_base`` its free run on the whole record.
     split : the fitting/held-out split (sample counts, time).
@@ -452,7 +454,3 @@ def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float
             + ("; ".join(where[:3]) if where else "the residual is structured")
             + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
                f"{best.nrmse_after:.3g}." if best is not None else "."))
-
-
-def _lower(s: str) -> str:
-    return s[:1].lower() + s[1:] if s else s
