@@ -5,6 +5,7 @@ import json
 from pathlib import Path
 
 from duffsym.data.record import Record
+from duffsym.diagnose.search import _why_not
 
 
 def _save(fig, path: Path) -> str:
@@ -19,7 +20,7 @@ def _candidates_table(diag) -> list[str]:
              "|---|---|---|---|---|---|"]
     for c in diag.candidates:
         if not c.success:
-            lines.append(f"| {c.effect} | – | – | – | fit failed: {c.message} | |")
+            lines.append(f"| {c.effect} | – | – | – | {_why_not(c.message)} | |")
             continue
         pv = ", ".join(f"{k} = {v:.4g} ± {c.stderr.get(k, float('nan')):.2g}" for k, v in c.params.items())
         flag = "needed" if c.needed else ("helps partly" if c.supported else "not supported")

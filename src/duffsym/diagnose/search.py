@@ -137,11 +137,16 @@ class Diagnosis:
             flag = "needed" if c.needed else ("partial" if c.supported else "")
             pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
             lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
-                         f"{flag:<7} {pv}" + ("" if c.success else f"  [fit failed: {c.message}]"))
+                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{_why_not(c.message)}]"))
         if self.sindy is not None:
             lines.append(f"SINDy cross-check: {self.sindy.get('verdict')}: {self.sindy.get('message', '')}")
         lines.append(f"verdict: {self.verdict}")
         return "\n".join(lines)
+
+
+def _why_not(message: str) -> str:
+    """Why a candidate has no result: screened out, or its fit failed."""
+    return message if message.startswith("screened out") else f"fit failed: {message}"
 
 
 # ---------------------------------------------------------------------------------------------- split
