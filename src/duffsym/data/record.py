@@ -255,15 +255,20 @@ class Record:
         if self.d_dot is not None:
             return self.d_dot
         dt = self.require_uniform("deriving the velocity from d")
-        w = self.default_velocity_window() if window is None else int(window)
-        if w % 2 == 0 or w <= polyorder or w > self.n_times:
-            raise DataError(
-                f"record {self.name or '(unnamed)'}: velocity window must be odd, larger than polyorder={polyorder} "
-                f"and at most n_times={self.n_times}; got {w}"
-            )
+        w = self._check_window("velocity", self.default_velocity_window() if window is None else int(window),
+                               polyorder)
         out = savgol_derivative(np.asarray(self.d), dt, w, polyorder)
         out.flags.writeable = False
         return out
+
+    def _check_window(self, what: str, w: int, polyorder: int) -> int:
+        """``w`` if it is a valid Savitzky–Golay window for this record, else a DataError naming ``what``."""
+        if w % 2 == 0 or w <= polyorder or w > self.n_times:
+            raise DataError(
+                f"record {self.name or '(unnamed)'}: {what} window must be odd, larger than polyorder={polyorder} "
+                f"and at most n_times={self.n_times}; got {w}"
+            )
+        return w
 
     def acceleration(self, *, window: int | None = None, polyorder: int = 3) -> Float1D:
         """The input acceleration: a Savitzky–Golay derivative of ``d_dot`` if the record has it, else the
@@ -280,12 +285,8 @@ class Record:
             If the sampling is not uniform or the window is invalid.
         """
         dt = self.require_uniform("deriving the acceleration")
-        w = self.default_acceleration_window() if window is None else int(window)
-        if w % 2 == 0 or w <= polyorder or w > self.n_times:
-            raise DataError(
-                f"record {self.name or '(unnamed)'}: acceleration window must be odd, larger than "
-                f"polyorder={polyorder} and at most n_times={self.n_times}; got {w}"
-            )
+        w = self._check_window("acceleration",
+                               self.default_acceleration_window() if window is None else int(window), polyorder)
         if self.d_dot is not None:
             out = savgol_derivative(np.asarray(self.d_dot), dt, w, polyorder)
         else:

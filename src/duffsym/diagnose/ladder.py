@@ -16,7 +16,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.diagnose.search import Diagnosis, _fit, diagnose
+from duffsym.diagnose.search import Diagnosis, _fit, diagnose, with_default_af
 
 
 @dataclass(frozen=True)
@@ -123,15 +123,8 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         start = dict(best.all_params)
     say("final fit on the whole record")
     last = steps[-1]
-    final = _fit(model, record, _final_fixed(model, fixed, record), last.params)
+    final = _fit(model, record, with_default_af(model, fixed, record), last.params)
     return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0})
-
-
-def _final_fixed(model, fixed, record) -> dict:
-    out = dict(fixed or {})
-    if "A_f" in model.param_names and "A_f" not in out:
-        out["A_f"] = float(np.max(np.abs(record.y)))
-    return out
 
 
 def error_fell(lad: Ladder) -> float:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from duffsym._json import jsonable
 from duffsym.data.record import Record, zero_crossings
 from duffsym.errors import DataError
 from duffsym.identify.result import nrmse as _nrmse
@@ -222,10 +223,8 @@ class ResidualAnalysis:
             whiteness=dict(acf=self.acf.tolist(), bound=self.acf_bound, fraction_outside=self.acf_outside,
                            ljung_box_p=self.ljung_box_p),
             xcorr=self.xcorr, trend=self.trend, cycle_energy_error=self.cycle_energy.tolist(),
-            plane_map=dict(d=self.map_d.tolist(), d_dot=self.map_v.tolist(),
-                           mean=[[None if not np.isfinite(v) else float(v) for v in row] for row in self.map_mean]),
-            phase_map=dict(phase=self.phase.tolist(),
-                           mean=[None if not np.isfinite(v) else float(v) for v in self.phase_mean]),
+            plane_map=jsonable(dict(d=self.map_d, d_dot=self.map_v, mean=self.map_mean)),
+            phase_map=jsonable(dict(phase=self.phase, mean=self.phase_mean)),
             findings=self.findings(),
         )
 

@@ -175,13 +175,20 @@ def _part(record: Record, stop: int) -> Record:
 
 # ---------------------------------------------------------------------------------------------- fits
 def _free_run(model, params: Mapping[str, float], record: Record, x0) -> np.ndarray | None:
-    from duffsym.simulate import input_matrix, simulate
+    """The fit's free run (identify's own) over ``record``; None when it fails or is not finite."""
+    from duffsym.identify.collocation import _free_run as free_run, _input_matrix
 
-    U = input_matrix(model, np.asarray(record.t), record.inputs_for(model))
-    traj = simulate(model, model.param_vector(params), np.asarray(record.t), U, x0=x0, on_failure="return")
-    if not traj.success or not np.all(np.isfinite(traj.y)):
-        return None
-    return np.asarray(traj.y, dtype=float)
+    y, ok, _ = free_run(model, model.param_vector(params), record, _input_matrix(model, record), x0)
+    return y if ok and np.all(np.isfinite(y)) else None
+
+
+def with_default_af(model, fixed: Mapping[str, float] | None, record: Record) -> dict:
+    """``fixed`` with ``A_f = max|y|`` of ``record`` added when the model has ``A_f`` and it is not given:
+    every fit of a diagnosis (and of a ladder) then shares the same output scale."""
+    out = dict(fixed or {})
+    if "A_f" in model.param_names and "A_f" not in out:
+        out["A_f"] = float(np.max(np.abs(record.y)))
+    return out
 
 
 def _bic(ssr: float, n: int, k: int) -> float:
@@ -287,9 +294,7 @@ def diagnose(
     held = slice(k, record.n_times)
     y = np.asarray(record.y, dtype=float)
     sigma = float(noise) if noise is not None else noise_level(y)
-    fixed = dict(fixed or {})
-    if "A_f" in model.param_names and "A_f" not in fixed:
-        fixed["A_f"] = float(np.max(np.abs(rec_fit.y)))
+    fixed = with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
 
     say(f"base fit of {model.name} on {k} of {record.n_times} samples")
