@@ -111,6 +111,46 @@ def test_noisy_truth_within_three_standard_errors(seed):
     assert np.allclose(cov, cov.T) and np.all(np.linalg.eigvalsh(cov) > 0)
 
 
+def test_twenty_random_starts_recover_the_invariant_combinations(clean_record):
+    """Issue 3: noise-free data, A_f = max|y| (the default, so the symmetry is in play), 20 random
+    starts log-uniform within a factor 10 of the truth mapped onto A_f = max|y|: every fit recovers
+    the symmetry-invariant combinations to 1e-4 (degree 5; measured max 3.5e-6 over the 20). Start 15
+    needs the restart off the k1 bound (see the next test).
+    """
+    problem = Problem(MODEL, clean_record)
+    s = problem.fixed["A_f"] / TRUTH["A_f"]
+    mapped = symmetric(TRUTH, s)
+    rng = np.random.default_rng(2026)
+    worst = 0.0
+    for _ in range(20):
+        factors = np.exp(rng.uniform(-math.log(10), math.log(10), len(FREE)))
+        res = fit(problem, {k: mapped[k] * f for k, f in zip(FREE, factors)}, degree=5)
+        assert res.success, res.message
+        worst = max(worst, *rel_errors(res.params, mapped).values())
+    assert worst < 1e-4, worst
+
+
+def test_a_run_pushed_onto_a_bound_is_restarted(clean_record):
+    """Start 15 of the test above: without the restart IPOPT stops at k1 = 0, k2 ~ 0 (NRMSE 0.015 on
+    noise-free data, reported as converged); the restart from its end parameters with k1 back at its
+    start reaches the truth, and the result says so."""
+    problem = Problem(MODEL, clean_record)
+    mapped = symmetric(TRUTH, problem.fixed["A_f"] / TRUTH["A_f"])
+    start = {"c1": 21.434361463294696, "c2": 1.6147314253460154, "c3": 1102.3402507463006,
+             "k1": 4.655682916414523, "k2": 186.03103090768062}
+    trapped = fit(problem, start, degree=5, bound_restart=False)
+    if not (trapped.params["k1"] < 1e-6 and trapped.nrmse > 0.01):  # the path is a knife edge (the start
+        pytest.skip("this start no longer reaches the k1 = 0 trap here")  # rounded to 2 digits misses it)
+    assert trapped.success  # the trap is a converged KKT point: only the restart can tell
+    res = fit(problem, start, degree=5)
+    assert max(rel_errors(res.params, mapped).values()) < 1e-4 and res.nrmse < 1e-4
+    note = res.settings["bound_restart"]
+    assert note["parameters"] == ["k1"] and note["kept"] == "restart" and note["cost_after"] < note["cost_before"]
+    assert "k1 had stopped on a bound" in res.message
+    # a fit that starts on the optimum has nothing to restart
+    assert fit(problem, mapped, degree=5).settings["bound_restart"] is None
+
+
 def test_standard_errors_are_calibrated_over_fifty_seeds():
     """Issue 3: with 2 % noise the truth lies within 3 standard errors in >= 90 % of 50 seeds.
 

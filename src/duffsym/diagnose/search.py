@@ -213,8 +213,10 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
     options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else None
+    # no restart off bounds: an effect that is not needed ends with its parameter on a bound by design,
+    # and fit_with_effects already gives every candidate two starts
     return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
-               ipopt_options=options)
+               ipopt_options=options, bound_restart=False)
 
 
 # ---------------------------------------------------------------------------------------------- main
