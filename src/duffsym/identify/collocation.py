@@ -201,7 +201,8 @@ def fit(
     param_stride : the NLP carries one copy of the free parameters per ``param_stride`` samples,
         chained by equality constraints (the same solution for any value; it only changes the
         sparsity of the KKT system: 8 needs ~30 % less time than 1 on long records).
-    bound_restart : when the best run ends with a free parameter on a bound it did not start on,
+    bound_restart : (single-start fits; with ``n_starts > 1`` the other starts do this job) when the
+        run ends with a free parameter on a bound it did not start on,
         run IPOPT once more from its end parameters with those back at their start values (the
         states from the data, as for every start), and keep the restart if it lowers the cost (``settings["bound_restart"]`` says what
         happened). A path can be pushed onto a bound by its first steps, far from the data's optimum.
@@ -436,7 +437,7 @@ def fit(
     best = min(ok, key=lambda r: r[4]) if ok else runs[0]
     i_best = runs.index(best)
     bound_note = None
-    if bound_restart and best[1]:
+    if bound_restart and n_starts == 1 and best[1]:
         # a parameter that moved onto a bound may be a trap of the path, not of the data: measured on
         # noise-free Table 2 data, 1 of 120 random starts stopped at k1 = 0, k2 ~ 0 (NRMSE 0.015);
         # a new run from its end parameters with k1 back at its start value (states from the data again,
