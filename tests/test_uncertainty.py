@@ -255,3 +255,30 @@ def test_calibration_of_90_percent_intervals():
         iv = ch.interval(0.9)
         hits += [iv[n][0] <= TRUTH[n] <= iv[n][1] for n in FREE]
     assert 0.82 <= np.mean(hits) <= 0.97, np.mean(hits)
+
+
+def test_sampling_a_fit_with_an_effect_state():
+    """A fit with an output lag (a third state) can be sampled: the substep schedule uses the kernel's
+    own stiffness measure (Gershgorin for n > 2). With exact eigenvalues the kernel judged the schedule
+    too coarse at the optimum itself and no walker could start. The lag is recovered within its
+    posterior interval."""
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.uncertainty._setup import spectral_bound
+
+    lagged = apply_effects(MODEL, [CATALOGUE["output-lag"]])
+    truth = {**TRUTH, "lag_tau": 0.01}
+    rec = synthetic_record(lagged, truth, Sine(1.0, 2.0), dt=0.005, duration=2.0, noise=0.01, rng=5)
+    res = fit(Problem(lagged, rec, fixed={"A_f": TRUTH["A_f"]}))
+    assert res.success and abs(res.params["lag_tau"] / 0.01 - 1) < 0.1
+    post, model, _, _ = build_posterior(res, [rec])
+    J = np.array([[0.0, 1.0, 0.0], [-500.0, -20.0, 0.0], [0.0, 1.6 / 0.01, -1 / 0.01]])
+    assert spectral_bound(J[None])[0] >= np.max(np.abs(np.linalg.eigvals(J)))  # a bound, never below
+    with pytest.warns(ConvergenceWarning):
+        ch = sample(res, rec, n_walkers=20, n_steps=60, rng=1)
+    d = ch.to_dict()
+    assert "x0_z_lag" in d["median"]
+    # proposals far into the tails (a much shorter lag) are stiffer than the schedule and are
+    # rejected as such: measured 144 of 1220 evaluations on this short chain
+    assert ch.counts["ok"] > 0.7 * sum(ch.counts.values())
+    assert abs(d["median"]["lag_tau"] / 0.01 - 1) < 0.05
+    assert d["q05"]["lag_tau"] < res.params["lag_tau"] < d["q95"]["lag_tau"]

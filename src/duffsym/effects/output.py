@@ -224,6 +224,13 @@ class Asymmetry(Effect):
         return np.where(y >= 0, y / (1 + a), y / (1 - a))
 
 
+#: The smallest lag time constant (s). A lag far below a sample is not observable, and the limit
+#: tau -> 0 is singular: fitted to data without a lag, tau ran to 1e-6 s, where the free run needed
+#: more than 5000 RK4 substeps per 5 ms sample and failed; at 1e-4 s it needs about 80 and the fit
+#: reports tau on its bound, i.e. no lag.
+LAG_TAU_MIN = 1e-4
+
+
 @dataclass(frozen=True)
 class OutputLag(Effect):
     """First-order dynamics between the model force and the measured force (coil inductance of the
@@ -251,7 +258,7 @@ class OutputLag(Effect):
     n_states: int = 1
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, 1e-6, 10.0, unit="s", scale=0.01,
+        return (ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, LAG_TAU_MIN, 10.0, unit="s", scale=0.01,
                           description="lag time constant"),)
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:

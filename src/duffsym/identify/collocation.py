@@ -468,6 +468,10 @@ def fit(
         message += f"; best of {n_starts} starts ({len(ok)} converged)"
     solve = time.perf_counter() - t_solve
 
+    # IPOPT relaxes bounds by ~1e-8 relative: a parameter on its bound can come back just outside it,
+    # which a prior or a later Problem would reject
+    w_opt = w_opt.copy()
+    w_opt[:n_slots] = np.clip(w_opt[:n_slots], lo_s, hi_s)
     slot_values = dict(zip(slot_names, map(float, w_opt[:n_slots] * p_scale)))
     rec_params = [problem.record_params(i, slot_values) for i in range(len(problem.records))]
     params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
