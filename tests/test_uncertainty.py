@@ -226,6 +226,19 @@ def test_cli_sample(sine_fit, tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
     assert main(["sample", str(csv), "--fit", str(fitp), "--walkers", "4", "--steps", "10", "--quiet"]) == 2
     assert "n_walkers" in capsys.readouterr().err
+    # a fit made with a mask: FIT.json stores it and `sample` leaves the same samples out by default
+    masked = tmp_path / "masked.json"
+    assert main(["fit", str(csv), "--af", str(TRUTH["A_f"]), "--mask", "auto", "--out", str(masked), "--json",
+                 "--quiet"]) == 0
+    n_masked = json.loads(capsys.readouterr().out)["n_masked"][0]
+    assert n_masked > 0
+    assert main(["sample", str(csv), "--fit", str(masked), "--walkers", "16", "--steps", "20", "--json",
+                 "--quiet"]) == 0
+    assert json.loads(capsys.readouterr().out)["records"][0]["n_masked"] == n_masked
+    short = tmp_path / "short.csv"
+    write_csv(rec.replace(t=rec.t[:300], d=rec.d[:300], y=rec.y[:300], d_dot=rec.d_dot[:300]), short)
+    assert main(["sample", str(short), "--fit", str(masked), "--quiet"]) == 2
+    assert "stored mask has" in capsys.readouterr().err
 
 
 def test_serial_and_vectorized_chains_agree(sine_fit):

@@ -139,6 +139,7 @@ class IdentificationResult:
             "x0": [list(map(float, x)) for x in self.x0],
             "records": list(self.records),
             "n_masked": [int(np.sum(m)) for m in self.mask],
+            "mask": [mask_to_ranges(m) for m in self.mask],
             "mask_info": jsonable(self.mask_info),
             "n_samples": int(self.n_samples),
             "settings": jsonable(self.settings),
@@ -155,7 +156,7 @@ class IdentificationResult:
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> "IdentificationResult":
-        """Rebuild a result from its JSON form (sample arrays and masks are not stored)."""
+        """Rebuild a result from its JSON form (the masks come back; the sample arrays are not stored)."""
         need = ("model", "params", "stderr", "nrmse", "status", "success")
         missing = [k for k in need if k not in data]
         if missing:
@@ -180,11 +181,35 @@ class IdentificationResult:
             nrmse_records=tuple(f(v) for v in data.get("nrmse_records", ())),
             nrmse_objective=f(data.get("nrmse_objective")), x0=tuple(tuple(x) for x in data.get("x0", ())),
             records=tuple(data.get("records", ())), mask_info=dict(data.get("mask_info", {})),
+            mask=tuple(mask_from_ranges(m, source=source) for m in data.get("mask", ())),
             settings=dict(data.get("settings", {})), versions=dict(data.get("versions", {})),
             n_samples=int(data.get("n_samples", 0)),
             group_params={g: {k: float(v) for k, v in p.items()} for g, p in data.get("group_params", {}).items()},
             groups=tuple(data.get("groups", ())),
         )
+
+
+def mask_to_ranges(mask) -> dict:
+    """A boolean mask as ``{"n_times": N, "ranges": [[start, stop], ...]}`` (half-open runs of True)."""
+    m = np.asarray(mask, dtype=bool).reshape(-1)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], m.astype(np.int8), [0]])))
+    return {"n_times": int(m.size), "ranges": edges.reshape(-1, 2).tolist()}
+
+
+def mask_from_ranges(data: Mapping[str, Any], *, source: str = "result") -> np.ndarray:
+    """Inverse of :func:`mask_to_ranges`, checked."""
+    try:
+        n = int(data["n_times"])
+        ranges = [(int(a), int(b)) for a, b in data["ranges"]]
+    except (KeyError, TypeError, ValueError):
+        raise DataError(f"{source}: a stored mask must be {{'n_times': N, 'ranges': [[start, stop], ...]}}; "
+                        f"got {str(data)[:80]}") from None
+    m = np.zeros(n, dtype=bool)
+    for a, b in ranges:
+        if not 0 <= a < b <= n:
+            raise DataError(f"{source}: mask range [{a}, {b}) lies outside 0..{n}")
+        m[a:b] = True
+    return m
 
 
 def load_result(path) -> IdentificationResult:

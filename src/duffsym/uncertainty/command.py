@@ -8,6 +8,8 @@ from pathlib import Path
 def cmd_sample(args) -> int:
     import warnings
 
+    import numpy as np
+
     from duffsym.cli import CLIError, _emit_json, _err, _read_record
     from duffsym.errors import ConvergenceWarning
     from duffsym.identify import load_result
@@ -27,10 +29,9 @@ def cmd_sample(args) -> int:
         from duffsym.cli import _mask_from_args
 
         mask, _ = _mask_from_args(args.mask, record)
-    n_masked = result.to_dict().get("n_masked", [0])
-    if args.mask in (None, "fit") and n_masked and n_masked[0] and not result.mask:
-        _err(f"note: the fit left {n_masked[0]} sample(s) out by a mask that FIT.json does not store; "
-             "pass --mask auto (or the mask file) to leave them out here too")
+    if args.mask in (None, "fit") and result.mask and np.size(result.mask[0]) != record.n_times:
+        raise CLIError(f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
+                       f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE")
     if not args.quiet and not args.json:
         _err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
              f"{args.steps} steps")
@@ -119,7 +120,7 @@ def register(sub) -> None:
     s.add_argument("--thin", type=int, default=None, help="thinning of the kept chain (default 1)")
     s.add_argument("--seed", type=int, default=0, help="seed of the walker starts and moves")
     s.add_argument("--ar1", action="store_true", help="AR(1) noise instead of white (samples its coefficient)")
-    s.add_argument("--mask", default="fit", help="fit (the fit's mask if stored; FIT.json stores none), none, auto "
+    s.add_argument("--mask", default="fit", help="fit (default: the mask FIT.json stores, if the fit had one), none, auto "
                    "(deadzone, as fit --mask auto) or a file of 0/1 per sample")
     s.add_argument("--workers", type=int, default=None, help="evaluate walkers in this many processes (default: all "
                    "walkers in one compiled batch call, usually faster)")
