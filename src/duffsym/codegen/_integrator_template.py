@@ -37,6 +37,15 @@ def _stiffness(x, u, p, J):
     return spectral_radius(J)
 
 
+@njit(cache=True, inline="always")
+def _within(x, blowup):
+    """Every component finite and at most ``blowup`` in magnitude (NaN fails the test)."""
+    for i in range(x.shape[0]):
+        if not (abs(x[i]) <= blowup):
+            return False
+    return True
+
+
 @njit(cache=True, fastmath=FASTMATH)
 def integrate(t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y, M):
     """Integrate from x0 over the sample times t with inputs U (n_times, n_inputs).
@@ -83,10 +92,7 @@ def integrate(t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y,
                         X[kk, i] = np.nan
                 return STATUS_TOO_STIFF, k
             _advance(x, U, k, p, dt, m, hold, xo)
-            finite = True
-            for i in range(n):
-                if not (abs(xo[i]) <= blowup):
-                    finite = False
+            finite = _within(xo, blowup)
             if not finite:
                 # in auto mode an overshooting trial step is not yet a blow-up: the stiffness
                 # estimate at its start can be far too low (it grows like x'^(n-1) within the

@@ -36,11 +36,7 @@ def integrate_schedule_batch(t, U, X0, P, M, hold, blowup, hrho_max, Y, status, 
                 dt = t[k + 1] - t[k]
                 m = M[k]
                 _advance(x, U, k, p, dt, m, hold, xo)
-                finite = True
-                for i in range(n):
-                    if not (abs(xo[i]) <= blowup):
-                        finite = False
-                if not finite:
+                if not _within(xo, blowup):
                     st = 1
                     idx = k + 1
                     break
