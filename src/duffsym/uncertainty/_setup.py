@@ -31,16 +31,18 @@ def check_result(result) -> None:
         raise ModelError(f"the fit's value of {bad} is not finite; refit before sampling")
 
 
-def spectral_bound(J: np.ndarray) -> np.ndarray:
-    """The kernel's measure of rho(J) for a stack of Jacobians (..., n, n): exact for n <= 2, the
-    Gershgorin bound (largest absolute row sum) above, as ``spectral_radius`` in the integrator
-    template. The schedule must use the kernel's measure: with exact eigenvalues a 3-state model
-    (an output lag, A_f = 1.6) got a schedule the kernel then judged 2.6x too coarse, and no walker
-    could start."""
+def spectral_bound(model, J: np.ndarray) -> np.ndarray:
+    """rho(J) for a stack of Jacobians (..., n, n), measured by the kernel's own compiled
+    ``spectral_radius`` (exact for n <= 2, the Gershgorin bound above). The schedule must use the
+    kernel's measure: with exact eigenvalues a 3-state model (an output lag, A_f = 1.6) got a
+    schedule the kernel then judged 2.6x too coarse, and no walker could start."""
+    from duffsym.codegen.compiled import compiled_module
+
     J = np.asarray(J, dtype=float)
-    if J.shape[-1] <= 2:
-        return np.max(np.abs(np.linalg.eigvals(J)), axis=-1)
-    return np.max(np.sum(np.abs(J), axis=-1), axis=-1)
+    n = J.shape[-1]
+    flat = np.ascontiguousarray(J.reshape(-1, n, n))
+    radius = compiled_module(model).spectral_radius
+    return np.array([radius(Jk) for Jk in flat]).reshape(J.shape[:-2])
 
 
 def stiffness_schedule(model, p, t, U, x0, *, h_rho: float, margin_neighbours: bool = True):
@@ -54,7 +56,7 @@ def stiffness_schedule(model, p, t, U, x0, *, h_rho: float, margin_neighbours: b
         raise DataError(f"the fitted parameters do not simulate on this record ({ref.message}); "
                         "check that the fit belongs to this record")
     J = numpy_model(model).jac_states(ref.x, U, p)
-    rho = spectral_bound(J)
+    rho = spectral_bound(model, J)
     dt = np.diff(t)
     r = np.maximum(rho[:-1], rho[1:])
     if margin_neighbours:
