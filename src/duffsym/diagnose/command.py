@@ -4,7 +4,7 @@ from __future__ import annotations
 
 def _common(args):
     """Record, model, candidates, mask and fixed values from the shared options."""
-    from duffsym.cli import CLIError, _mask_from_args, _parse_assignments, _read_record
+    from duffsym._cli_common import CLIError, _mask_from_args, _parse_assignments, _read_record
     from duffsym.effects import CATALOGUE
 
     record = _read_record(args, args.data)
@@ -29,13 +29,13 @@ def _common(args):
 
 
 def _progress(args):
-    from duffsym.cli import _err
+    from duffsym._cli_common import _err
 
     return None if args.quiet else (lambda msg: _err(msg))
 
 
 def cmd_diagnose(args) -> int:
-    from duffsym.cli import _fit_model
+    from duffsym._cli_common import _fit_model
     from duffsym.diagnose import diagnose
 
     record, cands, mask, fixed = _common(args)
@@ -58,7 +58,7 @@ def cmd_diagnose(args) -> int:
 
 def _output(args, obj, record, write_report) -> None:
     """The report (``--report DIR``), then the JSON or the text summary of a diagnosis or ladder."""
-    from duffsym.cli import _emit_json, _err
+    from duffsym._cli_common import _emit_json, _err
 
     if args.report:
         path = write_report(obj, record, args.report)
@@ -71,7 +71,7 @@ def _output(args, obj, record, write_report) -> None:
 
 
 def cmd_ladder(args) -> int:
-    from duffsym.cli import _err, _fit_model
+    from duffsym._cli_common import _err, _fit_model
     from duffsym.diagnose import ladder
 
     record, cands, mask, fixed = _common(args)
@@ -91,7 +91,7 @@ def cmd_ladder(args) -> int:
 
 
 def _shared(s) -> None:
-    from duffsym.cli import _add_file_arguments, _add_model_arguments
+    from duffsym._cli_common import _add_file_arguments, _add_model_arguments
 
     s.add_argument("data", help="CSV record (time, displacement, force, ...; see --columns)")
     _add_model_arguments(s)

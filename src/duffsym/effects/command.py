@@ -3,7 +3,7 @@ from __future__ import annotations
 
 
 def cmd_effects(args) -> int:
-    from duffsym.cli import _emit_json
+    from duffsym._cli_common import _emit_json
     from duffsym.effects import CATALOGUE
 
     rows = [e.describe() for e in CATALOGUE.values()]

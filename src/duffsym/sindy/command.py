@@ -3,7 +3,7 @@ from __future__ import annotations
 
 
 def cmd_sindy(args) -> int:
-    from duffsym.cli import CLIError, _emit_json, _err, _read_record
+    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record
     from duffsym.sindy import crosscheck
 
     fit = None
@@ -36,7 +36,7 @@ def cmd_sindy(args) -> int:
 
 
 def register(sub) -> None:
-    from duffsym.cli import _add_file_arguments
+    from duffsym._cli_common import _add_file_arguments
 
     s = sub.add_parser(
         "sindy", help="SINDy cross-check of the terms of the velocity equation (which terms the data support)",

@@ -10,7 +10,7 @@ def cmd_sample(args) -> int:
 
     import numpy as np
 
-    from duffsym.cli import CLIError, _emit_json, _err, _read_record
+    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record
     from duffsym.errors import ConvergenceWarning
     from duffsym.identify import load_result
     from duffsym.uncertainty.sampler import ChainTooShort, sample
@@ -26,7 +26,7 @@ def cmd_sample(args) -> int:
     record = _read_record(args, args.data)
     mask = None
     if args.mask not in ("fit",):
-        from duffsym.cli import _mask_from_args
+        from duffsym._cli_common import _mask_from_args
 
         mask, _ = _mask_from_args(args.mask, record)
     if args.mask in (None, "fit") and result.mask and np.size(result.mask[0]) != record.n_times:
@@ -104,7 +104,7 @@ def cmd_sample(args) -> int:
 
 
 def register(sub) -> None:
-    from duffsym.cli import _add_file_arguments
+    from duffsym._cli_common import _add_file_arguments
 
     s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, "
                        "tau, ESS, Laplace comparison)")

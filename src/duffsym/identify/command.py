@@ -1,0 +1,120 @@
+"""``duffsym fit`` and ``duffsym validate``: identify a model from a record, and score a saved fit on another."""
+from __future__ import annotations
+
+from duffsym._cli_common import (
+    CLIError,
+    _add_file_arguments,
+    _add_model_arguments,
+    _emit_json,
+    _err,
+    _fit_model,
+    _mask_from_args,
+    _parse_assignments,
+    _read_record,
+)
+
+
+def cmd_fit(args) -> int:
+    from duffsym.identify import Problem, fit
+
+    record = _read_record(args, args.data)
+    model = _fit_model(args)
+    fixed = _parse_assignments(args.fix, "--fix")
+    if args.af != "max":
+        try:
+            fixed["A_f"] = float(args.af)
+        except ValueError:
+            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
+    mask, mask_info = _mask_from_args(args.mask, record)
+    problem = Problem(model, record, fixed=fixed, mask=mask, mask_info=mask_info)
+    if not args.quiet:
+        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
+             f"({record.t.size} samples)")
+    result = fit(problem, n_starts=args.starts, rng=args.seed)
+    if args.out:
+        result.save(args.out)
+    if args.plot:
+        _plot_fit(result, record, model, args.plot)
+    if args.json:
+        _emit_json(_contract_fields(result.to_dict()))
+    else:
+        print(result.summary())
+    if not result.success:
+        _err(f"duffsym fit: the fit did not succeed: {result.status}: {result.message}")
+        return 1
+    return 0
+
+
+def _contract_fields(d: dict) -> dict:
+    """The fit JSON with the contract's keys first (model, effects, params, stderr, nrmse, status, success)."""
+    head = ("model", "effects", "params", "stderr", "nrmse", "status", "success")
+    return {**{k: d[k] for k in head if k in d}, **{k: v for k, v in d.items() if k not in head}}
+
+
+def _plot_fit(result, record, model, path) -> None:
+    import numpy as np
+
+    from duffsym.plot.loops import plot_loops, save_figure
+    from duffsym.simulate import Trajectory, input_matrix
+
+    names = tuple(c.name for c in model.inputs)
+    u = input_matrix(model, record.t, record.inputs_for(model))
+    y_sim = np.asarray(result.y_sim[0], dtype=float)
+    common = dict(model=model.name, t=record.t, x=np.zeros((record.t.size, 0)), u=u, params=result.params,
+                  success=True, status="ok", message="ok", method="data", input_names=names)
+    measured = Trajectory(y=np.asarray(record.y, dtype=float), **common)
+    fitted = Trajectory(y=y_sim, **common)
+    fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g})"],
+                     styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)])
+    if result.mask and np.any(result.mask[0]):
+        m = np.asarray(result.mask[0], dtype=bool)
+        axes = fig.axes
+        axes[0].plot(u[m, 0], record.y[m], ".", color="tab:red", ms=2, label="masked")
+        if len(axes) > 1 and u.shape[1] > 1:
+            axes[1].plot(u[m, 1], record.y[m], ".", color="tab:red", ms=2)
+        axes[0].legend(fontsize="small")
+    save_figure(fig, path)
+
+
+def cmd_validate(args) -> int:
+    from duffsym.identify import load_result, validate
+
+    result = load_result(args.fit)
+    record = _read_record(args, args.data)
+    val = validate(result, record)
+    if args.json:
+        _emit_json(val.to_dict())
+    else:
+        print(val.summary())
+    if not val.success:
+        _err(f"duffsym validate: the free run failed: {val.message}")
+        return 1
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
+    s.add_argument("data", help="CSV with a header: time, displacement, force (+ velocity, current); see --columns")
+    _add_model_arguments(s)
+    s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed (repeat or "
+                   "comma-separate); k3 = 0 by default (not identifiable from one sine amplitude)")
+    s.add_argument("--af", default="max", help="A_f: 'max' (= max|y|, the paper's choice; the scaling symmetry makes "
+                   "it unidentifiable) or a value")
+    s.add_argument("--mask", default="none", help="none, auto (the deadzone after velocity reversals, paper Fig. 8) "
+                   "or a file with one 0/1 per sample (1 = leave out of the objective)")
+    s.add_argument("--add", help="effects to add to the model, comma-separated (see duffsym.effects)")
+    s.add_argument("--starts", type=int, default=1, help="multistart: number of starts (default 1)")
+    s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
+    _add_file_arguments(s)
+    s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
+    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF)")
+    s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
+    s.add_argument("--quiet", action="store_true", help="no progress messages")
+    s.set_defaults(func=cmd_fit)
+
+    s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
+    s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
+    s.add_argument("data", help="CSV record to validate on")
+    _add_file_arguments(s)
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_validate)

@@ -1,0 +1,27 @@
+"""``duffsym models``: the model library (names, parameters, inputs, output)."""
+from __future__ import annotations
+
+from duffsym._cli_common import _emit_json
+
+
+def cmd_models(args) -> int:
+    from duffsym.model.library import MODELS, get_model
+
+    rows = []
+    for name in MODELS:
+        m = get_model(name)
+        rows.append({"model": name, "description": m.description, "params": list(m.param_names),
+                     "inputs": [c.name for c in m.inputs], "output": m.output_name})
+    if args.json:
+        _emit_json({"models": rows})
+    else:
+        for r in rows:
+            print(f"{r['model']:<14} {r['description']}")
+            print(f"{'':<14} inputs {', '.join(r['inputs'])} -> output {r['output']}; params {', '.join(r['params'])}")
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("models", help="list the models")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_models)
