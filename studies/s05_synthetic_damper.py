@@ -11,7 +11,7 @@ gains are comparable with Table 2; the scaling symmetry would otherwise move the
 
 A third fit models the play instead of masking it: the ``backlash`` effect
 (:mod:`duffsym.effects`, a smooth play state with half-width ``bl_h``) added to the model, every
-sample in the objective, started from the unmasked fit (:func:`duffsym.effects.fit_with_effects`).
+sample in the objective, started from the unmasked fit (:func:`duffsym.identify.fit_with_effects`).
 
 Outputs: Table 2 re-estimated with standard errors and the relative errors of the three fits;
 each fit validated by free-run simulation (:func:`duffsym.identify.validate`) on a 1 Hz unit
@@ -121,9 +121,9 @@ def _rms(errs: dict) -> float:
 def compute(cfg: Config) -> dict:
     """Simulate, fit (plain and masked), validate; write the derived files; return the metadata."""
     from duffsym.data import synthetic_record
-    from duffsym.effects import CATALOGUE, apply_effects, fit_with_effects
+    from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.excitation import BandLimitedRandom, Sine
-    from duffsym.identify import Problem, auto_mask, fit, nrmse, validate
+    from duffsym.identify import Problem, auto_mask, fit, fit_with_effects, nrmse, validate
     from duffsym.model import mr_damper
     from duffsym.model.presets import TABLE2_N, table2_params
 

@@ -1,7 +1,7 @@
 """Each catalogued effect, hidden at a known value in synthetic Table 2 data (rows 0.2-0.8 V, dt = 0.005 s,
 1 % output noise, steady state: 1 s simulated before the record starts) is recovered by fitting the
 extended model (collocation + IPOPT) from the base fit and the effect's data-based initial guess
-(:func:`duffsym.effects.extended_start`), and the free-run NRMSE falls at least twofold, to the noise.
+(:func:`duffsym.identify.extended_start`), and the free-run NRMSE falls at least twofold, to the noise.
 
 A_f is fixed at its true value: the scaling symmetry x -> s x leaves the base output unchanged but
 rescales effects acting on the internal velocity x' (friction, asymmetry), so with A_f = max|y|
@@ -19,9 +19,9 @@ import pytest
 from duffsym import Sine, mr_damper
 from duffsym.data import synthetic_record
 from duffsym.data.record import Record
-from duffsym.effects import CATALOGUE, apply_effects, extended_start, fit_with_effects
+from duffsym.effects import CATALOGUE, apply_effects
 from duffsym.excitation import Multisine
-from duffsym.identify import Problem, fit
+from duffsym.identify import Problem, extended_start, fit, fit_with_effects
 from duffsym.model.presets import table2_params
 from duffsym.simulate import simulate
 

@@ -8,7 +8,7 @@ The procedure (:func:`diagnose`):
    (:func:`~duffsym.diagnose.residuals.analyse_residuals`).
 3. **Each candidate** effect of the catalogue is added to the model and started from the base
    optimum and the effect's data-based initial guess (``Effect.initial_guess(record, y_model)``,
-   via :func:`~duffsym.effects.extended_start`), and refitted by collocation + IPOPT on an
+   via :func:`~duffsym.identify.extended_start`), and refitted by collocation + IPOPT on an
    iteration budget (optionally with screening, see ``screen``).
 4. **Evidence** per candidate, from free runs of the fitted models over the whole record:
    the held-out NRMSE (prediction on data the fit never saw), ΔBIC on the fitting part
@@ -274,7 +274,8 @@ def diagnose(
         the ranking; they never decide it, and an inconclusive check is reported as such.
     progress : a callable taking a message string (e.g. ``print``), or None.
     """
-    from duffsym.effects import CATALOGUE, apply_effects, extended_start
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.identify import extended_start
 
     t_start = time.perf_counter()
     say = progress or (lambda msg: None)

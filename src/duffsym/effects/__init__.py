@@ -1,5 +1,9 @@
 """Physical effects that extend a model (composable; see :class:`Effect` and ``duffsym effects``).
 
+An effect is a model extension with its data-based guesses; fitting an extended model is
+:func:`duffsym.identify.extended_start` / :func:`duffsym.identify.fit_with_effects` (effects never
+import the fitting code).
+
 The catalogue, in the order ``duffsym effects`` lists it:
 
 =================  ===========================================================  ===============
@@ -19,8 +23,7 @@ cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         
 input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
 =================  ===========================================================  ===============
 """
-from duffsym.effects.base import (Effect, apply_effects, effect_chain, extended_start, fit_with_effects,
-                                  initial_states_with_effects)
+from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
@@ -33,6 +36,6 @@ CATALOGUE: dict[str, Effect] = {e.name: e for e in (
 )}
 
 __all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain", "extended_start", "fit_with_effects",
+           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain",
            "initial_states_with_effects",
            "CATALOGUE"]

@@ -19,9 +19,9 @@ Every effect provides, for the diagnosis (``duffsym diagnose``/``ladder``) and f
   (so the base model's states can be started from the data).
 
 Helpers: :func:`apply_effects`; :func:`effect_chain` (base model and the models after each effect);
-:func:`initial_states_with_effects` (used by the collocation fit's state guess);
-:func:`extended_start` (one start for the extended fit) and :func:`fit_with_effects` (two starts,
-the better free run kept).
+:func:`initial_states_with_effects` (used by the collocation fit's state guess). Fitting an
+extended model (:func:`~duffsym.identify.extended_start`, :func:`~duffsym.identify.fit_with_effects`)
+is in :mod:`duffsym.identify.extended`: effects never import the fitting code.
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ from typing import Iterable, Mapping
 import numpy as np
 import sympy as sp
 
-from duffsym.errors import DataError, DuffsymError, ModelError
+from duffsym.errors import DataError, ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
@@ -247,127 +247,3 @@ def lstsq_coeffs(r: np.ndarray, *columns: np.ndarray) -> np.ndarray:
     A = np.column_stack(columns)
     coef, *_ = np.linalg.lstsq(A, r, rcond=1e-10)
     return np.where(np.isfinite(coef), coef, 0.0)
-
-
-def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Mapping[str, float], y_model,
-                   fixed: Mapping[str, float] | None = None) -> dict[str, float]:
-    """Starting parameters for fitting ``model`` (which includes ``effect``) after a base fit.
-
-    Two candidates, the one whose free run of ``model`` on ``record`` has the smaller error is kept:
-
-    1. the base fit's parameters (``base_params``) with the effect's :meth:`Effect.initial_guess`;
-    2. for effects with an output term (offset, gas, inertia, asymmetry): the base parameters
-       re-guessed by the paper's tuning procedure (:func:`duffsym.identify.initial_guess`) on the
-       record with the effect's output term removed (:meth:`Effect.base_output` at the guessed
-       values), with the same effect guess.
-
-    Why: a base model fitted to data with, e.g., an offset or a compression/extension asymmetry can
-    settle where it mimics the effect (k1 = k2 = 0, a drifting mass carries the mean force); started
-    there, the extended fit can stop in that valley (measured: NRMSE 0.017 instead of the noise
-    level 0.0093 on one seed), while candidate 2 starts it near the truth. For the other effects
-    candidate 1 is used alone (a re-guess, although closer in free run, led the backlash fit to a
-    worse optimum).
-
-    ``fixed``: the values the fit will hold (e.g. ``problem.fixed``; ``A_f`` otherwise defaults to
-    ``max|y|`` in the re-guess). Returns every parameter of ``model`` (clipped to its bounds).
-    """
-    from duffsym.identify.collocation import _input_matrix, initial_states
-    from duffsym.identify.initial import initial_guess
-    from duffsym.simulate import simulate
-
-    fixed = dict(fixed or {})
-    guess = effect.initial_guess(record, y_model)
-    defaults = model.defaults()
-
-    def complete(values: Mapping[str, float]) -> dict[str, float]:
-        out = {}
-        for p in model.params:
-            v = fixed.get(p.name, guess.get(p.name, values.get(p.name, defaults[p.name])))
-            out[p.name] = float(min(max(v, p.lower), p.upper))
-        return out
-
-    candidates = [complete(base_params)]
-    y = np.asarray(record.y, dtype=float)
-    if np.array_equal(effect.base_output(y, record, {**defaults, **dict(base_params), **guess}), y):
-        return candidates[0]  # no output term to remove: the base optimum is the start
-    chain = effect_chain(model)
-    try:
-        if chain is not None:
-            base, steps = chain
-            values = {**defaults, **dict(base_params), **guess}
-            y_b = y
-            for e, _ in reversed(steps):  # every output term of the chain
-                y_b = e.base_output(y_b, record, values)
-            sub_fixed = {k: v for k, v in fixed.items() if k in base.param_names}
-            reguess = initial_guess(record.replace(y=y_b), base, fixed=sub_fixed)
-            candidates.append(complete({**dict(base_params), **reguess}))
-    except DuffsymError:  # the re-guess is an optional improvement; keep candidate 1
-        pass
-    if len(candidates) == 1:
-        return candidates[0]
-    t = np.asarray(record.t)
-    U = _input_matrix(model, record)
-    costs = []
-    for c in candidates:
-        p = model.param_vector(c)
-        tr = simulate(model, p, t, U, x0=initial_states(model, record, p)[0], on_failure="return")
-        ok = tr.success and np.all(np.isfinite(tr.y))
-        costs.append(float(np.mean((np.asarray(tr.y) - y) ** 2)) if ok else np.inf)
-    return candidates[int(np.argmin(costs))]
-
-
-def fit_with_effects(problem, effects: Iterable[Effect], base_params: Mapping[str, float], y_model, **fit_kwargs):
-    """Fit ``problem`` (whose model includes ``effects``) from two starts; keep the better free run.
-
-    ``effects`` are the effects being added (their guesses are made); ``base_params`` the fit of the
-    model without them (for a ladder step: the previous step's fit, which may hold earlier effects).
-    Starts: (1) ``base_params`` with each added effect's :meth:`Effect.initial_guess` from
-    ``y_model`` (the previous model's free run on the problem's first record); (2) the same, with
-    the root model's parameters re-guessed by the paper's tuning procedure
-    (:func:`duffsym.identify.initial_guess`) on that record with the output terms of every effect of
-    the chain removed. The result with the smaller free-run NRMSE among the successful
-    fits is returned (the first if none succeeded). Costs two fits.
-
-    Why: a base fit can fail on its own (measured: inertia hidden under a band-limited random input
-    at the 0.2 V row, base NRMSE 0.29 with c3 = 0, k2 = 6182); started there the extended fit stays
-    in that valley (0.29), while from start (2) it reaches the noise (0.0091, m recovered).
-
-    ``fit_kwargs`` go to :func:`duffsym.identify.fit`; ``result.settings["effect_start"]`` (1 or 2)
-    says which start won.
-    """
-    from duffsym.identify import fit
-    from duffsym.identify.initial import initial_guess
-
-    effects = list(effects)
-    model = problem.model
-    record = problem.records[0]
-    fixed = {k: problem.fixed_value(0, k) for k in problem.fixed}
-    guesses: dict[str, float] = {}
-    for e in effects:
-        guesses.update(e.initial_guess(record, y_model))
-    values = {**model.defaults(), **dict(base_params), **guesses}
-    starts = [{**dict(base_params), **guesses}]
-    chain = effect_chain(model)
-    if chain is not None:
-        base, steps = chain
-        y = np.asarray(record.y, dtype=float)
-        for e, _ in reversed(steps):  # every output term of the chain, earlier effects included
-            y = e.base_output(y, record, values)
-        try:
-            rec_b = record if np.array_equal(y, record.y) else record.replace(y=y)
-            reguess = initial_guess(rec_b, base, fixed={k: v for k, v in fixed.items() if k in base.param_names})
-            starts.append({**dict(base_params), **reguess, **guesses})
-        except DuffsymError:  # the second start is optional (e.g. a degenerate corrected record)
-            pass
-    results = []
-    for s in starts:
-        x0 = {}
-        for n in problem.free:
-            lo, hi = problem.bounds[n]
-            x0[n] = float(min(max(s.get(n, model.param(n).default), lo), hi))
-        results.append(fit(problem, x0=x0, **fit_kwargs))
-    ok = [i for i, r in enumerate(results) if r.success]
-    best = min(ok, key=lambda i: results[i].nrmse) if ok else 0
-    res = results[best]
-    res.settings["effect_start"] = best + 1
-    return res

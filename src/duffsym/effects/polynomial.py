@@ -19,7 +19,7 @@ a linear stiffness :math:`\alpha`).
 Units: the parameters are per unit mass in the model's state units (for Eq. 1 with an input
 gain, ``duffing-gain``: x in output units, t in s), so their magnitude depends on the data; the
 identification scales them by ``ParamSpec.scale`` and starts them at 0 (the extended model is
-then the base model, whose optimum starts the fit, :func:`~duffsym.effects.extended_start`).
+then the base model, whose optimum starts the fit, :func:`~duffsym.identify.extended_start`).
 """
 from __future__ import annotations
 

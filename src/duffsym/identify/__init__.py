@@ -3,9 +3,11 @@
 
 :func:`initial_guess` implements the paper's tuning procedure (Fig. 4) as a small grid search;
 :func:`auto_mask` finds the deadzone of a joint backlash (Fig. 8) in the data; :func:`validate`
-simulates a fit on another record (Fig. 9).
+simulates a fit on another record (Fig. 9); :func:`extended_start` and :func:`fit_with_effects`
+fit a model extended by effects after a base fit.
 """
 from duffsym.identify.collocation import collocation_coefficients, fit, initial_states
+from duffsym.identify.extended import extended_start, fit_with_effects
 from duffsym.identify.initial import TUNING_STEPS, auto_mask, initial_guess
 from duffsym.identify.problem import Problem
 from duffsym.identify.result import IdentificationResult, load_result, nrmse
@@ -14,4 +16,5 @@ from duffsym.identify.validation import ValidationResult, model_from_result, val
 __all__ = [
     "Problem", "fit", "IdentificationResult", "load_result", "initial_guess", "auto_mask", "initial_states",
     "collocation_coefficients", "TUNING_STEPS", "nrmse", "validate", "ValidationResult", "model_from_result",
+    "extended_start", "fit_with_effects",
 ]

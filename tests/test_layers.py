@@ -1,0 +1,140 @@
+"""The import direction of ``src/duffsym``: lower layers never import higher ones, and no package imports
+another in a circle.
+
+A small check over every ``import``/``from ... import`` in the source (function-level imports included,
+found with :mod:`ast`), so a lazy import inside a function cannot hide a circle. Each module belongs to a
+layer: its top-level package (``duffsym.identify.collocation`` -> ``identify``), except the command-line
+modules (``cli.py``, ``_cli_common.py``, ``*/command.py``, ``*_command.py``), which form the top layer
+``cli`` wherever they sit. ``duffsym/__init__.py`` is the public facade above everything (its lazy
+``fit``/``read_csv`` re-exports) and ``from duffsym import __version__`` is not a dependency.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import duffsym
+
+SRC = Path(duffsym.__file__).parent
+
+#: Bottom to top. A module may import only from its own layer or the layers listed before it.
+LAYERS = (
+    "errors", "_typing", "_checks", "_json",
+    "model",
+    "codegen",
+    "excitation",
+    "simulate",
+    "loops",
+    "plot",
+    "data",
+    "effects",
+    "derive",
+    "identify",
+    "sindy",
+    "uncertainty",
+    "diagnose",
+    "cli",
+)
+RANK = {name: i for i, name in enumerate(LAYERS)}
+
+
+def _is_cli(module: str) -> bool:
+    last = module.rsplit(".", 1)[-1]
+    return last in ("cli", "_cli_common", "command") or last.endswith("_command")
+
+
+def layer(module: str) -> str | None:
+    """The layer of a ``duffsym`` module name; None for the package facade itself."""
+    if _is_cli(module):
+        return "cli"
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else None
+
+
+def _module_name(path: Path) -> str:
+    rel = path.relative_to(SRC.parent).with_suffix("")
+    parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
+    return ".".join(parts)
+
+
+def imports_of(path: Path) -> list[tuple[str, int]]:
+    """Every ``duffsym`` module imported by the file, with the line."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module and node.module.split(".")[0] == "duffsym":
+            if node.module == "duffsym":  # from duffsym import X: X is a submodule or a facade name
+                out += [(f"duffsym.{a.name}", node.lineno) for a in node.names if (SRC / a.name).exists()
+                        or (SRC / f"{a.name}.py").exists()]
+            else:
+                out.append((node.module, node.lineno))
+        elif isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "duffsym" and a.name != "duffsym"]
+    return out
+
+
+def edges() -> list[tuple[str, str, str, int]]:
+    """(source layer, imported layer, source module, line) for every import between layers."""
+    found = []
+    for path in sorted(SRC.rglob("*.py")):
+        module = _module_name(path)
+        src = layer(module)
+        if src is None:
+            continue
+        for target, line in imports_of(path):
+            dst = layer(target)
+            if dst is not None and dst != src:
+                found.append((src, dst, module, line))
+    return found
+
+
+def test_every_module_has_a_layer():
+    unknown = sorted({(s if s not in RANK else d) for s, d, _, _ in edges() if s not in RANK or d not in RANK})
+    assert not unknown, f"layers not in LAYERS (add them where they belong): {unknown}"
+
+
+def test_imports_point_down_the_layers():
+    upward = [f"{m}:{line} ({s}) imports {d}" for s, d, m, line in edges() if RANK[d] > RANK[s]]
+    assert not upward, "imports against the layer order:\n" + "\n".join(upward)
+
+
+def test_effects_never_import_the_fitting_code():
+    """An effect is a model extension with its guesses; fitting it lives in ``duffsym.identify.extended``."""
+    bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges()
+           if s == "effects" and d in ("identify", "diagnose", "uncertainty", "sindy", "simulate", "codegen")]
+    assert not bad, bad
+
+
+def test_no_import_circle_between_packages():
+    graph: dict[str, set[str]] = {}
+    for s, d, _, _ in edges():
+        graph.setdefault(s, set()).add(d)
+    state: dict[str, int] = {}
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        path.append(node)
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == 1:
+                return path[path.index(nxt):] + [nxt]
+            if nxt not in state and (cycle := visit(nxt)):
+                return cycle
+        path.pop()
+        state[node] = 2
+        return None
+
+    for start in sorted(graph):
+        if start not in state:
+            cycle = visit(start)
+            assert cycle is None, "import circle: " + " -> ".join(cycle)
+
+
+def test_the_check_sees_a_planted_upward_import(tmp_path):
+    """The checker itself: an effects module importing the fitting code is reported."""
+    planted = tmp_path / "duffsym" / "effects"
+    planted.mkdir(parents=True)
+    (planted / "bad.py").write_text("def f():\n    from duffsym.identify import fit\n")
+    found = imports_of(planted / "bad.py")
+    assert found == [("duffsym.identify", 2)]
+    assert RANK[layer(found[0][0])] > RANK[layer("duffsym.effects.bad")]
+    assert layer("duffsym.identify.command") == "cli" and layer("duffsym.simulate_command") == "cli"
