@@ -30,7 +30,9 @@ def cmd_fit(args) -> int:
     if not args.quiet:
         _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
              f"({record.t.size} samples)")
-    result = fit(problem, n_starts=args.starts, rng=args.seed)
+    result = fit(problem, n_starts=args.starts, rng=args.seed, progress=None if args.quiet else (lambda msg: _err(f"  {msg}")))
+    if result.flags:
+        _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
         result.save(args.out)
     if args.plot:

@@ -45,6 +45,9 @@ class IdentificationResult:
     defaults_applied : name -> reason for each default the problem applied (``A_f``, ``k3``, ...).
     x0 : per record, the fitted initial state. ``y_sim``: per record, the free-run output.
     settings : solver tolerances and options used; ``versions`` of casadi/duffsym.
+    flags : doubtful features of a usable fit, each ``{"flag": name, "message": ..., ...}``
+        (:func:`duffsym.identify.quality.fit_flags`: parameters on a bound, outside the stability
+        certificate, R² < 0.5).
     """
 
     model: str
@@ -76,6 +79,7 @@ class IdentificationResult:
     n_samples: int = 0
     group_params: dict = field(default_factory=dict)
     groups: tuple = ()
+    flags: tuple = ()
 
     def params_for(self, group: str | None = None) -> dict:
         """Every parameter by name for one group (``None`` for a fit without groups)."""
@@ -100,6 +104,7 @@ class IdentificationResult:
             lines.append(f"  {self.message}")
         lines.append(f"  free-run NRMSE {self.nrmse:.4g} (R2 {self.r2:.5g}) over {self.n_samples} samples; "
                      f"cost {self.cost:.4g}")
+        lines += [f"  flag {f.get('flag', '?')}: {f.get('message', '')}" for f in self.flags]
         for n, v in self.params.items():
             if n in self.stderr:
                 se = self.stderr[n]
@@ -127,6 +132,7 @@ class IdentificationResult:
             "status": self.status,
             "success": bool(self.success),
             "message": self.message,
+            "flags": jsonable([dict(f) for f in self.flags]),
             "free": list(self.free),
             "fixed": {k: float(v) for k, v in self.fixed.items()},
             "defaults_applied": dict(self.defaults_applied),
@@ -186,6 +192,7 @@ class IdentificationResult:
             n_samples=int(data.get("n_samples", 0)),
             group_params={g: {k: float(v) for k, v in p.items()} for g, p in data.get("group_params", {}).items()},
             groups=tuple(data.get("groups", ())),
+            flags=tuple(dict(f) for f in data.get("flags", ()) if isinstance(f, Mapping)),
         )
 
 

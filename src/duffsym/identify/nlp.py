@@ -1,0 +1,377 @@
+r"""The collocation NLP of a :class:`~duffsym.identify.Problem`, built once and solved from many starts.
+
+:class:`CollocationNLP` holds the transcription described in :mod:`duffsym.identify.collocation`
+(decision variables, bounds, constraints, the IPOPT solver with its structured derivatives);
+:meth:`CollocationNLP.solve` runs IPOPT from one parameter start and returns a :class:`Run`.
+An IPOPT intermediate callback (:class:`_IterationHook`) counts iterations, reports progress
+through a ``progress`` callable and stops the solve when the user presses Ctrl-C
+(:class:`FitInterrupted`, a :class:`KeyboardInterrupt`).
+"""
+from __future__ import annotations
+
+import math
+import signal
+import threading
+import time
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+import numpy as np
+
+from duffsym.errors import ModelError
+
+#: Seconds between two "iteration k" progress lines of one solve.
+PROGRESS_EVERY = 2.0
+
+
+class FitInterrupted(KeyboardInterrupt):
+    """The user interrupted an IPOPT solve (Ctrl-C); nothing of the fit is returned."""
+
+
+@dataclass(frozen=True)
+class Run:
+    """One IPOPT run: how it ended, its iterations, the scaled optimum and its scaled cost."""
+
+    status: str
+    success: bool
+    n_iter: int
+    w: np.ndarray
+    cost: float
+    message: str
+
+
+@dataclass(frozen=True)
+class _Block:
+    """Where one record's variables sit in the decision vector, and its data."""
+
+    offset: int
+    N: int
+    S: np.ndarray
+    p_offset: int
+    nb: int
+    U: np.ndarray
+    X_init: np.ndarray
+
+
+class CollocationNLP:
+    """The transcribed least-squares problem of ``problem`` with IPOPT, built once.
+
+    Parameters
+    ----------
+    problem : the :class:`~duffsym.identify.Problem`.
+    start : start value of every parameter slot (``problem.slot_names``), inside its bounds; it
+        scales the states (their data-based guess depends on the parameters) and is the first start.
+    degree, derivatives, expand, param_stride : see :func:`~duffsym.identify.fit`.
+    solver_options : the IPOPT/CasADi options (``ipopt.*`` and CasADi's own).
+
+    Attributes
+    ----------
+    th0, lo, hi : the start and the bounds of the parameter slots, scaled by ``p_scale``.
+    y_norm : RMS of the measured outputs (the objective is scaled by it).
+    constraints : the linear parameter constraints as stated (for the result).
+    """
+
+    def __init__(self, problem, start: Mapping[str, float], *, degree: int = 3, derivatives: str = "structured",
+                 expand: bool = False, param_stride: int = 8, solver_options: Mapping[str, object] | None = None):
+        import casadi as ca
+
+        from duffsym.codegen.casadi_fn import casadi_functions
+        from duffsym.identify.collocation import collocation_coefficients
+
+        self.problem = problem
+        model = problem.model
+        self.model = model
+        self.free = problem.free
+        self.slot_names = problem.slot_names
+        self.n_slots = len(problem.slots)
+        self.stride = int(param_stride)
+        if self.stride < 1:
+            raise ModelError(f"param_stride must be a positive integer; got {param_stride}")
+        self.degree = int(degree)
+        self.rhs_fn, self.out_fn = casadi_functions(model)
+        self.p_scale_free = np.array([model.param(n).typical_scale for n in self.free])
+        self.p_scale = np.array([model.param(n).typical_scale for n, _ in problem.slots])
+        self.tau, C, D = collocation_coefficients(degree, "legendre")
+        self.interval, self.out_scaled = self._interval_functions(ca, C, D)
+        self.lo = np.array([problem.bounds[n][0] for n, _ in problem.slots]) / self.p_scale
+        self.hi = np.array([problem.bounds[n][1] for n, _ in problem.slots]) / self.p_scale
+        self.th0 = np.array([start[sn] for sn in self.slot_names]) / self.p_scale
+        y_all = np.concatenate([np.asarray(r.y) for r in problem.records])
+        self.y_norm = float(np.sqrt(np.mean(y_all**2))) or 1.0
+        self._transcribe(ca, start)
+        self._linear_constraints()
+        self.solver = self._solver(ca, derivatives, expand, dict(solver_options or {}))
+
+    # ------------------------------------------------------------------ building
+    def _interval_functions(self, ca, C, D):
+        """One interval as a CasADi function of scaled states (mapped over all intervals of a record)."""
+        model, K, tau = self.model, self.degree, self.tau
+        nx, nu = model.n_states, model.n_inputs
+        xk, xc = ca.SX.sym("xk", nx), ca.SX.sym("xc", nx, K)
+        uk, uk1, hk = ca.SX.sym("uk", nu), ca.SX.sym("uk1", nu), ca.SX.sym("h")
+        ps = ca.SX.sym("p", model.n_params)
+        sx = ca.SX.sym("sx", nx)  # state scale
+        pts = [xk] + [xc[:, j] for j in range(K)]
+        res = []
+        for j in range(1, K + 1):
+            xdot_h = sum(C[r, j] * pts[r] for r in range(K + 1))
+            u_j = (1 - tau[j]) * uk + tau[j] * uk1
+            f_j = self.rhs_fn(pts[j] * sx, u_j, ps)
+            res.append(xdot_h - hk * f_j / sx)
+        x_end = sum(D[r] * pts[r] for r in range(K + 1))
+        interval = ca.Function("interval", [xk, xc, uk, uk1, hk, ps, sx], [ca.vertcat(*res), x_end])
+        xo, uo = ca.SX.sym("x", nx), ca.SX.sym("u", nu)
+        out_scaled = ca.Function("out", [xo, uo, ps, sx], [self.out_fn(xo * sx, uo, ps)])
+        return interval, out_scaled
+
+    def _transcribe(self, ca, start) -> None:
+        """Decision variables, bounds, start vector, dynamics constraints and objective of every record."""
+        problem, model, K, stride = self.problem, self.model, self.degree, self.stride
+        nx, n_free, n_slots = model.n_states, len(self.free), self.n_slots
+        n_w = n_slots + sum(nx * r.n_times + nx * K * (r.n_times - 1) + n_free * -(-r.n_times // stride)
+                            for r in problem.records)
+        self.wsym = wsym = ca.MX.sym("w", n_w)
+        self.theta = wsym[:n_slots]
+        lbw, ubw, w0 = list(self.lo), list(self.hi), list(self.th0)
+        self.g_parts, self.obj = [], 0
+        self.layout, self.blocks = [], []
+        offset, n_g = n_slots, 0
+        for i, rec in enumerate(problem.records):
+            blk, spec, parts, w0_i = self._record(ca, i, rec, start, offset, n_g)
+            self.g_parts += parts
+            w0 += w0_i
+            n_var = blk.p_offset - offset
+            lbw += [-np.inf] * (n_var + n_free * blk.nb)
+            ubw += [np.inf] * (n_var + n_free * blk.nb)
+            self.layout.append(blk)
+            self.blocks.append(spec)
+            n_g += (nx * K + nx) * (blk.N - 1) + n_free * blk.nb
+            offset += n_var + n_free * blk.nb
+        self.n_g = n_g
+        self.w0, self.lbw, self.ubw = np.asarray(w0, dtype=float), np.asarray(lbw), np.asarray(ubw)
+
+    def _record(self, ca, i, rec, start, offset, n_g):
+        """One record's block: its variables, collocation and chain constraints, objective and start values."""
+        from duffsym.identify.collocation import _input_matrix, initial_states
+
+        problem, model, K, tau, stride = self.problem, self.model, self.degree, self.tau, self.stride
+        nx, n_free, free = model.n_states, len(self.free), self.free
+        wsym, th0 = self.wsym, self.th0
+        N = rec.n_times
+        U = _input_matrix(model, rec)
+        sidx = problem.slot_index(i)
+        p_start = np.array([problem.record_params(i, start)[n] for n in model.param_names])
+        X_init = initial_states(model, rec, p_start)
+        S = np.maximum(np.max(np.abs(X_init), axis=0), 1e-3 * max(1.0, float(np.max(np.abs(X_init)))))
+        S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
+        n_var = nx * N + nx * K * (N - 1)
+        Xs = ca.reshape(wsym[offset: offset + nx * N], nx, N)
+        Xc = ca.reshape(wsym[offset + nx * N: offset + n_var], nx, K * (N - 1))
+        # One copy of the free parameters per `stride` samples, chained to theta by linear
+        # constraints: every interval then depends on nearby variables only, so the Hessian has no
+        # dense rows (shared parameters made CasADi's build quadratic and slowed MUMPS) and the chain
+        # p_0 = theta, p_b+1 = p_b keeps the KKT matrix banded for the sparse factorization. A copy
+        # per 8 samples instead of per sample: ~30 % less CPU at 12 800 samples (measured 1, 4, 8,
+        # 16, 64: 5.8-6.2, 4.1-4.2, 3.8-4.4, 3.9-5.1, 4.2-5.1 s; no copies at all: ~40 % more than 1).
+        nb = -(-N // stride)
+        Pl = ca.reshape(wsym[offset + n_var: offset + n_var + n_free * nb], n_free, nb)
+        copy_of = (np.arange(N) // stride).tolist()
+        rows = []
+        for n in model.param_names:
+            if n in free:
+                j = free.index(n)
+                rows.append((Pl[j, :] if stride == 1 else Pl[j, copy_of]) * self.p_scale_free[j])
+            else:
+                rows.append(ca.DM.ones(1, N) * problem.fixed_value(i, n))
+        P_all = ca.vertcat(*rows)
+        h = np.diff(np.asarray(rec.t))
+        coll, xend = self.interval.map(N - 1)(Xs[:, :-1], Xc, U[:-1].T, U[1:].T, h[None, :], P_all[:, :-1], S)
+        parts = [ca.vec(coll), ca.vec(xend - Xs[:, 1:]), Pl[:, 0] - self.theta[sidx], ca.vec(Pl[:, 1:] - Pl[:, :-1])]
+        y_hat = self.out_scaled.map(N)(Xs, U.T, P_all, S)
+        wts = problem.sample_weights(i)
+        r = (y_hat - np.asarray(rec.y)[None, :]) / self.y_norm
+        self.obj = self.obj + 0.5 * ca.sum2(r**2 * wts[None, :])
+        # initial values: sample states from the data, collocation states interpolated linearly
+        Xs0 = X_init / S  # (N, nx); ca.vec(Xs) is column-major, i.e. sample by sample = Xs0 row-major
+        Xc0 = np.empty((nx, K * (N - 1)))
+        for j in range(K):
+            Xc0[:, j::K] = ((1 - tau[j + 1]) * Xs0[:-1] + tau[j + 1] * Xs0[1:]).T
+        w0 = list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F"))
+        w0 += list(np.tile(th0[sidx] * self.p_scale[sidx] / self.p_scale_free, nb))
+        pf = np.array([0.0 if n in free else problem.fixed_value(i, n) for n in model.param_names])
+        spec = dict(offset=offset, N=N, U=U, h=h, S=S, pf=pf, sidx=sidx, y=np.asarray(rec.y, dtype=float),
+                    wts=wts, g_offset=n_g)
+        return _Block(offset, N, S, offset + n_var, nb, U, X_init), spec, parts, w0
+
+    def _linear_constraints(self) -> None:
+        """``Problem.constraints``: one row per distinct set of slots, after the dynamics."""
+        problem, free, slot_names = self.problem, self.free, self.slot_names
+        con_r, con_c, con_v, lbg, ubg = [], [], [], np.zeros(self.n_g), np.zeros(self.n_g)
+        con_info = []
+        for coeffs, lo, hi in problem.constraints:
+            seen = set()
+            for i in range(len(problem.records)):
+                sidx = problem.slot_index(i)
+                key = tuple(sidx[free.index(n)] for n in coeffs)
+                if key in seen:
+                    continue
+                seen.add(key)
+                row = self.n_g + len(con_info)
+                vals = [coeffs[n] * self.p_scale[j] for n, j in zip(coeffs, key)]
+                self.g_parts.append(sum(v * self.theta[j] for v, j in zip(vals, key)))
+                con_r += [row] * len(key)
+                con_c += list(key)
+                con_v += vals
+                lbg, ubg = np.append(lbg, lo), np.append(ubg, hi)
+                con_info.append({"coefficients": {slot_names[j]: coeffs[n] for n, j in zip(coeffs, key)},
+                                 "lower": lo, "upper": hi})
+        self.lbg, self.ubg, self.constraints = lbg, ubg, con_info
+        self._extra = (con_r, con_c, con_v)
+
+    def _solver(self, ca, derivatives, expand, opts):
+        from duffsym.identify.collocation import _structured_derivatives
+
+        g = ca.vertcat(*self.g_parts)
+        opts = {**opts, "expand": bool(expand)}
+        if derivatives == "structured":
+            jac_g, hess_lag = _structured_derivatives(
+                self.wsym, g, self.blocks, self.interval, self.out_fn, self.model, self.free, self.p_scale_free,
+                theta_size=self.n_slots, n_g=self.n_g, K=self.degree, y_norm=self.y_norm, stride=self.stride,
+                extra=self._extra, n_g_total=self.lbg.size)
+            opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
+        self._hook = _IterationHook(self.wsym.numel(), self.lbg.size)
+        opts["iteration_callback"] = self._hook
+        return ca.nlpsol("duffsym_fit", "ipopt", {"x": self.wsym, "f": self.obj, "g": g}, opts)
+
+    # ------------------------------------------------------------------ solving
+    def with_params(self, th: np.ndarray) -> np.ndarray:
+        """The start vector with the parameter slots (and their per-stride copies) set to ``th``."""
+        w = self.w0.copy()
+        w[:self.n_slots] = th
+        for i, blk in enumerate(self.layout):
+            sidx = self.problem.slot_index(i)
+            w[blk.p_offset: blk.p_offset + len(self.free) * blk.nb] = np.tile(
+                th[sidx] * self.p_scale[sidx] / self.p_scale_free, blk.nb)
+        return w
+
+    def solve(self, th: np.ndarray, *, max_iter: int, progress: Callable[[str], None] | None = None,
+              label: str = "") -> Run:
+        """One IPOPT run from the scaled parameters ``th`` (states from the data); never raises for
+        solver failure. Ctrl-C during the run stops IPOPT and raises :class:`FitInterrupted`."""
+        w_start = self.with_params(th)
+        with self._hook.watching(progress, label):
+            try:
+                sol = self.solver(x0=w_start, lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
+            except RuntimeError as exc:  # CasADi raises on evaluation errors it cannot recover from
+                self._hook.raise_if_interrupted()
+                return Run("error", False, 0, w_start, math.inf, f"IPOPT stopped with an error: {exc}")
+            self._hook.raise_if_interrupted()
+        stats = self.solver.stats()
+        status = str(stats.get("return_status", "unknown"))
+        success = bool(stats.get("success", False))
+        cost = float(sol["f"])
+        from duffsym.identify.collocation import _status_message
+
+        return Run(status, success, int(stats.get("iter_count", 0)), np.asarray(sol["x"]).reshape(-1),
+                   cost if math.isfinite(cost) else math.inf, _status_message(status, success, max_iter))
+
+    def unscale(self, w: np.ndarray) -> tuple[dict[str, float], list[tuple[float, ...]]]:
+        """Slot values by name (clipped into the bounds) and each record's initial state, from a solution."""
+        w = w.copy()
+        # IPOPT relaxes bounds by ~1e-8 relative: a parameter on its bound can come back just outside
+        # it, which a prior or a later Problem would reject
+        w[:self.n_slots] = np.clip(w[:self.n_slots], self.lo, self.hi)
+        slot_values = dict(zip(self.slot_names, map(float, w[:self.n_slots] * self.p_scale)))
+        nx = self.model.n_states
+        x0s = [tuple(float(v) for v in w[b.offset: b.offset + nx] * b.S) for b in self.layout]
+        return slot_values, x0s
+
+
+def _make_hook_class():
+    """The CasADi callback class (built on first use: importing casadi costs ~0.3 s)."""
+    import casadi as ca
+
+    class Hook(ca.Callback):
+        """IPOPT's intermediate callback: count, report, and stop on request (return 1)."""
+
+        def __init__(self, nx: int, ng: int):
+            ca.Callback.__init__(self)
+            self.nx, self.ng = nx, ng
+            self.progress, self.label = None, ""
+            self.iterations, self.t0, self.last = 0, 0.0, 0.0
+            self.interrupted = False
+            self.construct("duffsym_fit_progress", {})
+
+        def get_n_in(self):
+            return ca.nlpsol_n_out()
+
+        def get_n_out(self):
+            return 1
+
+        def get_name_in(self, i):
+            return ca.nlpsol_out(i)
+
+        def get_name_out(self, i):
+            return "ret"
+
+        def get_sparsity_in(self, i):
+            name = ca.nlpsol_out(i)
+            if name == "f":
+                return ca.Sparsity.scalar()
+            if name in ("x", "lam_x"):
+                return ca.Sparsity.dense(self.nx)
+            if name in ("g", "lam_g"):
+                return ca.Sparsity.dense(self.ng)
+            return ca.Sparsity(0, 0)
+
+        def eval(self, arg):
+            self.iterations += 1
+            now = time.perf_counter()
+            if self.progress is not None and now - self.last >= PROGRESS_EVERY:
+                self.last = now
+                self.progress(f"solving{self.label}: iteration {self.iterations}, {now - self.t0:.1f} s")
+            return [1 if self.interrupted else 0]
+
+        def watching(self, progress, label):
+            return _Watch(self, progress, label)
+
+        def raise_if_interrupted(self):
+            if self.interrupted:
+                raise FitInterrupted(f"interrupted after {self.iterations} IPOPT iterations")
+
+    return Hook
+
+
+class _Watch:
+    """Context of one solve: progress set up, and SIGINT turned into a stop request (main thread only)."""
+
+    def __init__(self, hook, progress, label):
+        self.hook, self.progress, self.label = hook, progress, label
+        self.previous = None
+
+    def __enter__(self):
+        h = self.hook
+        h.progress, h.label = self.progress, f" ({self.label})" if self.label else ""
+        h.iterations, h.interrupted = 0, False
+        h.t0 = h.last = time.perf_counter()
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self._on_sigint)
+        return self
+
+    def _on_sigint(self, signum, frame):
+        self.hook.interrupted = True  # IPOPT stops at its next iteration (the callback returns 1)
+
+    def __exit__(self, *exc):
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+        return False
+
+
+_HOOK_CLASS = None
+
+
+def _IterationHook(nx: int, ng: int):
+    global _HOOK_CLASS
+    if _HOOK_CLASS is None:
+        _HOOK_CLASS = _make_hook_class()
+    return _HOOK_CLASS(nx, ng)

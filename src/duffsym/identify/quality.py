@@ -1,0 +1,143 @@
+"""Whether a converged fit is a usable model, and what about it is doubtful (``contract.md``, wave 2).
+
+- :func:`usability`: a fit whose free run is worse than predicting the mean (R² < 0), or whose output
+  gain A_f is not positive, is not a model of the record: ``success`` becomes false with a status
+  and a message saying why (measured on the hardening corpus: a record whose force column is the
+  displacement fitted with free-run NRMSE 12.2 and ``--af 0`` with NRMSE 1.0, both "converged").
+- :func:`fit_flags`: doubtful but usable results, listed in ``IdentificationResult.flags`` (FIT.json
+  ``"flags"``) and noted once on stderr by ``duffsym fit``: free parameters on a bound, a parameter
+  set outside the model's derived stability certificate (:func:`duffsym.derive.stability_certificate`,
+  e.g. k1 + k2 < 0: a saddle at the origin), and a model that explains little (R² < 0.5).
+
+Each flag is a dict ``{"flag": name, "message": one line, ...details}``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+#: R² below which a usable fit is flagged as explaining little of the record.
+R2_LITTLE = 0.5
+
+#: Relative distance to a bound (in scaled parameters) that counts as "on the bound".
+ON_BOUND_RTOL = 1e-6
+
+
+def usability(problem, rec_params: Sequence[dict], r2: float, status: str, message: str) -> tuple[str, bool, str]:
+    """``(status, success, message)`` of a converged fit with a finite free run: failed when R² < 0 or
+    A_f <= 0 (``rec_params``: each record's parameters; ``r2`` the pooled free-run R²)."""
+    model = problem.model
+    if "A_f" in model.param_names:
+        bad = sorted({float(p["A_f"]) for p in rec_params if not p["A_f"] > 0})
+        if bad:
+            return ("A_f not positive", False,
+                    f"IPOPT converged ({status}) but the output gain A_f = {bad[0]:g} is not positive: the model "
+                    "output is zero or sign-flipped; use --af max (the force peak) or a positive value")
+    if not r2 >= 0:
+        nrmse = math.sqrt(1 - r2) if math.isfinite(r2) else math.inf
+        return ("worse than the mean", False,
+                f"IPOPT converged ({status}) but the free run is worse than predicting the mean (R2 {r2:.3g}, "
+                f"NRMSE {nrmse:.3g}): this model does not describe the record; check the columns (--columns), "
+                "units and the model")
+    return status, True, message
+
+
+def fit_flags(problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float) -> list[dict]:
+    """The doubtful features of a fit (see the module docstring), in a fixed order."""
+    flags = []
+    on_bound = _on_bound(problem, nlp, w)
+    if on_bound:
+        flags.append(on_bound)
+    flags += _outside_certificate(problem.model, rec_params)
+    if math.isfinite(r2) and 0 <= r2 < R2_LITTLE:
+        flags.append({"flag": "explains-little", "r2": float(r2),
+                      "message": f"the model explains little of the record (R2 {r2:.3g} < {R2_LITTLE}): the fit "
+                                 "may be a poor description; check the model, the effects (duffsym diagnose) and "
+                                 "the noise"})
+    return flags
+
+
+def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
+    th = np.clip(np.asarray(w[:nlp.n_slots], dtype=float), nlp.lo, nlp.hi)
+    tol = ON_BOUND_RTOL * np.maximum(1.0, np.abs(th))
+    hits = []
+    for j, name in enumerate(nlp.slot_names):
+        for side, b in (("lower", nlp.lo[j]), ("upper", nlp.hi[j])):
+            if np.isfinite(b) and abs(th[j] - b) <= tol[j]:
+                hits.append((name, side, float(b * nlp.p_scale[j])))
+    if not hits:
+        return None
+    text = ", ".join(f"{n} on its {side} bound {b:g}" for n, side, b in hits)
+    return {"flag": "on-bound", "parameters": [n for n, _, _ in hits],
+            "message": f"{text}: the optimum may lie beyond it (a bound that is active is a modelling choice, "
+                       "not a result); check the bounds, the model and --starts"}
+
+
+#: model key -> ((condition name, numeric test), ...) of its parameter-dependent stability conditions.
+_CONDITIONS: dict[str, tuple] = {}
+
+
+def _conditions(model) -> tuple:
+    """The model's derived stability conditions as fast numeric tests (cached per model); () if none apply."""
+    if model.key in _CONDITIONS:
+        return _CONDITIONS[model.key]
+    import sympy as sp
+
+    from duffsym.derive.stability import stability_conditions
+
+    out = []
+    try:
+        named = stability_conditions(model).named()
+        for name, cond in named.items():
+            if cond in (sp.true, sp.false):  # structural (e.g. an extended model this V does not cover)
+                continue
+            if not cond.free_symbols <= set(model.param_symbols):
+                continue
+            out.append((name, sp.lambdify(model.param_symbols, cond, "math")))
+    except Exception:  # noqa: BLE001 - a model the derivation does not cover gets no certificate flag
+        out = []
+    _CONDITIONS[model.key] = tuple(out)
+    return _CONDITIONS[model.key]
+
+
+def _outside_certificate(model, rec_params: Sequence[dict]) -> list[dict]:
+    tests = _conditions(model)
+    if not tests:
+        return []
+    seen, flags = set(), []
+    for params in rec_params:
+        key = tuple(float(params[n]) for n in model.param_names)
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            failed = [name for name, test in tests if not bool(test(*key))]
+        except (TypeError, ValueError, ZeroDivisionError):
+            continue
+        if not failed:
+            continue
+        flags.append({"flag": "outside-stability-certificate", "failed": failed,
+                      "message": f"the fitted set is outside the model's derived stability certificate "
+                                 f"({', '.join(failed)}: {'fails' if len(failed) == 1 else 'fail'})"
+                                 f"{_origin(model, params)}; it describes this record only, do not extrapolate it "
+                                 "(duffsym derive --json states the conditions)"})
+    return flags
+
+
+def _origin(model, params) -> str:
+    """", the origin is a saddle/unstable" from the linearization at the origin, else ""."""
+    import sympy as sp
+
+    try:
+        J = sp.Matrix(model.rhs).jacobian(sp.Matrix(model.states))
+        at = {s: 0 for s in model.states} | {u: 0 for u in model.input_symbols}
+        at |= {p.symbol: float(params[p.name]) for p in model.params}
+        eig = np.linalg.eigvals(np.array(J.subs(at).evalf(), dtype=float))
+    except Exception:  # noqa: BLE001 - the flag stands without the linearization
+        return ""
+    if not np.any(eig.real > 1e-12):
+        return ""
+    kind = "a saddle" if np.any(eig.real < -1e-12) else "unstable"
+    return f"; the origin is {kind} (linearization eigenvalues {', '.join(f'{e.real:.4g}' for e in eig)})"
