@@ -40,7 +40,8 @@ class IdentificationResult:
         the samples in the objective only (unmasked).
     status, success, message : IPOPT's return status, whether it converged and the free run
         succeeded, and a sentence for people.
-    n_iter : IPOPT iterations. ``timings``: seconds spent in ``build``, ``solve``, ``free_run``, ``stderr``.
+    n_iter : IPOPT iterations. ``timings``: seconds spent in ``build``, ``solve``, ``free_run``, ``stderr``,
+        ``flags`` (the quality checks).
     mask : per record, True where a sample was left out of the objective. ``mask_info``: how it was chosen.
     defaults_applied : name -> reason for each default the problem applied (``A_f``, ``k3``, ...).
     x0 : per record, the fitted initial state. ``y_sim``: per record, the free-run output.
