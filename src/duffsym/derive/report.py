@@ -206,9 +206,19 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     eq_main, eq_ss = _EQUATIONS.get(base, ("", ""))
     mech = mechanics(model)
     signals = mech.signals
-    items: list[ReportItem] = []
 
-    # 1. the equation
+    lya = lyapunov_analysis(model)
+    items = [*_equation_items(model, pr, eq_main), *_state_space_items(model, pr, eq_ss),
+             *_normalization_items(model, pr), *_lyapunov_items(model, pr, mech, signals, lya),
+             *_stability_items(model, pr, signals, lya), *_symmetry_items(model, pr), *_energy_items(model, pr),
+             *_certificate_items(model)]
+    return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
+                            items=tuple(items))
+
+
+def _equation_items(model, pr, eq_main) -> list[ReportItem]:
+    """The model equation and its output."""
+    items: list[ReportItem] = []
     if model.equation is not None and not model.effects:
         eqn = model.equation
         text = f"{pr.text(eqn.lhs)} = {pr.text(eqn.rhs)}\n{model.output_name} = {pr.text(model.output)}"
@@ -223,8 +233,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     items.append(ReportItem("equation", "Model equation and output", eq_main, text, latex, note,
                             {"rhs": [sp.sstr(e) for e in model.rhs], "output": sp.sstr(model.output),
                              "states": list(model.state_names), "inputs": [c.name for c in model.inputs]}))
+    return items
 
-    # 2. state-space form
+
+def _state_space_items(model, pr, eq_ss) -> list[ReportItem]:
+    """The state-space form extracted from the equations."""
+    items: list[ReportItem] = []
     ss = state_space(model)
     mats = {"A": ss.A, "x": ss.x, "f": ss.f, "B": ss.B, "u": ss.u, "C": ss.C}
     text = (f"x' = A x + f(x) + B u with x = {sp.sstr(list(ss.x))}, u = {sp.sstr(list(ss.u))}\n"
@@ -241,8 +255,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     items.append(ReportItem("state_space", "State-space form (extracted from the equations)", eq_ss, text, latex,
                             "linear part A, nonlinear part f, input matrix B, output matrix C; x1 = x, x2 = x'",
                             {k: sp.sstr(v.tolist()) for k, v in mats.items()}))
+    return items
 
-    # 3. Eq. 11 -> 12 (MR damper only)
+
+def _normalization_items(model, pr) -> list[ReportItem]:
+    """Eq. 11 -> 12 (the MR damper only)."""
+    items: list[ReportItem] = []
     if model.name.startswith("mr-damper"):
         n = dict(model.structural).get("n_x")
         nm = derive_normalization(n)
@@ -258,9 +276,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
             "coefficients of x'', x', x, x^n, x'^n, d, d' matched against the Duffing-like equation (Eq. 3)",
             {"mapping": {k: sp.sstr(e) for k, e in nm.mapping.items()},
              "with_mass": {k: sp.sstr(e) for k, e in nm.physical.items()}}))
+    return items
 
-    # 4-6. Lyapunov functions and derivatives
-    lya = lyapunov_analysis(model)
+
+def _lyapunov_items(model, pr, mech, signals, lya) -> list[ReportItem]:
+    """The Lyapunov functions (Eq. 6, 8) and their derivative (Eq. 7, 9)."""
+    items: list[ReportItem] = []
     v_state_d, v_energy_d = _collected(lya.v_state, signals), _collected(lya.v_energy, signals)
     restoring_d = _collected(lya.restoring, signals)
     items.append(ReportItem(
@@ -301,8 +322,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
         {"V_dot": sp.sstr(lya.v_dot), "V_dot_forced": sp.sstr(lya.v_dot_forced), "forcing": sp.sstr(lya.forcing),
          "terms": [{"contribution": sp.sstr(t.contribution), "nonpositive_if": sp.sstr(t.condition)
                     if t.condition is not None else None} for t in lya.dissipation_terms]}))
+    return items
 
-    # 7-8. invariant set and stability conditions
+
+def _stability_items(model, pr, signals, lya) -> list[ReportItem]:
+    """The invariant set (Eq. 10) and the stability conditions."""
+    items: list[ReportItem] = []
     sc = stability_conditions(model)
     reduced = sp.Eq(X_DDOT, _collected(-lya.restoring, signals).xreplace({lya.x: X}))
     conds = sc.named()
@@ -338,8 +363,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
         "change sign and V is not positive definite unless their coefficients vanish",
         {"conditions": {k: sp.sstr(v) for k, v in conds.items()},
          "exact": {k: bool(sc.exact.get(k)) for k in conds}, "globally_stable_if": sp.sstr(sc.globally_stable)}))
+    return items
 
-    # 9. scaling symmetry
+
+def _symmetry_items(model, pr) -> list[ReportItem]:
+    """The scaling symmetry of the hidden state."""
+    items: list[ReportItem] = []
     sym = find_scaling_symmetry(model)
     if sym.exists:
         moved = {k: e for k, e in sym.mapping.items() if sp.simplify(e - model.param(k).symbol) != 0}
@@ -351,8 +380,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
         text, latex, data = "none found", "", {"mapping": {}}
     items.append(ReportItem("scaling_symmetry", "Scaling symmetry of the hidden state", "", text, latex,
                             sym.text, {"exists": sym.exists, **data}))
+    return items
 
-    # 10. energy per cycle
+
+def _energy_items(model, pr) -> list[ReportItem]:
+    """The energy balance per cycle of the periodic steady state."""
+    items: list[ReportItem] = []
     try:
         eb = energy_balance(model)
     except ModelError as err:
@@ -371,7 +404,12 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
             "dV/dt is negative semi-definite); integration by parts (d x periodic) relates it to the loop area",
             {"balance": pr.text(eb.balance), "by_parts": pr.text(eb.by_parts_equation),
              "loop_area": pr.text(eb.loop_area_equation) if eb.loop_area_equation is not None else None}))
-    # 11. the certificate for the model's default parameters (numeric powers only)
+    return items
+
+
+def _certificate_items(model) -> list[ReportItem]:
+    """The stability certificate for the default parameters (numeric powers only)."""
+    items: list[ReportItem] = []
     if not any(isinstance(v, sp.Symbol) for _, v in model.structural):
         from duffsym.derive.stability import stability_certificate
 
@@ -385,5 +423,4 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
             "", cert.conclusion,
             {"params": cert.params, "holds": cert.holds,
              "conditions": {c.name: c.holds for c in cert.conditions}}))
-    return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
-                            items=tuple(items))
+    return items

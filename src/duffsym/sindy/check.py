@@ -391,6 +391,8 @@ def crosscheck(
 ) -> SindyCrossCheck:
     """SINDy cross-check of the velocity equation of ``model`` on one or several records.
 
+    Long: one pass computing ~30 named statistics that the verdict then compares; split it when it next changes.
+
     Parameters
     ----------
     records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration

@@ -270,6 +270,14 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             findings.append({"kind": "correlated", "params": p["pair"],
                              "evidence": f"posterior correlation {p['correlation']:+.2f}",
                              "resolve": "richer excitation (several amplitudes and frequencies)"})
+    text = _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings)
+    return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
+                                 eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
+                                 excitation=exc, text=text, fisher=F, fisher_correlation=fcorr, params=params_info)
+
+
+def _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings) -> str:
+    """The identifiability report for people (``IdentifiabilityReport.text``)."""
     lines = [f"identifiability of {model.name} ({', '.join(free)} free) on {len(records)} record(s)"
              + (" at a single amplitude" if exc["single_amplitude"] else "")]
     lines.append("  scaling symmetry: " + ("none" if not sym.exists else (
@@ -285,6 +293,4 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             continue
         lines.append(f"  {f['kind'].upper()}: {', '.join(f['params'])}: {f['evidence']}"
                      + (f"; {f['why']}" if "why" in f else "") + f". Resolve: {f['resolve']}")
-    return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
-                                 eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
-                                 excitation=exc, text="\n".join(lines), fisher=F, fisher_correlation=fcorr, params=params_info)
+    return "\n".join(lines)
