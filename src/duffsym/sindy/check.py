@@ -391,8 +391,6 @@ def crosscheck(
 ) -> SindyCrossCheck:
     """SINDy cross-check of the velocity equation of ``model`` on one or several records.
 
-    Long: one pass computing ~30 named statistics that the verdict then compares; split it when it next changes.
-
     Parameters
     ----------
     records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration
@@ -424,52 +422,14 @@ def crosscheck(
         For a model whose output is not a gain times the velocity, an unknown method, records
         with non-uniform sampling or too short for one window.
     """
-    from duffsym.data import Record
-
-    if method not in METHODS:
-        raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
-    if isinstance(records, Record):
-        records = [records]
-    records = list(records)
-    if not records:
-        raise DataError("give at least one record to the SINDy cross-check")
-    if model is None:
-        if fit is not None:
-            from duffsym.identify import model_from_result
-
-            model = model_from_result(fit)
-        else:
-            from duffsym.model.library import mr_damper
-
-            model = mr_damper(5)
-    thr = thresholds or Thresholds()
-    if selection not in SELECTIONS:
-        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {selection!r}")
-    if n_models < 2:
-        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {n_models}")
+    records, model, thr = _inputs(records, model, fit, method, selection, n_models, thresholds)
     gain_expr = output_gain(model)
     ref, free, cov, ref_source = _reference(model, fit, params)
-    if gain is not None:
-        gain_value, gain_source = float(gain), "argument"
-    elif ref is not None and not (gain_expr.free_symbols - {s for s in model.param_symbols if str(s) in ref}):
-        subs = {s: ref[str(s)] for s in gain_expr.free_symbols}
-        gain_value, gain_source = float(gain_expr.xreplace(subs)), ref_source
-    else:
-        gain_value = max(float(np.max(np.abs(r.y))) for r in records)
-        gain_source = "max|y| of the records"
+    gain_value, gain_source = _gain(model, gain_expr, records, gain, ref, ref_source)
     lib = library or candidate_library(model, max_power=max_power)
     rng = np.random.default_rng(rng)
 
-    dts = [r.require_uniform("the SINDy cross-check") for r in records]
-    periods = []
-    for r in records:
-        try:
-            periods.append(float(r.period))
-        except (IndexError, ZeroDivisionError, ValueError):
-            periods.append(float(r.duration))
-    window_s = float(window) if window is not None else 0.25 * min(periods)
-    width = 2 * max(4, int(round(window_s / max(dts) / 2)))  # even, so that halving the sampling keeps the windows
-    stride = 2 * max(1, width // 8)
+    dts, periods, width, stride = _windows(records, window)
 
     parts = [reconstruct_states(r, model, gain_value, ref) for r in records]
     G, b, C = _system(parts, lib, method, width, stride)
@@ -484,41 +444,10 @@ def crosscheck(
 
     n_rows = Gn.shape[0]
     n_eff = n_rows * stride / width  # windows overlap: about width/stride rows per independent one
-    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
-    coef_n = np.zeros(lib.n_terms)
-    coef_n[usable] = xi_n
-    boot = np.zeros((n_models, lib.n_terms))
-    for m in range(n_models):
-        rows = rng.integers(0, n_rows, n_rows)
-        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
-                                  thr.stlsq_threshold)
-    inclusion = np.mean(boot != 0, axis=0)
-    scale = bnorm / norms
-    coef = coef_n * scale
-    with np.errstate(invalid="ignore"):
-        boot_c = np.where(boot != 0, boot * scale, np.nan)
-        coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan
-                             for j in range(lib.n_terms)])
+    coef, inclusion, coef_std, scale = _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, lib.n_terms, n_models, thr,
+                                                  selection, rng)
 
-    # model coefficients and what the data say about them
-    if ref is not None:
-        missing_params = [p for p in model.param_names if p not in ref]
-        if missing_params:
-            raise ModelError(f"reference parameters lack {missing_params} of model {model.name}")
-        model_coef = lib.coefficients(ref)
-    else:
-        model_coef = np.full(lib.n_terms, np.nan)
-    model_se = np.full(lib.n_terms, np.nan)
-    if cov is not None and free and cov.shape == (len(free), len(free)) and np.all(np.isfinite(cov)):
-        J = lib.coefficient_gradients(ref, free)
-        model_se = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
-        model_se[~np.array([t.in_model for t in lib.terms])] = np.nan
-    in_model = np.array([t.in_model for t in lib.terms])
-    if ref is not None:
-        expected = in_model & (np.abs(model_coef) > 0)
-    else:
-        # no fit: the term set of the model as identified by default (k3 = 0 drops x^5, as Problem does)
-        expected = in_model & (np.abs(lib.coefficients(model.defaults())) > 0)
+    model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
     selected = inclusion >= thr.include
     ambiguous = (inclusion > thr.exclude) & ~selected
 
@@ -563,7 +492,155 @@ def crosscheck(
     # is what the full library leaves unexplained noise, or a systematic part it cannot represent?
     # Rows closer than one window share samples, so noise correlates only up to that lag; beyond it,
     # a correlated residual is structure outside the library (or in the state reconstruction).
-    res = bn - Gu @ c_all
+    residual_correlation = _residual_correlation(bn - Gu @ c_all, C, method, width, stride, periods, dts)
+    systematic = rss_full / float(bn @ bn) * residual_correlation
+
+    max_vif = float(np.max(vif)) if vif.size else 1.0
+    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
+    reasons = _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
+                       sampling_change)
+    exp_names = [lib.names[j] for j in np.flatnonzero(expected)]
+    sel_names = [lib.names[j] for j in np.flatnonzero(selected)]
+    missing = [n for j, n in enumerate(lib.names) if selected[j] and not in_model[j]]
+    absent = [n for j, n in enumerate(lib.names) if expected[j] and not selected[j]]
+    extra_model = [n for j, n in enumerate(lib.names) if selected[j] and in_model[j] and not expected[j]]
+
+    agrees = np.full(lib.n_terms, None, dtype=object)
+    for j in range(lib.n_terms):
+        if selected[j] and np.isfinite(model_coef[j]) and model_coef[j] != 0:
+            tol = max(thr.coefficient_rtol * abs(model_coef[j]),
+                      3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
+            agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
+
+    verdict, message = _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model,
+                                exp_names, sel_names, lib, agrees, ref)
+
+    terms = []
+    for j, t in enumerate(lib.terms):
+        terms.append({"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
+                      "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
+                      "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
+                      "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
+                      "model_stderr": float(model_se[j]), "agrees": agrees[j],
+                      "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)})
+    diagnostics = {"condition": cond, "max_vif": max_vif,
+                   "condition_library": cond_all, "sampling_change": sampling_change,
+                   "sampling_change_all": noise_change, "r2": r2,
+                   "n_rows": int(n_rows), "window_s": width * max(dts), "window_samples": int(width),
+                   "n_models": int(n_models), "n_records": len(records), "dt": max(dts),
+                   "model_terms_excess": model_excess, "model_terms_acceptable": bool(model_ok),
+                   "systematic": systematic, "residual_correlation": residual_correlation,
+                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": extra_model}
+    name = model.name + (" + " + ", ".join(model.effects) if model.effects else "")
+    return SindyCrossCheck(
+        model=name, method=method, gain=gain_value, gain_source=gain_source, terms=tuple(terms),
+        selected=tuple(sel_names), expected=tuple(exp_names), missing=tuple(missing), absent=tuple(absent),
+        ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message, reasons=tuple(reasons),
+        reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
+    )
+
+
+def _inputs(records, model, fit, method, selection, n_models, thresholds):
+    """The records as a list, the model (the fit's, else ``mr_damper(5)``) and the thresholds, checked."""
+    from duffsym.data import Record
+
+    if method not in METHODS:
+        raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
+    if isinstance(records, Record):
+        records = [records]
+    records = list(records)
+    if not records:
+        raise DataError("give at least one record to the SINDy cross-check")
+    if model is None:
+        if fit is not None:
+            from duffsym.identify import model_from_result
+
+            model = model_from_result(fit)
+        else:
+            from duffsym.model.library import mr_damper
+
+            model = mr_damper(5)
+    thr = thresholds or Thresholds()
+    if selection not in SELECTIONS:
+        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {selection!r}")
+    if n_models < 2:
+        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {n_models}")
+    return records, model, thr
+
+
+def _windows(records, window):
+    """Sampling steps, dominant input periods, and the weak-form window width and stride in samples."""
+    dts = [r.require_uniform("the SINDy cross-check") for r in records]
+    periods = []
+    for r in records:
+        try:
+            periods.append(float(r.period))
+        except (IndexError, ZeroDivisionError, ValueError):
+            periods.append(float(r.duration))
+    window_s = float(window) if window is not None else 0.25 * min(periods)
+    width = 2 * max(4, int(round(window_s / max(dts) / 2)))  # even, so that halving the sampling keeps the windows
+    stride = 2 * max(1, width // 8)
+    return dts, periods, width, stride
+
+
+def _gain(model, gain_expr, records, gain, ref, ref_source) -> tuple[float, str]:
+    """The output gain and where it comes from: the argument, the reference values, else max|y|."""
+    if gain is not None:
+        return float(gain), "argument"
+    if ref is not None and not (gain_expr.free_symbols - {s for s in model.param_symbols if str(s) in ref}):
+        subs = {s: ref[str(s)] for s in gain_expr.free_symbols}
+        return float(gain_expr.xreplace(subs)), ref_source
+    return max(float(np.max(np.abs(r.y))) for r in records), "max|y| of the records"
+
+
+def _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, n_terms, n_models, thr, selection, rng):
+    """The full-data selection and ``n_models`` bootstrap selections: coefficients, inclusion
+    probabilities, bootstrap standard deviations and the column scale back to physical units."""
+    n_rows = Gn.shape[0]
+    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
+    coef_n = np.zeros(n_terms)
+    coef_n[usable] = xi_n
+    boot = np.zeros((n_models, n_terms))
+    for m in range(n_models):
+        rows = rng.integers(0, n_rows, n_rows)
+        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
+                                  thr.stlsq_threshold)
+    inclusion = np.mean(boot != 0, axis=0)
+    scale = bnorm / norms
+    coef = coef_n * scale
+    with np.errstate(invalid="ignore"):
+        boot_c = np.where(boot != 0, boot * scale, np.nan)
+        coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan
+                             for j in range(n_terms)])
+    return coef, inclusion, coef_std, scale
+
+
+def _model_coefficients(model, lib, ref, free, cov):
+    """The model's coefficient of every library term (NaN without reference values), their standard
+    errors from the fit's covariance, which terms the model has, and which it is expected to need."""
+    if ref is not None:
+        missing_params = [p for p in model.param_names if p not in ref]
+        if missing_params:
+            raise ModelError(f"reference parameters lack {missing_params} of model {model.name}")
+        model_coef = lib.coefficients(ref)
+    else:
+        model_coef = np.full(lib.n_terms, np.nan)
+    model_se = np.full(lib.n_terms, np.nan)
+    if cov is not None and free and cov.shape == (len(free), len(free)) and np.all(np.isfinite(cov)):
+        J = lib.coefficient_gradients(ref, free)
+        model_se = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", J, cov, J), 0.0))
+        model_se[~np.array([t.in_model for t in lib.terms])] = np.nan
+    in_model = np.array([t.in_model for t in lib.terms])
+    if ref is not None:
+        expected = in_model & (np.abs(model_coef) > 0)
+    else:
+        # no fit: the term set of the model as identified by default (k3 = 0 drops x^5, as Problem does)
+        expected = in_model & (np.abs(lib.coefficients(model.defaults())) > 0)
+    return model_coef, model_se, in_model, expected
+
+
+def _residual_correlation(res, C, method, width, stride, periods, dts) -> float:
+    """The residual's autocorrelation beyond one window or at one input period, the larger (per record)."""
     rec_id = np.argmax(np.abs(C[:, 0::2]), axis=1)
     # A misfit under periodic input also repeats from period to period: the correlation at a lag of
     # one dominant input period is taken too, and the larger of the two counts.
@@ -579,10 +656,13 @@ def crosscheck(
                 num += float(seg[:-lag] @ seg[lag:])
         if den > 0:
             residual_correlation = max(residual_correlation, num / den)
-    systematic = rss_full / float(bn @ bn) * residual_correlation
+    return residual_correlation
 
+
+def _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
+             sampling_change) -> list[str]:
+    """Why the data cannot decide (each a sentence with the number and its limit); [] when they can."""
     reasons = []
-    max_vif = float(np.max(vif)) if vif.size else 1.0
     if cond > thr.max_condition or max_vif > thr.max_vif:
         worst = lib.names[relevant[int(np.argmax(vif))]] if vif.size else "-"
         reasons.append(f"the relevant terms are nearly collinear on these data (condition number {cond:.3g}, "
@@ -599,7 +679,6 @@ def crosscheck(
     if n_models < MIN_MODELS_CONCLUSIVE:
         reasons.append(f"only {n_models} bootstrap fits: too few to measure how stable the selection is "
                        f"(inclusion resolution 1/{n_models}); use at least {MIN_MODELS_CONCLUSIVE}")
-    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
     if amb:
         reasons.append(f"inclusion unstable under bootstrap for {', '.join(amb)} (probability between "
                        f"{thr.exclude:g} and {thr.include:g})")
@@ -607,20 +686,12 @@ def crosscheck(
         reasons.append(f"coefficients move by {sampling_change:.3g} (relative) when every other sample is dropped, "
                        f"beyond 3 bootstrap standard deviations (limit {thr.max_sampling_change:g}): sampling too "
                        "coarse for the derivatives")
-    exp_names = [lib.names[j] for j in np.flatnonzero(expected)]
-    sel_names = [lib.names[j] for j in np.flatnonzero(selected)]
-    missing = [n for j, n in enumerate(lib.names) if selected[j] and not in_model[j]]
-    absent = [n for j, n in enumerate(lib.names) if expected[j] and not selected[j]]
-    extra_model = [n for j, n in enumerate(lib.names) if selected[j] and in_model[j] and not expected[j]]
-
-    agrees = np.full(lib.n_terms, None, dtype=object)
-    for j in range(lib.n_terms):
-        if selected[j] and np.isfinite(model_coef[j]) and model_coef[j] != 0:
-            tol = max(thr.coefficient_rtol * abs(model_coef[j]),
-                      3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
-            agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
+    return reasons
 
 
+def _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model, exp_names, sel_names,
+             lib, agrees, ref) -> tuple[str, str]:
+    """The verdict (inconclusive, consistent, missing-terms, disagrees) and its sentence."""
     if reasons:
         verdict = "inconclusive"
         advice = []
@@ -654,30 +725,7 @@ def crosscheck(
         message = (f"SINDy selects exactly the model's terms ({', '.join(sel_names)})"
                    + (f"; coefficients differ for {', '.join(bad)}" if bad else
                       ("; coefficients agree" if ref is not None else "")) + ".")
-
-    terms = []
-    for j, t in enumerate(lib.terms):
-        terms.append({"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
-                      "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
-                      "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
-                      "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
-                      "model_stderr": float(model_se[j]), "agrees": agrees[j],
-                      "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)})
-    diagnostics = {"condition": cond, "max_vif": max_vif,
-                   "condition_library": cond_all, "sampling_change": sampling_change,
-                   "sampling_change_all": noise_change, "r2": r2,
-                   "n_rows": int(n_rows), "window_s": width * max(dts), "window_samples": int(width),
-                   "n_models": int(n_models), "n_records": len(records), "dt": max(dts),
-                   "model_terms_excess": model_excess, "model_terms_acceptable": bool(model_ok),
-                   "systematic": systematic, "residual_correlation": residual_correlation,
-                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": extra_model}
-    name = model.name + (" + " + ", ".join(model.effects) if model.effects else "")
-    return SindyCrossCheck(
-        model=name, method=method, gain=gain_value, gain_source=gain_source, terms=tuple(terms),
-        selected=tuple(sel_names), expected=tuple(exp_names), missing=tuple(missing), absent=tuple(absent),
-        ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message, reasons=tuple(reasons),
-        reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
-    )
+    return verdict, message
 
 
 def _sampling_change(records, model, lib, method, width, stride, gain, relevant, Gn, bn, norms, bnorm,
