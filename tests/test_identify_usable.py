@@ -229,3 +229,17 @@ def test_ctrl_c_stops_the_solve_with_exit_130_and_writes_nothing(tmp_path):
     assert proc.returncode == 130, "".join(seen) + rest
     assert "interrupted" in rest and "Traceback" not in rest
     assert not out.exists()
+
+
+def test_flags_survive_the_json_round_trip_and_bad_flags_are_ignored(tmp_path):
+    from duffsym.identify import IdentificationResult, load_result
+
+    t, d, v = _sine_columns()
+    rec = read_csv(_write(tmp_path / "n.csv", t, d, v, np.random.default_rng(3).normal(size=t.size)))
+    res = fit(Problem(mr_damper(), rec), compute_stderr=False)
+    assert res.flags
+    back = load_result(res.save(tmp_path / "fit.json"))
+    assert back.flags == res.flags
+    data = res.to_dict()
+    for bad in ("explains-little", 3, None, {"flag": "x"}):
+        assert IdentificationResult.from_dict({**data, "flags": bad}).flags == ()

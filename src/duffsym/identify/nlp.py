@@ -3,7 +3,7 @@ r"""The collocation NLP of a :class:`~duffsym.identify.Problem`, built once and 
 :class:`CollocationNLP` holds the transcription described in :mod:`duffsym.identify.collocation`
 (decision variables, bounds, constraints, the IPOPT solver with its structured derivatives);
 :meth:`CollocationNLP.solve` runs IPOPT from one parameter start and returns a :class:`Run`.
-An IPOPT intermediate callback (:class:`_IterationHook`) counts iterations, reports progress
+An IPOPT intermediate callback (:func:`_iteration_hook`) counts iterations, reports progress
 through a ``progress`` callable and stops the solve when the user presses Ctrl-C
 (:class:`FitInterrupted`, a :class:`KeyboardInterrupt`).
 """
@@ -239,7 +239,7 @@ class CollocationNLP:
                 theta_size=self.n_slots, n_g=self.n_g, K=self.degree, y_norm=self.y_norm, stride=self.stride,
                 extra=self._extra, n_g_total=self.lbg.size)
             opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
-        self._hook = _IterationHook(self.wsym.numel(), self.lbg.size)
+        self._hook = _iteration_hook(self.wsym.numel(), self.lbg.size)
         opts["iteration_callback"] = self._hook
         return ca.nlpsol("duffsym_fit", "ipopt", {"x": self.wsym, "f": self.obj, "g": g}, opts)
 
@@ -370,7 +370,8 @@ class _Watch:
 _HOOK_CLASS = None
 
 
-def _IterationHook(nx: int, ng: int):
+def _iteration_hook(nx: int, ng: int):
+    """An IPOPT intermediate callback for an NLP with ``nx`` variables and ``ng`` constraints."""
     global _HOOK_CLASS
     if _HOOK_CLASS is None:
         _HOOK_CLASS = _make_hook_class()

@@ -193,7 +193,8 @@ class IdentificationResult:
             n_samples=int(data.get("n_samples", 0)),
             group_params={g: {k: float(v) for k, v in p.items()} for g, p in data.get("group_params", {}).items()},
             groups=tuple(data.get("groups", ())),
-            flags=tuple(dict(f) for f in data.get("flags", ()) if isinstance(f, Mapping)),
+            flags=tuple(dict(f) for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
+                        if isinstance(f, Mapping)),
         )
 
 
