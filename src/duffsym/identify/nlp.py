@@ -239,7 +239,7 @@ class CollocationNLP:
                 theta_size=self.n_slots, n_g=self.n_g, K=self.degree, y_norm=self.y_norm, stride=self.stride,
                 extra=self._extra, n_g_total=self.lbg.size)
             opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
-        self._hook = _iteration_hook(self.wsym.numel(), self.lbg.size)
+        self._hook = _iteration_hook()
         opts["iteration_callback"] = self._hook
         return ca.nlpsol("duffsym_fit", "ipopt", {"x": self.wsym, "f": self.obj, "g": g}, opts)
 
@@ -294,9 +294,8 @@ def _make_hook_class():
     class Hook(ca.Callback):
         """IPOPT's intermediate callback: count, report, and stop on request (return 1)."""
 
-        def __init__(self, nx: int, ng: int):
+        def __init__(self):
             ca.Callback.__init__(self)
-            self.nx, self.ng = nx, ng
             self.progress, self.label = None, ""
             self.iterations, self.t0, self.last = 0, 0.0, 0.0
             self.interrupted = False
@@ -315,14 +314,9 @@ def _make_hook_class():
             return "ret"
 
         def get_sparsity_in(self, i):
-            name = ca.nlpsol_out(i)
-            if name == "f":
-                return ca.Sparsity.scalar()
-            if name in ("x", "lam_x"):
-                return ca.Sparsity.dense(self.nx)
-            if name in ("g", "lam_g"):
-                return ca.Sparsity.dense(self.ng)
-            return ca.Sparsity(0, 0)
+            # only the cost is taken: declaring the iterate, constraints and multipliers empty keeps
+            # IPOPT's vectors (millions of values on long records) from being copied at every iteration
+            return ca.Sparsity.scalar() if ca.nlpsol_out(i) == "f" else ca.Sparsity(0, 0)
 
         def eval(self, arg):
             self.iterations += 1
@@ -370,9 +364,9 @@ class _Watch:
 _HOOK_CLASS = None
 
 
-def _iteration_hook(nx: int, ng: int):
-    """An IPOPT intermediate callback for an NLP with ``nx`` variables and ``ng`` constraints."""
+def _iteration_hook():
+    """A new IPOPT intermediate callback (:func:`_make_hook_class`)."""
     global _HOOK_CLASS
     if _HOOK_CLASS is None:
         _HOOK_CLASS = _make_hook_class()
-    return _HOOK_CLASS(nx, ng)
+    return _HOOK_CLASS()
