@@ -31,7 +31,7 @@ import numpy as np
 import sympy as sp
 
 from duffsym.errors import ConvergenceWarning, ModelError
-from duffsym.identify.nlp import CollocationNLP, Run
+from duffsym.identify.nlp import CollocationNLP, Run, ipopt_settings
 from duffsym.identify.problem import Problem
 from duffsym.identify.result import IdentificationResult
 from duffsym.identify.result import nrmse as record_nrmse
@@ -250,8 +250,9 @@ def fit(
         f"{len(problem.slot_names)} free parameters)")
     nlp = CollocationNLP(problem, start, degree=degree, derivatives=derivatives, expand=expand,
                          param_stride=param_stride,
-                         solver_options=_solver_options(tol, acceptable_tol, max_iter, print_level, linear_solver,
-                                                        ipopt_options))
+                         solver_options=ipopt_settings(tol=tol, acceptable_tol=acceptable_tol, max_iter=max_iter,
+                                                       print_level=print_level, linear_solver=linear_solver,
+                                                       ipopt_options=ipopt_options))
     build = time.perf_counter() - t_build
 
     t_solve = time.perf_counter()
@@ -301,17 +302,6 @@ def _checked_options(problem, *, n_starts, start_spread, expand, derivatives, de
     if max_iter < 0 or tol <= 0:
         raise ModelError(f"max_iter must be >= 0 and tol > 0; got max_iter={max_iter}, tol={tol}")
     return n_starts, expand
-
-
-def _solver_options(tol, acceptable_tol, max_iter, print_level, linear_solver, ipopt_options) -> dict:
-    opts = {
-        "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
-        "ipopt.print_level": int(print_level), "print_time": False, "ipopt.sb": "yes",
-        "ipopt.linear_solver": linear_solver, "error_on_fail": False,
-    }
-    for k, v in (ipopt_options or {}).items():
-        opts[k if k.startswith("ipopt.") else f"ipopt.{k}"] = v
-    return opts
 
 
 def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] | None = None) -> dict[str, float]:

@@ -53,6 +53,20 @@ class _Block:
     X_init: np.ndarray
 
 
+def ipopt_settings(*, tol: float = 1e-10, acceptable_tol: float = 1e-7, max_iter: int = 500, print_level: int = 0,
+                   linear_solver: str = "mumps", ipopt_options: Mapping[str, object] | None = None) -> dict:
+    """IPOPT/CasADi options of a fit (the defaults are :func:`~duffsym.identify.fit`'s); ``ipopt_options``
+    are added with the ``ipopt.`` prefix."""
+    opts = {
+        "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
+        "ipopt.print_level": int(print_level), "print_time": False, "ipopt.sb": "yes",
+        "ipopt.linear_solver": linear_solver, "error_on_fail": False,
+    }
+    for k, v in (ipopt_options or {}).items():
+        opts[k if k.startswith("ipopt.") else f"ipopt.{k}"] = v
+    return opts
+
+
 class CollocationNLP:
     """The transcribed least-squares problem of ``problem`` with IPOPT, built once.
 
@@ -62,7 +76,7 @@ class CollocationNLP:
     start : start value of every parameter slot (``problem.slot_names``), inside its bounds; it
         scales the states (their data-based guess depends on the parameters) and is the first start.
     degree, derivatives, expand, param_stride : see :func:`~duffsym.identify.fit`.
-    solver_options : the IPOPT/CasADi options (``ipopt.*`` and CasADi's own).
+    solver_options : the IPOPT/CasADi options (default :func:`ipopt_settings`).
 
     Attributes
     ----------
@@ -100,7 +114,7 @@ class CollocationNLP:
         self.y_norm = float(np.sqrt(np.mean(y_all**2))) or 1.0
         self._transcribe(ca, start)
         self._linear_constraints()
-        self.solver = self._solver(ca, derivatives, expand, dict(solver_options or {}))
+        self.solver = self._solver(ca, derivatives, expand, dict(solver_options or ipopt_settings()))
 
     # ------------------------------------------------------------------ building
     def _interval_functions(self, ca, C, D):
