@@ -19,7 +19,7 @@ SRC = Path(duffsym.__file__).parent
 
 #: Bottom to top. A module may import only from its own layer or the layers listed before it.
 LAYERS = (
-    "errors", "_typing", "_checks", "_json",
+    "errors", "_typing", "_checks", "_json", "_io",
     "model",
     "codegen",
     "excitation",
@@ -33,6 +33,7 @@ LAYERS = (
     "sindy",
     "uncertainty",
     "diagnose",
+    "engine", "batch",  # run commands over many records (they drive everything below)
     "cli",
 )
 RANK = {name: i for i, name in enumerate(LAYERS)}
