@@ -40,6 +40,7 @@ COMMAND_MODULES = (
     "duffsym.diagnose.command",     # diagnose, ladder
     "duffsym.uncertainty.command",  # sample
     "duffsym.sindy.command",        # sindy
+    "duffsym.data.command",         # convert
 )
 
 
