@@ -49,8 +49,8 @@ def write_derived(study: str, arrays: dict[str, np.ndarray], meta: dict) -> list
     out = paths.derived_dir()
     out.mkdir(parents=True, exist_ok=True)
     npz, js = out / f"{study}.npz", out / f"{study}.json"
-    np.savez_compressed(npz, **{k: np.asarray(v) for k, v in arrays.items()})
-    js.write_text(json.dumps(jsonable(meta), indent=2) + "\n")
+    np.savez_compressed(npz, **{k: np.asarray(v) for k, v in arrays.items()}, run_mode=np.array(paths.mode()))
+    js.write_text(json.dumps(jsonable({**meta, "run_mode": paths.mode()}), indent=2) + "\n")
     return [npz, js]
 
 
@@ -61,7 +61,7 @@ def read_derived(study: str) -> tuple[dict[str, np.ndarray], dict]:
     if not npz.is_file() or not js.is_file():
         raise FileNotFoundError(f"{npz} or {js} is missing; run `python studies/{study}.py` (compute) first")
     with np.load(npz) as f:
-        arrays = {k: f[k] for k in f.files}
+        arrays = {k: f[k] for k in f.files if k != "run_mode"}
     return arrays, json.loads(js.read_text())
 
 
@@ -71,9 +71,15 @@ def write_number(study: str, name: str, text: str) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     p = out / f"{study}_{name}.tex"
     text = text.strip("\n")
-    # a one-line value ends with "%" so that \input leaves no space after it; a table is written as is
-    p.write_text(text + ("\n" if "\n" in text else "%\n"))
+    # a one-line value ends with "%" so that \input leaves no space after it; a table is written as is;
+    # the last line, a TeX comment, records the run that made the file
+    p.write_text(text + ("\n" if "\n" in text else "%\n") + mode_comment(study))
     return p
+
+
+def mode_comment(study: str) -> str:
+    """The TeX comment line ending every number file: which study and which run (full/smoke) made it."""
+    return f"% made by {study}, {paths.mode()} run\n"
 
 
 @contextmanager
@@ -92,7 +98,8 @@ def save(fig, study: str, panel: str) -> Path:
     """Save ``fig`` as ``paper/figures/<study>_<panel>.png`` and close it."""
     from duffsym.plot import save_figure
 
-    return save_figure(fig, paths.figures_dir() / f"{study}_{panel}.png")
+    return save_figure(fig, paths.figures_dir() / f"{study}_{panel}.png",
+                       metadata={"Description": f"made by {study}, {paths.mode()} run"})
 
 
 def parse_args(argv, description: str) -> argparse.Namespace:
@@ -100,7 +107,9 @@ def parse_args(argv, description: str) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--smoke", action="store_true", help="small settings for CI (a few seconds)")
     p.add_argument("--plot-only", action="store_true", help="redraw the figures from data/derived only")
-    return p.parse_args(argv)
+    args = p.parse_args(argv)
+    paths.set_mode("smoke" if args.smoke else "full")
+    return args
 
 
 def run_study(argv, *, doc: str, label: str, config, compute, plot, write_numbers, summarize, read,

@@ -38,6 +38,7 @@ def main(argv=None) -> int:
     if unknown:
         print(f"run_all.py: unknown argument(s) {unknown}; the only option is --smoke", file=sys.stderr)
         return 2
+    paths.set_mode("smoke" if "--smoke" in argv else "full")  # each study sets it again from its own argv
     failed, lines = [], []
     for name in STUDIES:
         t_wall, t0 = time.time(), time.perf_counter()

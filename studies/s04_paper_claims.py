@@ -260,25 +260,27 @@ def _tex_escape(s: str) -> str:
 def main(argv=None) -> int:
     import paths
 
-    DERIVED, OUTPUT = paths.derived_dir(), paths.output_dir()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--smoke", action="store_true", help="same as the full run (it takes seconds)")
-    parser.parse_args(argv)
+    parser.add_argument("--smoke", action="store_true", help="same settings as the full run (it takes seconds), "
+                        "written apart from it (paper/smoke/)")
+    paths.set_mode("smoke" if parser.parse_args(argv).smoke else "full")
+    DERIVED, OUTPUT = paths.derived_dir(), paths.output_dir()
+    made_by = f"% made by s04_paper_claims, {paths.mode()} run\n"
     verdicts = evaluate()
     DERIVED.mkdir(parents=True, exist_ok=True)
     OUTPUT.mkdir(parents=True, exist_ok=True)
     (DERIVED / "s04_paper_claims.json").write_text(json.dumps(
         {"fig3_frequencies_hz": FIG3_FREQUENCIES, "fig6_frequency_hz": TABLE1_FREQUENCY_HZ,
-         "verdicts": [asdict(v) for v in verdicts]}, indent=2))
+         "verdicts": [asdict(v) for v in verdicts], "run_mode": paths.mode()}, indent=2))
     bold_no = r"\textbf{does not hold}"
     rows = [rf"{_tex_escape(v.claim)} & {v.source} & {'holds' if v.holds else bold_no} \\" for v in verdicts]
-    (OUTPUT / "s04_claims_table.tex").write_text("\n".join(rows) + "\n")
+    (OUTPUT / "s04_claims_table.tex").write_text("\n".join(rows) + "\n" + made_by)
     n_hold = sum(v.holds for v in verdicts)
-    (OUTPUT / "s04_n_hold.tex").write_text(f"{n_hold}%\n")
-    (OUTPUT / "s04_n_claims.tex").write_text(f"{len(verdicts)}%\n")
+    (OUTPUT / "s04_n_hold.tex").write_text(f"{n_hold}%\n" + made_by)
+    (OUTPUT / "s04_n_claims.tex").write_text(f"{len(verdicts)}%\n" + made_by)
     for v, (_, _, fn) in zip(verdicts, CLAIMS):
         # the measured numbers of each statement, quotable in the text as \input{output/s04_<claim>}
-        (OUTPUT / f"s04_{fn.__name__}.tex").write_text(_tex_escape(v.measured) + "%\n")
+        (OUTPUT / f"s04_{fn.__name__}.tex").write_text(_tex_escape(v.measured) + "%\n" + made_by)
     print(f"s04: {n_hold} of {len(verdicts)} statements of the paper hold in simulation")
     for v in verdicts:
         print(f"  [{'holds' if v.holds else 'DOES NOT HOLD'}] {v.claim} ({v.source}): {v.measured}")

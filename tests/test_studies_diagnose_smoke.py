@@ -13,7 +13,7 @@ def test_s07_ladder_finds_both_hidden_effects_and_reaches_the_noise(tmp_path, mo
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
     s07 = importlib.import_module("s07_hidden_effect")
     assert s07.main(["--smoke"]) == 0
-    meta = json.loads((tmp_path / "data" / "derived" / "s07_hidden_effect.json").read_text())
+    meta = json.loads((tmp_path / "data" / "derived" / "smoke" / "s07_hidden_effect.json").read_text())
     case = meta["cases"][0]
     steps = case["steps"]
     assert sorted(steps[-1]["effects"]) == ["coulomb-friction", "force-offset"]
@@ -23,4 +23,4 @@ def test_s07_ladder_finds_both_hidden_effects_and_reaches_the_noise(tmp_path, mo
     final = case["final"]["params"]
     assert abs(final["fric_mu"] - 20.0) < 1.0 and abs(final["off_y0"] - 0.2) < 0.01
     for panel in ("where", "candidates", "ladder"):
-        assert (tmp_path / "paper" / "figures" / f"s07_hidden_effect_synthetic_{panel}.png").stat().st_size > 20_000
+        assert (tmp_path / "paper" / "smoke" / "figures" / f"s07_hidden_effect_synthetic_{panel}.png").stat().st_size > 20_000

@@ -22,7 +22,7 @@ def test_s05_masked_fit_beats_unmasked(tmp_path, monkeypatch):
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
     s05 = _study("s05_synthetic_damper")
     assert s05.main(["--smoke"]) == 0
-    meta = json.loads((tmp_path / "data" / "derived" / "s05_synthetic_damper.json").read_text())
+    meta = json.loads((tmp_path / "data" / "derived" / "smoke" / "s05_synthetic_damper.json").read_text())
     rows = meta["rows"]
     assert [r["voltage"] for r in rows] == [0.0, 0.4]
     for r in rows:
@@ -47,15 +47,15 @@ def test_s05_masked_fit_beats_unmasked(tmp_path, monkeypatch):
         assert e["success"] and e["nrmse"] < 0.03, r["key"]
         assert 0.012 < e["params"]["bl_h"] < 0.024, r["key"]
         assert e["rms_error"] < r["plain"]["rms_error"] / 2, r["key"]
-    arrays = np.load(tmp_path / "data" / "derived" / "s05_synthetic_damper.npz")
+    arrays = np.load(tmp_path / "data" / "derived" / "smoke" / "s05_synthetic_damper.npz")
     # the fitted outputs are free runs of the identified model, close to the clean truth
     for r in rows:
         k = r["key"]
         err = np.sqrt(np.mean((arrays[f"{k}_y_masked"] - arrays[f"{k}_y_clean"]) ** 2)) / np.std(arrays[f"{k}_y_clean"])
         assert err < 0.15
-    figs = sorted(p.name for p in (tmp_path / "paper" / "figures").glob("*.png"))
+    figs = sorted(p.name for p in (tmp_path / "paper" / "smoke" / "figures").glob("*.png"))
     assert figs == [f"s05_synthetic_damper_{p}.png" for p in ("errors", "loops", "validation")]
-    assert (tmp_path / "paper" / "output" / "s05_table.tex").read_text().count("\\\\") == 3
+    assert (tmp_path / "paper" / "smoke" / "output" / "s05_table.tex").read_text().count("\\\\") == 3
 
 
 def _utfsm_available() -> bool:
@@ -72,7 +72,7 @@ def test_s06_real_damper_smoke_fits(tmp_path, monkeypatch):
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
     s06 = _study("s06_real_mr_damper")
     assert s06.main(["--smoke"]) == 0
-    meta = json.loads((tmp_path / "data" / "derived" / "s06_real_mr_damper.json").read_text())
+    meta = json.loads((tmp_path / "data" / "derived" / "smoke" / "s06_real_mr_damper.json").read_text())
     fits = meta["fits"]
     assert sorted(fits) == sorted(["2mm5Hz0A", "2mm5Hz1A", "25mm0x25Hz0A", "25mm0x25Hz1A"])
     for key, f in fits.items():

@@ -45,8 +45,8 @@ def smoke(tmp_path_factory):
             os.environ.pop("DUFFSYM_OUTPUT_ROOT", None)
         else:
             os.environ["DUFFSYM_OUTPUT_ROOT"] = old
-    meta = json.loads((root / "data" / "derived" / "s10_silverbox.json").read_text())
-    with np.load(root / "data" / "derived" / "s10_silverbox.npz") as f:
+    meta = json.loads((root / "data" / "derived" / "smoke" / "s10_silverbox.json").read_text())
+    with np.load(root / "data" / "derived" / "smoke" / "s10_silverbox.npz") as f:
         arrays = {k: f[k] for k in f.files}
     return root, code, meta, arrays
 
@@ -55,8 +55,8 @@ def test_outputs_exist(smoke):
     root, code, meta, _ = smoke
     assert code == 0
     for name in ("s10_silverbox_ladder.png", "s10_silverbox_residual.png"):
-        assert (root / "paper" / "figures" / name).is_file()
-    assert (root / "paper" / "output" / "s10_silverbox_table.tex").is_file()
+        assert (root / "paper" / "smoke" / "figures" / name).is_file()
+    assert (root / "paper" / "smoke" / "output" / "s10_silverbox_table.tex").is_file()
 
 
 def test_offset_found_first_and_balances_the_dc_levels(smoke):

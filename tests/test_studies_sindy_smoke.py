@@ -32,15 +32,15 @@ def test_s09_smoke_writes_its_files(s09_root):
     root, code = s09_root
     assert code == 0
     for ext in ("npz", "json"):
-        assert (root / "data" / "derived" / f"s09_sindy.{ext}").is_file()
-    assert (root / "paper" / "figures" / "s09_sindy_inclusion.png").stat().st_size > 10_000
+        assert (root / "data" / "derived" / "smoke" / f"s09_sindy.{ext}").is_file()
+    assert (root / "paper" / "smoke" / "figures" / "s09_sindy_inclusion.png").stat().st_size > 10_000
     for name in ("rich_max_err", "noisy_exact", "friction_flagged", "sine_noisy_weak"):
-        assert (root / "paper" / "output" / f"s09_{name}.tex").is_file()
+        assert (root / "paper" / "smoke" / "output" / f"s09_{name}.tex").is_file()
 
 
 def test_s09_smoke_numbers_match_the_truth(s09_root):
     root, _ = s09_root
-    meta = json.loads((root / "data" / "derived" / "s09_sindy.json").read_text())
+    meta = json.loads((root / "data" / "derived" / "smoke" / "s09_sindy.json").read_text())
     rich = meta["rows"][0]
     assert rich["verdict"] == "consistent"
     assert set(rich["selected"]) == {"x", "x_dot", "x_dot^5", "d", "d_dot"}

@@ -38,16 +38,16 @@ def smoke_root(tmp_path_factory):
 
 
 def _meta(root: Path, study: str) -> dict:
-    return json.loads((root / "data" / "derived" / f"{study}.json").read_text())
+    return json.loads((root / "data" / "derived" / "smoke" / f"{study}.json").read_text())
 
 
 def _files_exist(root: Path, study: str, tag: str, panels, numbers):
     for ext in ("npz", "json"):
-        assert (root / "data" / "derived" / f"{study}.{ext}").is_file()
+        assert (root / "data" / "derived" / "smoke" / f"{study}.{ext}").is_file()
     for p in panels:
-        assert (root / "paper" / "figures" / f"{study}_{p}.png").stat().st_size > 10_000
+        assert (root / "paper" / "smoke" / "figures" / f"{study}_{p}.png").stat().st_size > 10_000
     for n in numbers:
-        assert (root / "paper" / "output" / f"{tag}_{n}.tex").is_file()
+        assert (root / "paper" / "smoke" / "output" / f"{tag}_{n}.tex").is_file()
 
 
 def test_all_studies_exit_zero(smoke_root):
@@ -66,11 +66,11 @@ def test_s01_af_only_scales_the_output(smoke_root):
     # y = A_f x2 and A_f is not in the state equation: A_f = 4 doubles y sample by sample (Fig. 3, A_f = 2 -> 4)
     assert cv["A_f"]["peak"] == pytest.approx(2.0 * cv["benchmark"]["peak"], rel=1e-12)
     assert cv["A_f"]["loop_area"] == pytest.approx(2.0 * cv["benchmark"]["loop_area"], rel=1e-12)
-    with np.load(root / "data" / "derived" / f"{study}.npz") as f:
+    with np.load(root / "data" / "derived" / "smoke" / f"{study}.npz") as f:
         np.testing.assert_allclose(f["A_f_y"], 2.0 * f["benchmark_y"], rtol=1e-12, atol=0)
         np.testing.assert_allclose(f["benchmark_d"], np.sin(2 * np.pi * meta["frequency"] * f["benchmark_t"]),
                                    atol=1e-12)
-    assert float((root / "paper" / "output" / "s01_peak_ratio_Af.tex").read_text().rstrip("%\n")) == 2.0
+    assert float((root / "paper" / "smoke" / "output" / "s01_peak_ratio_Af.tex").read_text().splitlines()[0].rstrip("%")) == 2.0
     # c1 = 25 raises the peak, delta = 400 lowers it (paper's Fig. 3 text; s01 table: x1.37, x0.80)
     assert cv["c1"]["peak_ratio"] > 1.2 and cv["delta"]["peak_ratio"] < 0.9
 
@@ -91,7 +91,7 @@ def test_s02_certificate_fails_exactly_where_gamma_alpha_or_beta_is_negative(smo
     got = [(r["param"], float(r["value"]), r["certified"]) for r in rows]
     assert got == expected
     assert sum(not c for *_, c in expected) == 5  # c1 = -20, c2 = -30, k2 = -5, k3 = -40, k3 = -5
-    assert (root / "paper" / "output" / "s02_n_uncertified.tex").read_text().rstrip("%\n") == "5"
+    assert (root / "paper" / "smoke" / "output" / "s02_n_uncertified.tex").read_text().splitlines()[0].rstrip("%") == "5"
     # gamma = 0 (c1 = -10) and alpha = 0 (k1 = -5) are outside the paper's "all positive" but certified
     by = {(r["param"], float(r["value"])): r for r in rows}
     assert by[("c1", -10.0)]["certified"] and not by[("c1", -10.0)]["paper_condition"]
@@ -120,7 +120,7 @@ def test_s03_loop_area_grows_with_voltage(smoke_root):
         assert r["loop_area"] == pytest.approx(r["loop_area_fine"], rel=2e-3)
         # the loop is traversed clockwise (work done on the damper) and the peak stays below A_f
         assert r["loop_area"] > 0 and r["peak"] < r["A_f"]
-    table = (root / "paper" / "output" / "s03_table.tex").read_text()
+    table = (root / "paper" / "smoke" / "output" / "s03_table.tex").read_text()
     assert table.count("\\\\") == len(TABLE2) + 1
 
 
@@ -131,5 +131,41 @@ def test_run_all_reports_a_failing_study_and_runs_the_others(monkeypatch, capsys
     assert run_all.main(["--smoke"]) == 1
     out = capsys.readouterr().out
     assert "no_such_study: FAILED" in out and "s03_table2_loops: ok" in out
-    assert (tmp_path / "paper" / "output" / "s03_table.tex").is_file()
+    assert (tmp_path / "paper" / "smoke" / "output" / "s03_table.tex").is_file()
     assert run_all.main(["--bogus"]) == 2
+
+
+def test_smoke_after_a_full_run_leaves_the_full_files_untouched(monkeypatch, tmp_path, capsys):
+    """``reproduce --smoke`` writes under paper/smoke/ and data/derived/smoke/; every file records its run."""
+    import hashlib
+
+    from PIL import Image
+
+    monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
+    run_all = importlib.import_module("run_all")
+    # a real full run of s04 (same settings as its smoke run, seconds) and a faked full run of s03
+    assert importlib.import_module("s04_paper_claims").main([]) == 0
+    fake = {tmp_path / "paper" / "figures" / "s03_table2_loops_loops.png": b"full-run figure",
+            tmp_path / "paper" / "output" / "s03_table.tex": b"full-run table\n",
+            tmp_path / "data" / "derived" / "s03_table2_loops.json": b'{"run_mode": "full"}'}
+    for path, content in fake.items():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content)
+    full = [p for p in tmp_path.rglob("*") if p.is_file()]
+    before = {p: (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mtime_ns) for p in full}
+    assert "% made by s04_paper_claims, full run" in (tmp_path / "paper" / "output" / "s04_n_hold.tex").read_text()
+
+    monkeypatch.setattr(run_all, "STUDIES", ("s03_table2_loops", "s04_paper_claims"))
+    assert run_all.main(["--smoke"]) == 0
+    capsys.readouterr()
+    after = {p: (hashlib.sha256(p.read_bytes()).hexdigest(), p.stat().st_mtime_ns) for p in full}
+    assert after == before
+    new = {p for p in tmp_path.rglob("*") if p.is_file()} - set(full)
+    assert new and all("smoke" in p.relative_to(tmp_path).parts for p in new)
+    smoke_out = tmp_path / "paper" / "smoke" / "output"
+    assert (smoke_out / "s03_table.tex").read_text().endswith("% made by s03, smoke run\n")
+    assert (smoke_out / "s04_n_hold.tex").read_text().splitlines()[-1] == "% made by s04_paper_claims, smoke run"
+    meta = json.loads((tmp_path / "data" / "derived" / "smoke" / "s03_table2_loops.json").read_text())
+    assert meta["run_mode"] == "smoke"
+    png = Image.open(tmp_path / "paper" / "smoke" / "figures" / "s03_table2_loops_loops.png")
+    assert png.info["Description"] == "made by s03_table2_loops, smoke run"

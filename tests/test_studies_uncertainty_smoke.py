@@ -9,7 +9,7 @@ def test_s08_smoke(tmp_path, monkeypatch):
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
     s08 = importlib.import_module("s08_uncertainty")
     assert s08.main(["--smoke"]) == 0
-    meta = json.loads((tmp_path / "data" / "derived" / "s08_uncertainty.json").read_text())
+    meta = json.loads((tmp_path / "data" / "derived" / "smoke" / "s08_uncertainty.json").read_text())
     truth, a = meta["truth"], meta["a"]
     post = a["posterior"]
     for n in s08.FREE:
@@ -25,6 +25,6 @@ def test_s08_smoke(tmp_path, monkeypatch):
     assert not [f for f in multi["identifiability"]["findings"] if f["kind"] == "unidentifiable"]
     # the ridge: k3's Cramer-Rao variance inflation collapses with three amplitudes
     assert multi["identifiability"]["params"]["k3"]["vif"] < single["identifiability"]["params"]["k3"]["vif"] / 10
-    figs = sorted(p.name for p in (tmp_path / "paper" / "figures").glob("*.png"))
+    figs = sorted(p.name for p in (tmp_path / "paper" / "smoke" / "figures").glob("*.png"))
     assert figs == [f"s08_uncertainty_{p}.png" for p in ("bands", "corner", "ridge")]
-    assert (tmp_path / "paper" / "output" / "s08_uncertainty_table.tex").read_text().count("\\\\") == 5
+    assert (tmp_path / "paper" / "smoke" / "output" / "s08_uncertainty_table.tex").read_text().count("\\\\") == 5

@@ -114,10 +114,11 @@ def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float
     return fig
 
 
-def save_figure(fig, path: str | os.PathLike, *, dpi: int = 150) -> Path:
+def save_figure(fig, path: str | os.PathLike, *, dpi: int = 150, metadata: dict | None = None) -> Path:
     """Write ``fig`` to ``path`` (format from the suffix), creating folders, and close the figure.
 
-    The figure is drawn on an Agg canvas, so no display is needed.
+    The figure is drawn on an Agg canvas, so no display is needed. ``metadata`` is stored in the
+    file (PNG text chunks, PDF info; e.g. ``{"Description": "made by s07, full run"}``).
 
     Returns
     -------
@@ -133,6 +134,6 @@ def save_figure(fig, path: str | os.PathLike, *, dpi: int = 150) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)  # attaches itself to the figure
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, **({"metadata": metadata} if metadata else {}))
     plt.close(fig)
     return path
