@@ -1,4 +1,4 @@
-"""CSV reader (format of contract.md), its one-line errors, and the loaders of the real data."""
+"""CSV reader (format of docs/contract.md), its one-line errors, and the loaders of the real data."""
 from __future__ import annotations
 
 import numpy as np

@@ -101,3 +101,15 @@ def test_block_extraction_handles_continuations():
     blocks = readme_blocks(text)
     assert [b[0] for b in blocks] == ["bash", "python"]
     assert bash_lines(blocks[0][1]) == ["duffsym a    --b", "duffsym c"]
+
+
+def test_files_named_in_docstrings_exist():
+    """Docstrings point to files of the repository (``docs/contract.md``, ``data/...``), not to missing ones."""
+    named = set()
+    for path in (ROOT / "src" / "duffsym").rglob("*.py"):
+        named |= {(path, m) for m in re.findall(r"``((?:docs|data|paper|studies)/[\w./-]+\.\w+)``", path.read_text())}
+    assert any(m == "docs/contract.md" for _, m in named)
+    missing = [f"{p.relative_to(ROOT)}: {m}" for p, m in named if not (ROOT / m).exists() and "*" not in m]
+    assert not missing, missing
+    bare = [str(p.relative_to(ROOT)) for p in (ROOT / "src").rglob("*.py") if "``contract.md``" in p.read_text()]
+    assert not bare, f"say docs/contract.md: {bare}"

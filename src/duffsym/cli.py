@@ -1,4 +1,4 @@
-"""The ``duffsym`` command line (see docs: the stable contract).
+"""The ``duffsym`` command line (the stable contract: ``docs/contract.md``).
 
 Thin: this module only builds the parser and turns errors into exit codes. Every subcommand lives
 beside the code it drives, in a module listed in :data:`COMMAND_MODULES` that defines

@@ -1,7 +1,7 @@
 """Measured and synthetic records: validation, loaders, synthetic data.
 
 :class:`Record` is one validated, read-only experiment. Loaders: :func:`read_csv` (the CSV format
-of ``contract.md``), :func:`load_mr_damper_utfsm`, :func:`load_silverbox`; third-party data is
+of ``docs/contract.md``), :func:`load_mr_damper_utfsm`, :func:`load_silverbox`; third-party data is
 found through :func:`external_data_dir`. :func:`synthetic_record` simulates a record with known truth.
 """
 from duffsym.data.loaders import (

@@ -1,4 +1,4 @@
-"""Readers for measured data: the CSV format of ``contract.md`` and the real third-party data sets.
+"""Readers for measured data: the CSV format of ``docs/contract.md`` and the real third-party data sets.
 
 Third-party data is never copied into the repository; loaders take a path, and
 :func:`external_data_dir` finds the shared folder through one setting.
@@ -140,7 +140,7 @@ def _resolve_columns(path: Path, header: list[str], columns: Mapping[str, str] |
 
 def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None, *,
              nan_policy: str = "raise", delimiter: str | None = None) -> Record:
-    """Read a record from a CSV file with a header row (the format of ``contract.md``).
+    """Read a record from a CSV file with a header row (the format of ``docs/contract.md``).
 
     Parameters
     ----------
@@ -245,7 +245,7 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
 
 
 def write_csv(record: Record, path) -> Path:
-    """Write a record in the CSV format of ``contract.md`` (time, displacement, velocity, force[, current/voltage])."""
+    """Write a record in the CSV format of ``docs/contract.md`` (time, displacement, velocity, force[, current/voltage])."""
     path = Path(path)
     cols = {"time": record.t, "displacement": record.d}
     if record.d_dot is not None:

@@ -1,4 +1,4 @@
-"""``duffsym diagnose`` and ``duffsym ladder`` (see the contract)."""
+"""``duffsym diagnose`` and ``duffsym ladder`` (``docs/contract.md``)."""
 from __future__ import annotations
 
 

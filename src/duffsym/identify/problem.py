@@ -1,6 +1,6 @@
 """An identification problem: a model, one or more records, and which parameters vary.
 
-Validated once, at construction. The defaults of ``contract.md`` are applied here and each is
+Validated once, at construction. The defaults of ``docs/contract.md`` are applied here and each is
 recorded with its reason:
 
 - ``A_f`` fixed to ``max|y|`` (over all records): the scaling symmetry :math:`x \\to s x` maps

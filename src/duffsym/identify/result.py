@@ -1,4 +1,4 @@
-"""The outcome of an identification, and its JSON form (``contract.md``)."""
+"""The outcome of an identification, and its JSON form (``docs/contract.md``)."""
 from __future__ import annotations
 
 import json
@@ -14,7 +14,7 @@ from duffsym.errors import DataError
 
 
 def nrmse(y, y_hat) -> float:
-    """The free-run error of ``contract.md``: RMS(y - y_hat) / RMS(y - mean y); inf when y_hat is not finite."""
+    """The free-run error of ``docs/contract.md``: RMS(y - y_hat) / RMS(y - mean y); inf when y_hat is not finite."""
     y = np.asarray(y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float)
     if not np.all(np.isfinite(y_hat)):
@@ -121,7 +121,7 @@ class IdentificationResult:
 
     # ------------------------------------------------------------------ JSON
     def to_dict(self) -> dict[str, Any]:
-        """The JSON form of ``contract.md`` (plus details); arrays of samples are not included."""
+        """The JSON form of ``docs/contract.md`` (plus details); arrays of samples are not included."""
         return {
             "model": self.model,
             "effects": list(self.effects),
@@ -156,7 +156,7 @@ class IdentificationResult:
         }
 
     def save(self, path) -> Path:
-        """Write the result as JSON (``contract.md``)."""
+        """Write the result as JSON (``docs/contract.md``)."""
         path = Path(path)
         path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False))
         return path

@@ -1,4 +1,4 @@
-"""``duffsym sample``: emcee posterior of a saved fit on its record (``contract.md``)."""
+"""``duffsym sample``: emcee posterior of a saved fit on its record (``docs/contract.md``)."""
 from __future__ import annotations
 
 import sys

@@ -172,7 +172,7 @@ class Chains:
         return out
 
     def to_dict(self) -> dict:
-        """The JSON of ``duffsym sample`` (``contract.md``: median, q05, q95, tau; and more)."""
+        """The JSON of ``duffsym sample`` (``docs/contract.md``: median, q05, q95, tau; and more)."""
         q = self.quantiles()
         tau = dict(zip(self.names, self.tau.tolist()))
         sig = self.sigma
