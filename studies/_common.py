@@ -14,6 +14,9 @@ import numpy as np
 
 import paths
 from duffsym._json import jsonable
+from duffsym.errors import show_notes
+
+show_notes()  # the package's warnings as one-line notes in the study output
 
 
 def git_sha() -> str | None:

@@ -60,6 +60,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    from duffsym.errors import show_notes
+
+    show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

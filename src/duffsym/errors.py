@@ -32,3 +32,33 @@ class SimulationError(DuffsymError, RuntimeError):
 
 class ConvergenceWarning(UserWarning):
     """Suspicious but usable numerical situation."""
+
+
+def show_notes(stream=None) -> None:
+    """Print duffsym's own warnings as one line each, ``note: <message>``, on stderr.
+
+    Python's default shows a warning as two lines with the file, line number and source line of the
+    ``warnings.warn`` call: noise for a user, for whom a :class:`ConvergenceWarning` is an expected
+    numerical condition the package reports. Other packages' warnings keep the default form. Called
+    by the command line and the studies; idempotent.
+    """
+    import sys
+    import warnings
+
+    if getattr(warnings.showwarning, "_duffsym_notes", False):
+        return
+    default = warnings.showwarning
+
+    def showwarning(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, ConvergenceWarning) or (issubclass(category, UserWarning)
+                                                        and "duffsym" in str(filename).replace("\\", "/")):
+            out = file or stream or sys.stderr
+            try:
+                out.write(f"note: {' '.join(str(message).split())}\n")
+            except (OSError, ValueError):
+                pass
+            return
+        default(message, category, filename, lineno, file, line)
+
+    showwarning._duffsym_notes = True
+    warnings.showwarning = showwarning
