@@ -19,6 +19,21 @@ import paths  # noqa: E402
 
 #: every ``studies/sNN_<name>.py`` in order of NN (each has ``main(argv)`` taking ``--smoke``)
 STUDIES = tuple(sorted(p.stem for p in Path(__file__).resolve().parent.glob("s[0-9][0-9]_*.py")))
+#: typical full-run seconds per study (2 cores, fresh virtualenv; paper/README.md): the weights of the
+#: estimate of the time left, scaled by how fast this run has been so far; 60 s for a study not listed
+TYPICAL_SECONDS = {"s01": 20, "s02": 8, "s03": 4, "s04": 3, "s05": 23, "s06": 220, "s07": 230, "s08": 127,
+                   "s09": 42, "s10": 143}
+
+
+def _estimate(done: list[str], left: list[str], elapsed: float, smoke: bool) -> str:
+    """``about m:ss left`` from the typical times of the studies done and left (equal weights for smoke)."""
+    def weight(name):
+        return 1.0 if smoke else float(TYPICAL_SECONDS.get(name[:3], 60))
+
+    if not done or elapsed <= 0:
+        return ""
+    seconds = int(elapsed / sum(map(weight, done)) * sum(map(weight, left)))
+    return f", about {seconds // 60}:{seconds % 60:02d} left"
 
 
 def _outputs_since(start: float, prefixes: tuple[str, ...]) -> list[str]:
@@ -40,7 +55,12 @@ def main(argv=None) -> int:
         return 2
     paths.set_mode("smoke" if "--smoke" in argv else "full")  # each study sets it again from its own argv
     failed, lines = [], []
-    for name in STUDIES:
+    t_run = time.perf_counter()
+    for k, name in enumerate(STUDIES):
+        elapsed = time.perf_counter() - t_run
+        print(f"[{int(elapsed) // 60}:{int(elapsed) % 60:02d}] {name} ({k + 1} of {len(STUDIES)}"
+              f"{_estimate(list(STUDIES[:k]), list(STUDIES[k:]), elapsed, '--smoke' in argv)})", file=sys.stderr,
+              flush=True)
         t_wall, t0 = time.time(), time.perf_counter()
         try:
             mod = importlib.import_module(name)

@@ -29,9 +29,10 @@ def _common(args):
 
 
 def _progress(args):
-    from duffsym._cli_common import _err
+    """Progress lines on stderr (elapsed time, candidate count, time left), or None with --quiet."""
+    from duffsym._progress import Progress
 
-    return None if args.quiet else (lambda msg: _err(msg))
+    return None if args.quiet else Progress()
 
 
 def cmd_diagnose(args) -> int:

@@ -31,6 +31,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from duffsym._progress import reporter
 from duffsym.data.record import Record
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, noise_level, rising_crossings
 from duffsym.errors import DataError, ModelError
@@ -272,13 +273,14 @@ def diagnose(
         with the base fit: an independent, data-driven view of which terms the data support. Its
         supported missing terms are quoted in the verdict as corroboration (or contradiction) of
         the ranking; they never decide it, and an inconclusive check is reported as such.
-    progress : a callable taking a message string (e.g. ``print``), or None.
+    progress : a callable taking a message string (e.g. ``print``), a
+        :class:`duffsym._progress.Progress` (counts and time left), or None.
     """
     from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.identify import extended_start
 
     t_start = time.perf_counter()
-    say = progress or (lambda msg: None)
+    say = reporter(progress)
     if fit_result is not None:
         from duffsym.identify import model_from_result
 
@@ -323,7 +325,7 @@ def diagnose(
     # not converged by then continue only if their free-run error ranks among the best ``screen``
     budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
     runs = []
-    for name in names:
+    for i, name in enumerate(names):
         effect = CATALOGUE[name]
         t0 = time.perf_counter()
         try:
@@ -331,7 +333,7 @@ def diagnose(
         except ModelError as exc:
             say(f"  {name}: not applicable ({exc})")
             continue
-        say(f"  trying {name}")
+        say(f"  trying {name}", done=i, total=len(names))
         try:
             x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
             fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=budget, max_cpu_time=candidate_cpu_time)

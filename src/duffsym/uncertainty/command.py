@@ -32,7 +32,7 @@ def cmd_sample(args) -> int:
     if args.mask in (None, "fit") and result.mask and np.size(result.mask[0]) != record.n_times:
         raise CLIError(f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
                        f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE")
-    if not args.quiet and not args.json:
+    if not args.quiet:  # stderr: --json keeps stdout to the one JSON object
         _err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
              f"{args.steps} steps")
     pool = None
