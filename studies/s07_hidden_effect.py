@@ -176,14 +176,14 @@ def _namespaces(case: dict, arrays: dict):
         cands = [SimpleNamespace(**c) for c in s["candidates"]]
         dg = SimpleNamespace(residuals=res, y_base=y_base, split=s["split"], nrmse=nrmse(y, y_base),
                              nrmse_heldout=s["nrmse_heldout"], model=s["model"], effects=tuple(s["effects"]),
-                             candidates=cands, noise=s["noise"])
+                             candidates=cands, noise=s["noise"], needed=tuple(s["needed"]))
         steps.append(SimpleNamespace(effects=tuple(s["effects"]), nrmse=s["nrmse"], nrmse_fit=s["nrmse_fit"],
                                      nrmse_heldout=s["nrmse_heldout"], diagnosis=dg))
     return rec, SimpleNamespace(steps=steps)
 
 
 def plot(results: dict | None = None) -> list:
-    from duffsym.diagnose.figures import plot_candidates, plot_ladder, plot_where
+    from duffsym.diagnose.figures import ladder_outcome, plot_candidates, plot_ladder, plot_where
 
     arrays, meta = C.read_derived(STUDY)
     files = []
@@ -195,11 +195,10 @@ def plot(results: dict | None = None) -> list:
                 f"real MR damper, {case['name']}"
             files.append(C.save(plot_where(first, rec, title=f"1. where the base model fails: {label}"),
                                 STUDY, f"{case['key']}_where"))
-            files.append(C.save(plot_candidates(first, rec, title="2. which effect is missing (each added and refitted; "
-                                                "green = needed)"), STUDY, f"{case['key']}_candidates"))
-            names = ["base"] + ["+ " + s.effects[-1] for s in lad.steps[1:]]
-            files.append(C.save(plot_ladder(lad, rec, title=f"3. add it and watch the error fall: "
-                                            f"{' -> '.join(names)} ({label})"), STUDY, f"{case['key']}_ladder"))
+            files.append(C.save(plot_candidates(first, rec, title=f"2. which effect is missing: {label} (each "
+                                                "added and refitted)"), STUDY, f"{case['key']}_candidates"))
+            files.append(C.save(plot_ladder(lad, rec, title=f"3. the ladder on the {label}: {ladder_outcome(lad)}"),
+                                STUDY, f"{case['key']}_ladder"))
     return files
 
 

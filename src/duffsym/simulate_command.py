@@ -71,7 +71,11 @@ def cmd_simulate(args) -> int:
         from duffsym.plot.loops import plot_loops, save_figure
 
         period = 1.0 / args.frequency if args.excitation == "sine" else None
-        fig = plot_loops(traj, period=period, labels=[f"{model.name}"])
+        what = f"{args.voltage:g} V row of Table 2" if args.voltage is not None else "given parameters"
+        shown = f"last of {duration * args.frequency:.3g} cycles" if period else "whole run"
+        fig = plot_loops(traj, period=period, labels=[f"{model.name}"],
+                         title=f"{model.name}, {what}: {args.excitation} {args.amplitude:g} at "
+                               f"{args.frequency:g} Hz, {shown} (normalised units)")
         save_figure(fig, args.plot)
         written.append(str(args.plot))
     summary = {"model": model.name, "params": traj.params, "n_samples": int(t.size), "dt": args.dt,

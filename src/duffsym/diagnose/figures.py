@@ -81,27 +81,93 @@ def plot_where(diag, record: Record, *, title: str | None = None):
     return fig
 
 
+#: a candidate whose held-out NRMSE is above this multiple of the base model's counts as diverged:
+#: drawn to the edge of the axis and marked, so it does not squeeze the meaningful range
+DIVERGED = 3.0
+
+
+def _candidate_colour(c, chosen) -> str:
+    if c.effect in chosen:
+        return "tab:green"
+    if c.needed:
+        return "yellowgreen"
+    return "tab:olive" if c.supported else "0.65"
+
+
+def _candidate_note(c) -> str:
+    text = (c.message or "not fitted").split(":")[0]
+    return text if text.startswith("screened out") else f"not fitted: {text[:60]}"
+
+
 def plot_candidates(diag, record: Record | None = None, *, title: str | None = None):
-    """Held-out NRMSE with each candidate effect added, against the base model and the noise floor."""
+    """Held-out NRMSE with each candidate effect added, against the base model and the noise floor.
+
+    Every candidate tried is listed: fitted ones as bars; screened-out or failed ones as rows
+    without a bar that say why. A candidate far worse than the base model (``DIVERGED`` times its
+    error) is drawn to the edge of the axis, marked with its value, and kept off the scale.
+    Colours: green, the effect the diagnosis calls missing; light green, another that explains the
+    error as well (an alternative); olive, supported but explaining less; grey, no gain.
+    """
+    from matplotlib.patches import Patch
+
     plt = _plt()
-    cands = [c for c in diag.candidates if c.success]
-    fig, ax = plt.subplots(figsize=(7, 0.45 * max(len(cands), 3) + 1.4), layout="constrained")
-    colors = ["tab:green" if c.needed else ("tab:olive" if c.supported else "0.65") for c in cands]
-    ax.barh(range(len(cands)), [c.nrmse_after for c in cands], color=colors)
-    ax.axvline(diag.nrmse_heldout, color="k", lw=1, label=f"base model ({diag.nrmse_heldout:.3g})")
+    cands = list(diag.candidates)
+    chosen = set(diag.needed)
+    base = diag.nrmse_heldout
+    fitted = [c for c in cands if c.success and np.isfinite(c.nrmse_after)]
+    shown = [c.nrmse_after for c in fitted if c.nrmse_after <= DIVERGED * base]
+    xmax = 1.12 * max([base, *shown])
+    fig, ax = plt.subplots(figsize=(7.5, 0.42 * max(len(cands), 3) + 1.6), layout="constrained")
+    for i, c in enumerate(cands):
+        if c not in fitted:
+            ax.text(0.01 * xmax, i, _candidate_note(c), va="center", fontsize="x-small", color="0.35", style="italic")
+            continue
+        value = min(c.nrmse_after, xmax)
+        diverged = c.nrmse_after > xmax
+        ax.barh(i, value, color=_candidate_colour(c, chosen), hatch="//" if diverged else None,
+                edgecolor="0.3" if diverged else None)
+        if diverged:
+            ax.text(0.98 * xmax, i, f"diverged: {c.nrmse_after:.3g} (off the scale)", ha="right", va="center",
+                    fontsize="x-small", color="k")
+    ax.set_xlim(0, xmax)
+    ax.axvline(base, color="k", lw=1)
+    handles = [plt.Line2D([], [], color="k", lw=1, label=f"base model ({base:.3g})")]
     if record is not None:
         held = np.asarray(record.y)[diag.split["n_fit"]:]
-        ax.axvline(diag.noise / np.std(held), color="tab:blue", ls=":", label="noise floor")
-    ax.set_yticks(range(len(cands)), [f"+ {c.effect}\n(ΔBIC {c.delta_bic:.0f})" for c in cands], fontsize="small")
-    ax.invert_yaxis()
-    ax.set_xlabel("held-out free-run NRMSE (lower is better)")
-    ax.legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    ax.set_title(title or "which effect is missing: green = needed, olive = helps partly", fontsize="medium")
+        floor = diag.noise / np.std(held)
+        if floor < xmax:
+            ax.axvline(floor, color="tab:blue", ls=":")
+            handles.append(plt.Line2D([], [], color="tab:blue", ls=":", label=f"noise floor ({floor:.2g})"))
+    handles += [Patch(color="tab:green", label="called missing"), Patch(color="yellowgreen", label="explains it as well"),
+                Patch(color="tab:olive", label="supported, helps partly"), Patch(color="0.65", label="no real gain")]
+    labels = [f"+ {c.effect}" + (f"\n(ΔBIC {c.delta_bic:.0f})" if c in fitted else "") for c in cands]
+    ax.set_yticks(range(len(cands)), labels, fontsize="small")
+    ax.set_ylim(len(cands) - 0.5, -0.5)
+    ax.set_xlabel("held-out free-run NRMSE with the effect added (lower is better)")
+    ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    n_other = len(cands) - len(fitted)
+    counted = f"{len(cands)} candidates tried, {len(fitted)} fitted" + (f", {n_other} not (listed, no bar)"
+                                                                        if n_other else "")
+    ax.set_title(f"{title}\n{counted}" if title else f"which effect is missing: {counted}", fontsize="medium")
     return fig
 
 
+def ladder_outcome(lad) -> str:
+    """The ladder's result in words, from its numbers: what was added and how the held-out error moved."""
+    steps = lad.steps
+    if len(steps) == 1:
+        return f"nothing added: no effect is supported (held-out NRMSE {steps[0].nrmse_heldout:.3g})"
+    a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
+    verb = "falls" if b < a else "does not fall"
+    added = ", ".join(s.effects[-1] for s in steps[1:])
+    return f"added {added}: held-out NRMSE {verb}, {' -> '.join(f'{s.nrmse_heldout:.3g}' for s in steps)}"
+
+
 def plot_ladder(lad, record: Record, *, title: str | None = None):
-    """The error falling step by step, and the d–y / d'–y loops of the base and the last model."""
+    """The error at each step of the ladder, and the d–y / d'–y loops of the base and the last model.
+
+    Titles state the outcome (:func:`ladder_outcome`): what was added and whether the held-out
+    error fell, or that nothing was added."""
     plt = _plt()
     steps = lad.steps
     names = ["base"] + ["+ " + s.effects[-1] for s in steps[1:]]
@@ -120,7 +186,12 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
     ax.set_yscale("log")
     ax.set_xticks(x, names, rotation=20, ha="right", fontsize="small")
     ax.set_ylabel("free-run NRMSE")
-    ax.set_title("the error falls", fontsize="medium")
+    if len(steps) == 1:
+        ax.set_title("nothing added: base model only", fontsize="medium")
+    else:
+        a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
+        ax.set_title(f"held-out error {'falls' if b < a else 'does not fall'} ({a:.3g} -> {b:.3g})",
+                     fontsize="medium")
     ax.legend(fontsize="small")
     d = np.asarray(record.d)
     v = np.asarray(record.velocity())
@@ -135,5 +206,5 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
         ax.set_xlabel(lab)
         ax.set_ylabel("y")
         ax.legend(fontsize="x-small", loc="upper left")
-    fig.suptitle(title or "base model -> " + " -> ".join(names[1:] or ["(nothing needed)"]), fontsize="large")
+    fig.suptitle(title or ladder_outcome(lad), fontsize="large")
     return fig

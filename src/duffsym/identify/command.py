@@ -36,7 +36,7 @@ def cmd_fit(args) -> int:
     if args.out:
         result.save(args.out)
     if args.plot:
-        _plot_fit(result, record, model, args.plot)
+        _plot_fit(result, record, model, args.plot, transient=args.plot_transient)
     if args.json:
         _emit_json(_contract_fields(result.to_dict()))
     else:
@@ -53,23 +53,32 @@ def _contract_fields(d: dict) -> dict:
     return {**{k: d[k] for k in head if k in d}, **{k: v for k, v in d.items() if k not in head}}
 
 
-def _plot_fit(result, record, model, path) -> None:
+def _plot_fit(result, record, model, path, transient: bool = False) -> None:
+    """Measured and fitted loops: one steady full-stroke cycle (``duffsym.plot.loops.steady_window``), or the
+    whole record, start-up included, with ``transient``."""
     import numpy as np
 
-    from duffsym.plot.loops import plot_loops, save_figure
+    from duffsym.plot.loops import plot_loops, save_figure, steady_window
     from duffsym.simulate import Trajectory, input_matrix
 
     names = tuple(c.name for c in model.inputs)
     u = input_matrix(model, record.t, record.inputs_for(model))
     y_sim = np.asarray(result.y_sim[0], dtype=float)
-    common = dict(model=model.name, t=record.t, x=np.zeros((record.t.size, 0)), u=u, params=result.params,
+    window = None if transient else steady_window(record.d)
+    sl = window or slice(0, record.n_times)
+    t = np.asarray(record.t)
+    shown = "whole record" if window is None else f"one steady cycle, t = {t[sl][0]:.3g}-{t[sl][-1]:.3g} s"
+    common = dict(model=model.name, t=t[sl], x=np.zeros((t[sl].size, 0)), u=u[sl], params=result.params,
                   success=True, status="ok", message="ok", method="data", input_names=names)
-    measured = Trajectory(y=np.asarray(record.y, dtype=float), **common)
-    fitted = Trajectory(y=y_sim, **common)
-    fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g})"],
-                     styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)])
+    measured = Trajectory(y=np.asarray(record.y, dtype=float)[sl], **common)
+    fitted = Trajectory(y=y_sim[sl], **common)
+    name = f"{record.name or 'record'}{f' ({record.current:g} A)' if record.current is not None else ''}"
+    fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g}, whole record)"],
+                     styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)],
+                     units=record.units, title=f"{name}: measured vs fitted {model.name}, {shown}")
     if result.mask and np.any(result.mask[0]):
-        m = np.asarray(result.mask[0], dtype=bool)
+        m = np.zeros(record.n_times, dtype=bool)
+        m[sl] = np.asarray(result.mask[0], dtype=bool)[sl]
         axes = fig.axes
         axes[0].plot(u[m, 0], record.y[m], ".", color="tab:red", ms=2, label="masked")
         if len(axes) > 1 and u.shape[1] > 1:
@@ -109,7 +118,8 @@ def register(sub) -> None:
     s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
     _add_file_arguments(s)
     s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
-    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF)")
+    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle")
+    s.add_argument("--plot-transient", action="store_true", help="plot the whole record, start-up included")
     s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=cmd_fit)

@@ -36,11 +36,33 @@ def _input_names(traj: Trajectory) -> list[str]:
     return [f"u{i}" for i in range(n_inputs)]
 
 
+def steady_window(d, *, skip: float = 0.25) -> slice | None:
+    """One full input cycle in steady state: of the cycles (rising sign change to rising sign change
+    of ``d - mean(d)``) that start after the first ``skip`` of the record (the start-up transient),
+    the one with the largest stroke, the latest of equal ones; None with fewer than two such cycles.
+
+    A measured record often ends with the actuator slowing down, so its last cycle is not steady.
+    """
+    from duffsym.data.record import zero_crossings
+
+    d = np.asarray(d, dtype=float)
+    z = zero_crossings(d)
+    rising = z[d[z + 1] > d[z]]
+    starts = [(a, b) for a, b in zip(rising[:-1], rising[1:]) if a >= skip * d.size]
+    if len(starts) < 2:
+        return None
+    strokes = [np.ptp(d[a:b + 2]) for a, b in starts]
+    best = max(range(len(starts)), key=lambda i: (round(strokes[i] / max(strokes), 3), i))
+    a, b = starts[best]
+    return slice(int(a), int(b) + 2)
+
+
 _LABELS = {"d": r"$d$", "d_dot": r"$\dot d$", "F": r"$F$"}
 
 
 def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float | None = None,
-               labels: Sequence[str] | None = None, axes=None, styles: Sequence[dict] | None = None):
+               labels: Sequence[str] | None = None, axes=None, styles: Sequence[dict] | None = None,
+               units: dict | None = None, title: str | None = None):
     """Draw the d–y and d'–y hysteresis loops of the last full cycle of one or more trajectories.
 
     Parameters
@@ -54,6 +76,9 @@ def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float
     axes : two matplotlib axes ``(ax_d, ax_ddot)`` to draw into (one axis is enough for a single-input
         model); default: a new figure with two panels.
     styles : optional keyword dicts passed to ``Axes.plot`` per trajectory (colour, line style ...).
+    units : unit of each signal, as in :attr:`~duffsym.data.Record.units` (``{"t": "s", "d": "mm",
+        "y": "N"}``), shown in the axis labels; the velocity's unit is d's over t's.
+    title : the figure title (say what is drawn: record, model, which cycles).
 
     Returns
     -------
@@ -100,12 +125,21 @@ def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float
             kw.pop("label", None)  # one legend entry per trajectory, in the d–y panel
             axes[1].plot(np.where(okv, v[sl], np.nan), np.where(okv, y, np.nan), **kw)
     dname, vname = cols[0][2], cols[0][3]
-    axes[0].set_xlabel(_LABELS.get(dname, dname))
-    ylabel = f"${trajs[0].output_name}$"
+    units = dict(units or {})
+    if units.get("d") and units.get("d") != "1" and "d_dot" not in units:
+        units["d_dot"] = f"{units['d']}/{units.get('t', 's')}"
+
+    def label(name, text):
+        return f"{text} [{units[name]}]" if units.get(name) else text
+
+    axes[0].set_xlabel(label(dname, _LABELS.get(dname, dname)))
+    ylabel = label("y", f"${trajs[0].output_name}$")
     axes[0].set_ylabel(ylabel)
     if two:
-        axes[1].set_xlabel(_LABELS.get(vname, vname))
+        axes[1].set_xlabel(label(vname, _LABELS.get(vname, vname)))
         axes[1].set_ylabel(ylabel)
+    if title:
+        fig.suptitle(title, fontsize="medium")
     for ax in axes[: 2 if two else 1]:
         ax.axhline(0.0, color="0.8", lw=0.6, zorder=0)
         ax.axvline(0.0, color="0.8", lw=0.6, zorder=0)
