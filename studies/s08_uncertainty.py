@@ -167,10 +167,11 @@ def plot(results: dict | None = None) -> list:
         import corner
 
         s = arrays["a_samples"]
-        fig = corner.corner(s, labels=list(FREE), quantiles=(0.05, 0.5, 0.95), show_titles=True, title_fmt=".3g",
-                            truths=[truth[n] for n in FREE], truth_color="tab:red", plot_datapoints=False,
-                            fill_contours=True, levels=(0.68, 0.95), color="tab:blue",
-                            title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 9})
+        with plt.rc_context({"figure.constrained_layout.use": False}):  # corner lays out its own grid
+            fig = corner.corner(s, labels=list(FREE), quantiles=(0.05, 0.5, 0.95), show_titles=True,
+                                title_fmt=".3g", truths=[truth[n] for n in FREE], truth_color="tab:red",
+                                plot_datapoints=False, fill_contours=True, levels=(0.68, 0.95), color="tab:blue",
+                                title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 9})
         fig.suptitle(f"posterior, Table 2 {meta['config']['voltage']:g} V, one 2 Hz sine, "
                      f"{meta['config']['noise']:.0%} noise (red: truth; dashed: 5/50/95 %)", fontsize=9)
         files.append(C.save(fig, STUDY, "corner"))
@@ -199,8 +200,7 @@ def plot(results: dict | None = None) -> list:
             ax.legend(fontsize=6, loc="best")
         del idx
         fig.suptitle("k3 free: the ridge under one sine amplitude and its disappearance with three amplitudes",
-                     fontsize=9)
-        fig.tight_layout()
+                     fontsize=9)  # the style's constrained layout makes room for it
         files.append(C.save(fig, STUDY, "ridge"))
     return files
 

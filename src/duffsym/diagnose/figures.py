@@ -15,6 +15,18 @@ def _plt():
     return plt
 
 
+def _steady(record: Record) -> slice:
+    """One steady full-stroke cycle of the record (the start-up transient left out), else all of it."""
+    from duffsym.plot.loops import steady_window
+
+    return steady_window(record.d) or slice(0, record.n_times)
+
+
+def _steady_label(record: Record, sl: slice) -> str:
+    t = np.asarray(record.t)[sl]
+    return "whole record" if t.size == record.n_times else f"one steady cycle ({t[0]:.3g}-{t[-1]:.3g} s)"
+
+
 def plot_where(diag, record: Record, *, title: str | None = None):
     """Where the model fails: time series with residual, d–y and d'–y loops, the residual map over
     the (d, d') plane, residual RMS per region, and the residual autocorrelation."""
@@ -43,13 +55,14 @@ def plot_where(diag, record: Record, *, title: str | None = None):
     ax.set_xlabel("time, s")
     ax.set_ylabel("residual y − ŷ")
     ax.legend(loc="upper left", fontsize="small")
+    sl = _steady(record)
     for row, (xs, lab) in enumerate(((d, "d"), (v, "d'"))):
         ax = fig.add_subplot(gs[row, 2])
-        ax.plot(xs, y, ".", color="0.6", ms=1.5)
-        ax.plot(xs, yh, color="k", lw=0.6)
+        ax.plot(xs[sl], y[sl], ".", color="0.6", ms=1.5)
+        ax.plot(xs[sl], yh[sl], color="k", lw=0.6)
         ax.set_xlabel(lab)
         ax.set_ylabel("y")
-        ax.set_title(f"{lab}–y loop", fontsize="medium")
+        ax.set_title(f"{lab}–y loop, {_steady_label(record, sl)}", fontsize="medium")
     ax = fig.add_subplot(gs[2, 0])
     lim = np.nanmax(np.abs(res.map_mean)) or 1.0
     mesh = ax.pcolormesh(res.map_d, res.map_v, res.map_mean.T, cmap="RdBu_r", vmin=-lim, vmax=lim, shading="nearest")
@@ -138,8 +151,10 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
         if floor < xmax:
             ax.axvline(floor, color="tab:blue", ls=":")
             handles.append(plt.Line2D([], [], color="tab:blue", ls=":", label=f"noise floor ({floor:.2g})"))
-    handles += [Patch(color="tab:green", label="called missing"), Patch(color="yellowgreen", label="explains it as well"),
-                Patch(color="tab:olive", label="supported, helps partly"), Patch(color="0.65", label="no real gain")]
+    used = {_candidate_colour(c, chosen) for c in fitted}
+    handles += [Patch(color=col, label=text) for col, text in (
+        ("tab:green", "called missing"), ("yellowgreen", "explains it as well"),
+        ("tab:olive", "supported, helps partly"), ("0.65", "no real gain")) if col in used]
     labels = [f"+ {c.effect}" + (f"\n(ΔBIC {c.delta_bic:.0f})" if c in fitted else "") for c in cands]
     ax.set_yticks(range(len(cands)), labels, fontsize="small")
     ax.set_ylim(len(cands) - 0.5, -0.5)
@@ -193,18 +208,21 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
         ax.set_title(f"held-out error {'falls' if b < a else 'does not fall'} ({a:.3g} -> {b:.3g})",
                      fontsize="medium")
     ax.legend(fontsize="small")
-    d = np.asarray(record.d)
-    v = np.asarray(record.velocity())
-    y = np.asarray(record.y)
+    sl = _steady(record)
+    d = np.asarray(record.d)[sl]
+    v = np.asarray(record.velocity())[sl]
+    y = np.asarray(record.y)[sl]
     for j, (xs, lab) in enumerate(((d, "d"), (v, "d'"))):
         ax = fig.add_subplot(gs[0, 1 + j])
         ax.plot(xs, y, ".", color="0.7", ms=1.5, label="measured")
-        ax.plot(xs, steps[0].diagnosis.y_base, color="tab:red", lw=0.7, label=f"base ({steps[0].nrmse:.3g})")
+        ax.plot(xs, steps[0].diagnosis.y_base[sl], color="tab:red", lw=0.7, label=f"base (NRMSE {steps[0].nrmse:.3g})")
         if len(steps) > 1:
-            ax.plot(xs, steps[-1].diagnosis.y_base, color="k", lw=0.7,
-                    label=f"{' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})")
+            ax.plot(xs, steps[-1].diagnosis.y_base[sl], color="k", lw=0.7,
+                    label=f"+ {' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})")
         ax.set_xlabel(lab)
         ax.set_ylabel("y")
-        ax.legend(fontsize="x-small", loc="upper left")
+        ax.set_title(f"{lab}–y loop, {_steady_label(record, sl)}", fontsize="medium")
+        if j == 0:
+            ax.legend(fontsize="x-small", loc="center")
     fig.suptitle(title or ladder_outcome(lad), fontsize="large")
     return fig
