@@ -454,21 +454,59 @@ def plot(results: dict | None = None) -> list:
         if "eq_t" in arrays and meta["earthquake"]:
             best = min(meta["earthquake"], key=lambda k: meta["earthquake"][k]["nrmse"])
             worst = max(meta["earthquake"], key=lambda k: meta["earthquake"][k]["nrmse"])
-            fig, ax = plt.subplots(figsize=(7.2, 2.8))
-            ax.plot(arrays["eq_t"], arrays["eq_y"], color="0.55", lw=1.0, label="measured, 1 A")
-            for k, c in ((best, "C0"), (worst, "C1")):
-                ax.plot(arrays["eq_t"], arrays[f"eq_{k}"], color=c, lw=0.8,
-                        label=f"fit of {k}: NRMSE {meta['earthquake'][k]['nrmse']:.3f}")
-            if "eq_joint" in arrays and "1A" in joint:
-                ax.plot(arrays["eq_t"], arrays["eq_joint"], color="C3", lw=0.8,
-                        label=f"joint fit of all 1 A tests: NRMSE {joint['1A']['earthquake_nrmse']:.3f}")
-            ax.set_ylim(-1.6 * np.max(np.abs(arrays["eq_y"])), 1.6 * np.max(np.abs(arrays["eq_y"])))
-            ax.set_xlabel("t (s)")
-            ax.set_ylabel("force (N)")
-            ax.legend(fontsize=7, loc="upper right")
-            ax.set_title("Earthquake-type record at 1 A: free run of sinusoid fits (best and worst single-test, joint)", fontsize=9)
-            files.append(C.save(fig, STUDY, "earthquake"))
+            files.append(C.save(_earthquake_figure(plt, arrays, meta, joint, best, worst), STUDY, "earthquake"))
     return files
+
+
+def _zoom_windows(t: np.ndarray, y: np.ndarray, width: float = 4.0) -> list[tuple[float, float]]:
+    """Two readable windows of a long record: around its largest force and around its quietest stretch
+    of motion (the lowest RMS force over ``width`` seconds, after the first ``width``)."""
+    dt = float(t[1] - t[0])
+    n = max(int(round(width / dt)), 2)
+    peak = float(t[int(np.argmax(np.abs(y)))])
+    a = min(max(peak - width / 2, t[0]), t[-1] - width)
+    rms = np.sqrt(np.convolve(y**2, np.ones(n) / n, mode="valid"))
+    first, last = n, int(np.flatnonzero(np.abs(y) > 0.2 * np.max(np.abs(y)))[-1]) - n
+    quiet = first + int(np.argmin(rms[first:max(last, first + 1)]))
+    b = float(t[quiet])
+    return [(a, a + width), (b, b + width)]
+
+
+def _earthquake_figure(plt, arrays, meta, joint, best, worst):
+    """The 65 s earthquake-type record at 1 A: the whole record (measured and the joint fit), and two
+    4 s windows where every curve can be read."""
+    t, y = arrays["eq_t"], arrays["eq_y"]
+    curves = [(arrays[f"eq_{k}"], c, f"fit of {k} alone: NRMSE {meta['earthquake'][k]['nrmse']:.3f}")
+              for k, c in ((best, "C0"), (worst, "C1"))]
+    if "eq_joint" in arrays and "1A" in joint:
+        curves.append((arrays["eq_joint"], "C3", f"joint fit of all 1 A tests: NRMSE {joint['1A']['earthquake_nrmse']:.3f}"))
+    windows = _zoom_windows(t, y)
+    fig = plt.figure(figsize=(7.2, 5.4))
+    gs = fig.add_gridspec(2, 2, height_ratios=(1, 1.15))
+    ax = fig.add_subplot(gs[0, :])
+    ax.plot(t, y, color="0.55", lw=0.8, label="measured, 1 A")
+    ax.plot(t, curves[-1][0], color=curves[-1][1], lw=0.6, label=curves[-1][2])
+    for k, (a, b) in enumerate(windows):
+        ax.axvspan(a, b, color="0.9", zorder=0)
+        ax.text((a + b) / 2, 0.97, "ab"[k], transform=ax.get_xaxis_transform(), ha="center", va="top", fontsize=8)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("force (N)")
+    ax.set_title(f"whole record, {t[-1] - t[0]:.0f} s: measured and the joint fit (shaded: the windows below)",
+                 fontsize=8)
+    for k, (a, b) in enumerate(windows):
+        ax = fig.add_subplot(gs[1, k])
+        sel = (t >= a) & (t <= b)
+        ax.plot(t[sel], y[sel], color="0.55", lw=1.2, label="measured")
+        for yy, c, lab in curves:
+            ax.plot(t[sel], yy[sel], color=c, lw=0.8, label=lab)
+        ax.set_xlabel("t (s)")
+        ax.set_title(f"{'ab'[k]}: {a:.1f}-{b:.1f} s, {'largest force' if k == 0 else 'quietest stretch'}", fontsize=8)
+        if k == 0:
+            ax.set_ylabel("force (N)")
+    fig.legend(*fig.axes[1].get_legend_handles_labels(), fontsize=7, loc="outside lower center", ncols=2)
+    fig.suptitle("Real MR damper, earthquake-type record at 1 A: free runs of fits to the sine tests", fontsize=9)
+    return fig
 
 
 def nrmse_table(meta: dict) -> str:
