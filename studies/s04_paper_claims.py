@@ -252,9 +252,13 @@ def evaluate() -> list[Verdict]:
     return out
 
 
+_TEX = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "^": r"\^{}", "&": r"\&", "#": r"\#", ">": r"$>$",
+        "<": r"$<$", "|": r"\textbar{}", "{": r"\{", "}": r"\}", "$": r"\$", "~": r"\textasciitilde{}"}
+
+
 def _tex_escape(s: str) -> str:
-    return s.replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("%", r"\%").replace("^", r"\^{}") \
-        .replace("&", r"\&").replace("#", r"\#").replace(">", r"$>$").replace("<", r"$<$")
+    """Plain text as LaTeX text, each special character replaced once (``|d'-y area|`` keeps its bars)."""
+    return "".join(_TEX.get(ch, ch) for ch in s)
 
 
 def main(argv=None) -> int:

@@ -86,3 +86,13 @@ def test_extended_model_is_derived_on_the_mechanical_pair():
                        - ((k1 + k2) / 2 * x1**2 + x2**2 / 2 + k3 / 6 * x1**6)) == 0
     assert rep.item("equation").text.count("\n") == 3  # three state equations and the output
     json.dumps(rep.to_dict())
+
+
+def test_latex_text_is_escaped_once_and_verbatim_lines_fit():
+    from duffsym.derive.report import _tex_escape, _wrap_verbatim
+
+    assert _tex_escape("A_c^T P, |y| -> {x}") == (r"A\_c\textasciicircum{}T P, \textbar{}y\textbar{} -"
+                                                  r"\textgreater{} \{x\}")
+    assert _tex_escape("a\\b") == r"a\textbackslash{}b"
+    long = "[ok] dV/dt negative semi-definite: " + "x " * 60
+    assert all(len(line) <= 80 for line in _wrap_verbatim(long).splitlines())

@@ -102,7 +102,7 @@ class DerivationReport:
             if it.latex:
                 out += ["\\begin{gather*}", it.latex, "\\end{gather*}"]
             elif it.text:
-                out += ["\\begin{verbatim}", it.text, "\\end{verbatim}"]
+                out += ["\\begin{verbatim}", _wrap_verbatim(it.text), "\\end{verbatim}"]
             if it.note:
                 out.append(_tex_escape(it.note))
             out.append("")
@@ -116,11 +116,22 @@ class DerivationReport:
         return self.to_text()
 
 
+_TEX_CHARS = {"\\": r"\textbackslash{}", "_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#", "^": r"\textasciicircum{}",
+              "$": r"\$", "{": r"\{", "}": r"\}", "~": r"\textasciitilde{}", "<": r"\textless{}",
+              ">": r"\textgreater{}", "|": r"\textbar{}"}
+
+
 def _tex_escape(s: str) -> str:
-    for a, b in (("\\", r"\textbackslash{}"), ("_", r"\_"), ("%", r"\%"), ("&", r"\&"), ("#", r"\#"),
-                 ("^", r"\^{}"), ("$", r"\$"), ("{", r"\{"), ("}", r"\}")):
-        s = s.replace(a, b)
-    return s
+    """Plain text as LaTeX text: each special character replaced once (so ``A_c^T`` stays ``A_c^T``)."""
+    return "".join(_TEX_CHARS.get(ch, ch) for ch in s)
+
+
+def _wrap_verbatim(text: str, width: int = 80) -> str:
+    """Long lines of a verbatim block wrapped at ``width`` with an indent, so they fit the page."""
+    import textwrap
+
+    return "\n".join(textwrap.fill(line, width, subsequent_indent="      ", break_on_hyphens=False) or line
+                     for line in text.splitlines())
 
 
 class _Printer:
@@ -373,7 +384,9 @@ def _symmetry_items(model, pr) -> list[ReportItem]:
     if sym.exists:
         moved = {k: e for k, e in sym.mapping.items() if sp.simplify(e - model.param(k).symbol) != 0}
         text = "x -> s*x with " + ", ".join(f"{k} -> {sp.sstr(e)}" for k, e in moved.items())
-        latex = ", \\quad ".join(f"{pr.latex(model.param(k).symbol)} \\to {pr.latex(e)}" for k, e in moved.items())
+        terms = [f"{pr.latex(model.param(k).symbol)} \\to {pr.latex(e)}" for k, e in moved.items()]
+        # four per line, so the gather* rows fit a page
+        latex = " \\\\ ".join(", \\quad ".join(terms[i:i + 4]) for i in range(0, len(terms), 4))
         data = {"mapping": {k: sp.sstr(e) for k, e in sym.mapping.items()},
                 "tangent": {k: sp.sstr(e) for k, e in sym.tangent.items()}}
     else:
