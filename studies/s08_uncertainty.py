@@ -94,7 +94,8 @@ def _sample(res, recs, n_walkers, n_steps, seed):
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        ch = sample(res, recs, n_walkers=n_walkers, n_steps=n_steps, rng=seed)
+        # emcee's bar (elapsed, time left) on a terminal; a log of `duffsym reproduce` stays clean
+        ch = sample(res, recs, n_walkers=n_walkers, n_steps=n_steps, rng=seed, progress=sys.stderr.isatty())
     return ch, [str(w.message) for w in caught]
 
 
