@@ -75,3 +75,10 @@ def test_run_all_estimate_weights_the_studies_by_their_typical_time():
     assert run_all._estimate(["s01_a"], ["s06_b"], 40.0, smoke=False) == ", about 7:20 left"
     assert run_all._estimate(["s01_a", "s02_b"], ["s03_c", "s04_d"], 10.0, smoke=True) == ", about 0:10 left"
     assert run_all._estimate([], ["s01_a"], 0.0, smoke=False) == ""
+
+
+def test_the_packages_warnings_print_as_one_line_notes(tmp_path):
+    code = ("import warnings\nfrom duffsym.errors import ConvergenceWarning, show_notes\nshow_notes()\n"
+            "warnings.warn('the Gauss-Newton Hessian is singular:\\n  some parameters', ConvergenceWarning)\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert proc.stderr == "note: the Gauss-Newton Hessian is singular: some parameters\n"
