@@ -3,7 +3,7 @@ from __future__ import annotations
 
 
 def cmd_convert(args) -> int:
-    from duffsym.cli import CLIError, _emit_json, _err, _parse_mapping
+    from duffsym._cli_common import CLIError, _emit_json, _err, _parse_mapping
     from duffsym.data.convert import convert
 
     columns = _parse_mapping(args.columns, "--columns")
