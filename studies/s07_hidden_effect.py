@@ -166,8 +166,9 @@ def _namespaces(case: dict, arrays: dict):
     from duffsym.identify.result import nrmse
 
     key = case["key"]
+    units = {"t": "s", "d": "mm", "d_dot": "mm/s", "y": "N"} if key.startswith("real") else {}
     rec = Record(t=arrays[f"{key}_t"], d=arrays[f"{key}_d"], d_dot=arrays[f"{key}_v"], y=arrays[f"{key}_y"],
-                 name=case["name"])
+                 name=case["name"], units=units)
     y = np.asarray(rec.y)
     steps = []
     for i, s in enumerate(case["steps"]):

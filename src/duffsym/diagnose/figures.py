@@ -15,6 +15,14 @@ def _plt():
     return plt
 
 
+def _u(record: Record, key: str) -> str:
+    """`` [unit]`` of a record signal for an axis label, or nothing when unknown or dimensionless."""
+    unit = dict(record.units).get(key, "")
+    if key == "d_dot" and not unit and dict(record.units).get("d", "1") != "1":
+        unit = f"{record.units['d']}/s"
+    return f" [{unit}]" if unit and unit != "1" else ""
+
+
 def _steady(record: Record) -> slice:
     """One steady full-stroke cycle of the record (the start-up transient left out), else all of it."""
     from duffsym.plot.loops import steady_window
@@ -46,22 +54,22 @@ def plot_where(diag, record: Record, *, title: str | None = None):
     ax.plot(t, yh, color="k", lw=0.8, label=f"model, free run (NRMSE {diag.nrmse:.3g})")
     ax.axvline(t[k], color="tab:blue", ls=":", lw=1)
     ax.text(t[k], ax.get_ylim()[1], " held out ->", color="tab:blue", va="top", fontsize="small")
-    ax.set_ylabel("output y")
+    ax.set_ylabel(f"output y{_u(record, 'y')}")
     ax.legend(loc="lower left", fontsize="small", ncols=2)
     ax = fig.add_subplot(gs[1, :2], sharex=fig.axes[0])
     ax.plot(t, r, color="tab:red", lw=0.6)
     ax.axhspan(-2 * res.noise, 2 * res.noise, color="0.85", label="±2σ noise")
     ax.axvline(t[k], color="tab:blue", ls=":", lw=1)
     ax.set_xlabel("time, s")
-    ax.set_ylabel("residual y − ŷ")
+    ax.set_ylabel(f"residual y − ŷ{_u(record, 'y')}")
     ax.legend(loc="upper left", fontsize="small")
     sl = _steady(record)
-    for row, (xs, lab) in enumerate(((d, "d"), (v, "d'"))):
+    for row, (xs, lab, key) in enumerate(((d, "d", "d"), (v, "d'", "d_dot"))):
         ax = fig.add_subplot(gs[row, 2])
         ax.plot(xs[sl], y[sl], ".", color="0.6", ms=1.5)
         ax.plot(xs[sl], yh[sl], color="k", lw=0.6)
-        ax.set_xlabel(lab)
-        ax.set_ylabel("y")
+        ax.set_xlabel(lab + _u(record, key))
+        ax.set_ylabel("y" + _u(record, "y"))
         ax.set_title(f"{lab}–y loop, {_steady_label(record, sl)}", fontsize="medium")
     ax = fig.add_subplot(gs[2, 0])
     lim = np.nanmax(np.abs(res.map_mean)) or 1.0
@@ -212,15 +220,15 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
     d = np.asarray(record.d)[sl]
     v = np.asarray(record.velocity())[sl]
     y = np.asarray(record.y)[sl]
-    for j, (xs, lab) in enumerate(((d, "d"), (v, "d'"))):
+    for j, (xs, lab, key) in enumerate(((d, "d", "d"), (v, "d'", "d_dot"))):
         ax = fig.add_subplot(gs[0, 1 + j])
         ax.plot(xs, y, ".", color="0.7", ms=1.5, label="measured")
         ax.plot(xs, steps[0].diagnosis.y_base[sl], color="tab:red", lw=0.7, label=f"base (NRMSE {steps[0].nrmse:.3g})")
         if len(steps) > 1:
             ax.plot(xs, steps[-1].diagnosis.y_base[sl], color="k", lw=0.7,
                     label=f"+ {' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})")
-        ax.set_xlabel(lab)
-        ax.set_ylabel("y")
+        ax.set_xlabel(lab + _u(record, key))
+        ax.set_ylabel("y" + _u(record, "y"))
         ax.set_title(f"{lab}–y loop, {_steady_label(record, sl)}", fontsize="medium")
         if j == 0:
             ax.legend(fontsize="x-small", loc="center")
