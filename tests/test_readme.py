@@ -113,3 +113,23 @@ def test_files_named_in_docstrings_exist():
     assert not missing, missing
     bare = [str(p.relative_to(ROOT)) for p in (ROOT / "src").rglob("*.py") if "``contract.md``" in p.read_text()]
     assert not bare, f"say docs/contract.md: {bare}"
+
+
+def test_shipped_synthetic_records_are_what_make_examples_makes():
+    """data/make_examples.py regenerates the shipped synthetic records (same samples to 1e-12) and their truth."""
+    import importlib.util
+    import json
+
+    import numpy as np
+
+    from duffsym.data import read_csv
+
+    spec = importlib.util.spec_from_file_location("make_examples", ROOT / "data" / "make_examples.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    truth = json.loads((ROOT / "data" / "synthetic_truth.json").read_text())
+    for name, rec in mod._records().items():
+        shipped = read_csv(ROOT / "data" / f"{name}.csv")
+        np.testing.assert_allclose(shipped.y, rec.y, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(shipped.d, rec.d, rtol=1e-12, atol=1e-12)
+        assert truth[name]["params"] == dict(rec.metadata["truth"]) and truth[name]["n_samples"] == rec.n_times
