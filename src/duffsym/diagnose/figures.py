@@ -141,7 +141,8 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
     fig, ax = plt.subplots(figsize=(7.5, 0.42 * max(len(cands), 3) + 1.6), layout="constrained")
     for i, c in enumerate(cands):
         if c not in fitted:
-            ax.text(0.01 * xmax, i, _candidate_note(c), va="center", fontsize="x-small", color="0.35", style="italic")
+            ax.text(0.01 * xmax, i, _candidate_note(c), va="center", fontsize="x-small", color="0.35", style="italic",
+                    bbox=dict(facecolor="white", edgecolor="none", pad=1.0), zorder=3)
             continue
         value = min(c.nrmse_after, xmax)
         diverged = c.nrmse_after > xmax
