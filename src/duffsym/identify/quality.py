@@ -1,4 +1,4 @@
-"""Whether a converged fit is a usable model, and what about it is doubtful (``contract.md``, wave 2).
+"""Whether a converged fit is a usable model, and what about it is doubtful (``docs/contract.md``, wave 2).
 
 - :func:`usability`: a fit whose free run is worse than predicting the mean (R² < 0), or whose output
   gain A_f is not positive, is not a model of the record: ``success`` becomes false with a status
