@@ -18,8 +18,7 @@ of each record (model, effects, parameters, excitation, noise, seed) is written 
                             displacement, force and no time column (the form of many lab
                             exports), for ``duffsym convert --format mat``.
 
-The real record ``utfsm_2mm5Hz1A.txt`` is not made here: it is a copy of one third-party file
-(see ``data/README.md``).
+Real records are not shipped (third-party data); ``data/README.md`` says how the README reaches one.
 """
 from __future__ import annotations
 

@@ -15,13 +15,38 @@ from duffsym.data.convert import read_table
 DATA = Path(__file__).resolve().parents[1] / "data"
 
 
-def test_utfsm_text_file_converts_to_the_values_numpy_reads(tmp_path, capsys):
+@pytest.fixture
+def utfsm_txt():
+    """One real UTFSM text file (third-party data, never shipped: found through DUFFSYM_EXTERNAL_DATA)."""
+    from duffsym.data.loaders import external_data_dir
+    from duffsym.errors import DuffsymError
+
+    try:
+        f = external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed" / "2mm5Hz1A.txt"
+    except DuffsymError as exc:
+        pytest.skip(str(exc))
+    if not f.is_file():
+        pytest.skip(f"{f} is missing")
+    return f
+
+
+@pytest.fixture
+def plain_txt(tmp_path):
+    """A headerless whitespace text file with 4 columns (time, displacement, velocity, force)."""
+    rec = read_csv(DATA / "synthetic_sine.csv")
+    f = tmp_path / "plain" / "plain.txt"
+    f.parent.mkdir()
+    np.savetxt(f, np.column_stack([rec.t, rec.d, rec.d_dot, rec.y]))
+    return f
+
+
+def test_utfsm_text_file_converts_to_the_values_numpy_reads(tmp_path, capsys, utfsm_txt):
     out = tmp_path / "real.csv"
-    code = main(["convert", str(DATA / "utfsm_2mm5Hz1A.txt"), "--columns", "time=1,displacement=2,velocity=3,force=4",
+    code = main(["convert", str(utfsm_txt), "--columns", "time=1,displacement=2,velocity=3,force=4",
                  "--current", "1", "--out", str(out), "--json"])
     doc = json.loads(capsys.readouterr().out)
     assert code == 0 and doc["n_samples"] == 450 and doc["velocity"]
-    raw = np.loadtxt(DATA / "utfsm_2mm5Hz1A.txt")
+    raw = np.loadtxt(utfsm_txt)
     rec = read_csv(out)
     np.testing.assert_array_equal(rec.t, raw[:, 0])
     np.testing.assert_array_equal(rec.d, raw[:, 1])
@@ -30,7 +55,7 @@ def test_utfsm_text_file_converts_to_the_values_numpy_reads(tmp_path, capsys):
     assert rec.current == 1.0
     # the same record as the data set's own loader (which reads the current from the file name)
     named = tmp_path / "2mm5Hz1A.txt"
-    named.write_bytes((DATA / "utfsm_2mm5Hz1A.txt").read_bytes())
+    named.write_bytes(utfsm_txt.read_bytes())
     ref = load_mr_damper_utfsm(named)
     np.testing.assert_array_equal(ref.y, rec.y)
     assert ref.current == rec.current
@@ -63,12 +88,12 @@ def test_columns_by_header_name_and_comment_lines(tmp_path):
     (["--columns", "time=1,displacement=x,force=4"], "no column 'x' for input; it has no header row"),
     (["--columns", "time=1,displacement=2,force=4", "--format", "mat"], "not a readable MATLAB"),
 ])
-def test_bad_input_one_line_exit_2_and_no_file(tmp_path, capsys, argv, message):
+def test_bad_input_one_line_exit_2_and_no_file(tmp_path, capsys, argv, message, plain_txt):
     out = tmp_path / "x.csv"
-    code = main(["convert", str(DATA / "utfsm_2mm5Hz1A.txt"), *argv, "--out", str(out)])
+    code = main(["convert", str(plain_txt), *argv, "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
-    assert not out.exists() and not list(tmp_path.iterdir())
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["plain"]
 
 
 def test_a_bad_row_names_its_line(tmp_path, capsys):
