@@ -19,6 +19,10 @@ def __getattr__(name):
         from duffsym import identify
 
         return getattr(identify, name)
+    if name == "batch":  # many records on local processes or a Dask cluster (duffsym.campaign)
+        from duffsym.campaign import batch
+
+        return batch
     if name == "read_csv":
         from duffsym.data import read_csv
 
@@ -30,6 +34,6 @@ __version__ = "0.1.0"
 
 __all__ = [
     "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",
-    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit",
+    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch",
     "DuffsymError", "ModelError", "DataError", "SimulationError",
 ]

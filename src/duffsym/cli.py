@@ -41,6 +41,7 @@ COMMAND_MODULES = (
     "duffsym.uncertainty.command",  # sample
     "duffsym.sindy.command",        # sindy
     "duffsym.data.command",         # convert
+    "duffsym.campaign.command",     # batch
 )
 
 
