@@ -101,9 +101,10 @@ class Engine:
                 self._client = (Client(scheduler_file=spec, timeout="30s") if spec.endswith(".json")
                                 else Client(spec, timeout="30s"))
             else:
-                # processes, one thread each; no dashboard (no port beyond the scheduler's, on loopback)
+                # processes, one thread each; the scheduler and its status page on loopback, any free port
                 self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                             host="127.0.0.1", dashboard_address=None, silence_logs=level)
+                                             host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                                             silence_logs=level)
                 self._client = Client(self._cluster)
         except OSError as exc:
             self.close()

@@ -28,6 +28,17 @@ def _common(args):
     return record, cands, mask, fixed
 
 
+def _engine(args):
+    """The engine fitting the candidates: None (here, one after the other) unless --workers or --scheduler."""
+    import contextlib
+
+    if not args.workers and not args.scheduler:
+        return contextlib.nullcontext(None)
+    from duffsym.engine import Engine
+
+    return Engine(args.workers, scheduler=args.scheduler)
+
+
 def _progress(args):
     """Progress lines on stderr (elapsed time, candidate count, time left), or None with --quiet."""
     from duffsym._progress import Progress
@@ -48,9 +59,10 @@ def cmd_diagnose(args) -> int:
         model = model_from_result(fit_result)
     else:
         model = _fit_model(args)
-    dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
-                  noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                  progress=_progress(args))
+    with _engine(args) as engine:
+        dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
+                      noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                      progress=_progress(args), engine=engine)
     from duffsym.diagnose.report import write_diagnosis_report
 
     _output(args, dg, record, write_diagnosis_report)
@@ -77,9 +89,10 @@ def cmd_ladder(args) -> int:
 
     record, cands, mask, fixed = _common(args)
     model = _fit_model(args)
-    lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
-                 holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                 progress=_progress(args))
+    with _engine(args) as engine:
+        lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
+                     holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                     progress=_progress(args), engine=engine)
     if args.out:
         lad.final_fit.save(args.out)
     from duffsym.diagnose.report import write_ladder_report
@@ -108,6 +121,9 @@ def _shared(s) -> None:
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
     s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")
+    s.add_argument("--workers", type=int, default=None, metavar="N", help="fit the candidates on N local worker "
+                   "processes (the same fits, in parallel; default: one after the other here)")
+    s.add_argument("--scheduler", metavar="ADDRESS", help="fit the candidates on the workers of this Dask scheduler")
     s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")

@@ -220,6 +220,61 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
                ipopt_options=options, bound_restart=False)
 
 
+class _CandidateFit:
+    """One candidate's fit on the fitting part and its free run over the whole record: a picklable callable,
+    so that an :class:`~duffsym.engine.Engine` can fit the candidates in worker processes.
+
+    Called with ``(name, extended model, iteration budget, start)`` (start None: the effect's own guess
+    from the base optimum); returns ``(ss_fit, fit, y_free_run, seconds)``, or ``(message, seconds)``
+    when the fit raised on bad input."""
+
+    def __init__(self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time):
+        self.record, self.k, self.rec_fit, self.base_params, self.y_base_fit = record, k, rec_fit, base_params, y_base_fit
+        self.fixed, self.mask_fit, self.cpu_time = fixed, mask_fit, cpu_time
+
+    def __call__(self, task):
+        from duffsym.effects import CATALOGUE
+        from duffsym.identify import extended_start
+
+        name, ext, budget, start = task
+        t0 = time.perf_counter()
+        try:
+            if start is None:
+                start = extended_start(ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit,
+                                       fixed=self.fixed)
+            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=self.mask_fit, max_iter=budget,
+                      max_cpu_time=self.cpu_time)
+        except (ModelError, DataError) as exc:
+            return str(exc), time.perf_counter() - t0
+        y_ext = _free_run(ext, fr.params, self.record, fr.x0[0])
+        k = self.k  # the fitting part: the first k samples of the record
+        y = np.asarray(self.record.y, dtype=float)
+        ss = float(np.sum((y[:k] - y_ext[:k]) ** 2)) if y_ext is not None else math.inf
+        return ss, fr, y_ext, time.perf_counter() - t0
+
+
+def _map(engine, job, tasks, say, verb, counted=False):
+    """``job`` over ``tasks``, in order: here, one after the other (saying each), or on the engine's workers."""
+    if engine is None:
+        for i, task in enumerate(tasks):
+            if counted:
+                say(f"  {verb} {task[0]}", done=i, total=len(tasks))
+            else:
+                say(f"  {verb} {task[0]}")
+            yield job(task)
+        return
+    if not tasks:
+        return
+    say(f"  {verb} {', '.join(t[0] for t in tasks)} on {engine!r}")
+    results: list = [None] * len(tasks)
+    for n, outcome in enumerate(engine.as_completed(job, tasks)):
+        if not outcome.ok:
+            raise outcome.error
+        results[outcome.index] = outcome.value
+        say(f"  {tasks[outcome.index][0]} fitted", done=n, total=len(tasks))
+    yield from results
+
+
 # ---------------------------------------------------------------------------------------------- main
 def diagnose(
     record: Record,
@@ -240,6 +295,7 @@ def diagnose(
     screen: int | None = SCREEN,
     sindy: bool = True,
     progress=None,
+    engine=None,
 ) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
 
@@ -275,9 +331,10 @@ def diagnose(
         the ranking; they never decide it, and an inconclusive check is reported as such.
     progress : a callable taking a message string (e.g. ``print``), a
         :class:`duffsym._progress.Progress` (counts and time left), or None.
+    engine : a started :class:`~duffsym.engine.Engine` to fit the candidates on its workers (the same
+        fits, in parallel), or None (default): one after the other in this process.
     """
     from duffsym.effects import CATALOGUE, apply_effects
-    from duffsym.identify import extended_start
 
     t_start = time.perf_counter()
     say = reporter(progress)
@@ -324,27 +381,23 @@ def diagnose(
     # every candidate is fitted; with screening, first on a short iteration budget: those that have
     # not converged by then continue only if their free-run error ranks among the best ``screen``
     budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
-    runs = []
-    for i, name in enumerate(names):
-        effect = CATALOGUE[name]
-        t0 = time.perf_counter()
+    job = _CandidateFit(record, k, rec_fit, dict(base.params), y_base[:k], fixed, mask_fit, candidate_cpu_time)
+    tasks = []
+    for name in names:
         try:
-            ext = apply_effects(model, [effect])
+            tasks.append((name, apply_effects(model, [CATALOGUE[name]]), budget, None))
         except ModelError as exc:
             say(f"  {name}: not applicable ({exc})")
+    runs = []
+    for (name, ext, _, _), got in zip(tasks, _map(engine, job, tasks, say, "trying", counted=True)):
+        if isinstance(got[0], str):  # the candidate's fit raised: (message, seconds)
+            out.append(_failed(name, CATALOGUE[name], got[0], got[1]))
             continue
-        say(f"  trying {name}", done=i, total=len(names))
-        try:
-            x0 = extended_start(ext, effect, rec_fit, base.params, y_base[:k], fixed=fixed)
-            fr = _fit(ext, rec_fit, fixed, x0, mask=mask_fit, max_iter=budget, max_cpu_time=candidate_cpu_time)
-        except (ModelError, DataError) as exc:
-            out.append(_failed(name, effect, str(exc), time.perf_counter() - t0))
-            continue
-        y_ext = _free_run(ext, fr.params, record, fr.x0[0])
-        ss = float(np.sum((y[:k] - y_ext[:k]) ** 2)) if y_ext is not None else math.inf
-        runs.append([ss, name, effect, ext, fr, y_ext, time.perf_counter() - t0])
+        ss, fr, y_ext, secs = got
+        runs.append([ss, name, CATALOGUE[name], ext, fr, y_ext, secs])
     if screen is not None:
         runs.sort(key=lambda item: item[0])
+        go_on = []
         for rank, run in enumerate(runs):
             ss, name, effect, ext, fr, y_ext, secs = run
             if fr.success or fr.status not in ("Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded"):
@@ -354,13 +407,13 @@ def diagnose(
                 run[5] = (f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
                           f"{rank + 1} of {len(runs)} (screen={screen})")
                 continue
-            t0 = time.perf_counter()
-            say(f"  continuing {name}")
-            fr = _fit(ext, rec_fit, fixed, fr.params, mask=mask_fit, max_iter=candidate_max_iter,
-                      max_cpu_time=candidate_cpu_time)
-            run[4] = fr
-            run[5] = _free_run(ext, fr.params, record, fr.x0[0])
-            run[6] = secs + time.perf_counter() - t0
+            go_on.append(run)
+        for run, got in zip(go_on, _map(engine, job, [(r[1], r[3], candidate_max_iter, r[4].params) for r in go_on],
+                                        say, "continuing")):
+            if isinstance(got[0], str):
+                run[4], run[5] = None, got[0]
+                continue
+            run[4], run[5], run[6] = got[1], got[2], run[6] + got[3]
     for ss, name, effect, ext, fr, y_ext, secs in runs:
         if fr is None:
             out.append(_failed(name, effect, y_ext, secs))
