@@ -110,6 +110,8 @@ def parse_args(argv, description: str) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=description)
     p.add_argument("--smoke", action="store_true", help="small settings for CI (a few seconds)")
     p.add_argument("--plot-only", action="store_true", help="redraw the figures from data/derived only")
+    p.add_argument("--workers", type=int, default=None, help="worker processes for studies that run independent "
+                   "fits through duffsym.engine.Engine (those with a Config.workers; 0: in this process)")
     args = p.parse_args(argv)
     paths.set_mode("smoke" if args.smoke else "full")
     return args
@@ -125,6 +127,10 @@ def run_study(argv, *, doc: str, label: str, config, compute, plot, write_number
     """
     args = args if args is not None else parse_args(argv, doc.splitlines()[0])
     cfg = config.smoke() if args.smoke else config()
+    if getattr(args, "workers", None) is not None and hasattr(cfg, "workers"):
+        from dataclasses import replace
+
+        cfg = replace(cfg, workers=args.workers)
     t0 = time.perf_counter()
     if not args.plot_only:
         if announce:

@@ -107,6 +107,9 @@ class Config:
         starts within a factor 10; the best converged one is kept). The joint fits use one start.
     stiffness_constraint : constrain the total stiffness k1 + k2 >= 0 (a negative one has no static
         equilibrium; without it some single-test fits drift there, e.g. k2 = -4460 at 25 mm 0.5 Hz 0 A).
+    workers : the single-test fits run on this many local worker processes (:class:`duffsym.engine.Engine`;
+        ``--workers N`` on the command line); 0: one after the other in this process. The fits and
+        their seeds are the same either way.
     """
 
     tests: tuple[str, ...] = TESTS
@@ -119,6 +122,7 @@ class Config:
     loo_currents: tuple[float, ...] = (0.0, 1.0)
     n_starts: int = 3
     stiffness_constraint: bool = True
+    workers: int = 0
 
     @classmethod
     def smoke(cls) -> "Config":
@@ -215,9 +219,25 @@ def _problem(model, recs, cfg: Config):
     return Problem(model, recs, constraints=cons)
 
 
+def fit_test(item):
+    """Load, decimate and fit one test: ``(test, current, cfg, seed)`` -> ``(record, q, n_raw, fit, load_s, wall_s)``.
+
+    Module-level so that an :class:`~duffsym.engine.Engine` can run it in a worker process."""
+    from duffsym.identify import fit
+    from duffsym.model import mr_damper
+
+    test, cur, cfg, seed = item
+    t0 = time.perf_counter()
+    rec, q, n_raw = load_test(test, cur, cfg)
+    t_load = time.perf_counter() - t0
+    res = fit(_problem(mr_damper(5), rec, cfg), n_starts=cfg.n_starts, rng=seed)
+    return rec, q, n_raw, res, t_load, time.perf_counter() - t0
+
+
 def compute(cfg: Config) -> dict:
     """Fit every test, cross-validate, write the derived files; return the metadata."""
     from duffsym.data import load_mr_damper_utfsm
+    from duffsym.engine import Engine
     from duffsym.identify import fit, validate
     from duffsym.model import mr_damper
 
@@ -225,36 +245,39 @@ def compute(cfg: Config) -> dict:
     model = mr_damper(5)
     arrays: dict[str, np.ndarray] = {}
     fits, results, records = {}, {}, {}
-    for cur in cfg.currents:
-        for test in cfg.tests:
-            t0 = time.perf_counter()
-            rec, q, n_raw = load_test(test, cur, cfg)
-            t_load = time.perf_counter() - t0
-            res = fit(_problem(model, rec, cfg), n_starts=cfg.n_starts, rng=len(fits))
-            wall = time.perf_counter() - t0
-            key = rec.name
-            v = np.asarray(rec.velocity())
-            near, far = _split_nrmse(rec.y, res.y_sim[0], v, cfg.reversal_band)
-            visc, c_visc, k_visc = _viscous_nrmse(rec)
-            fric = _friction_index(rec.y, v)
-            at_bound = [k for k in FREE if math.isclose(res.params[k], model.param(k).lower, abs_tol=1e-5)
-                        or math.isclose(res.params[k], model.param(k).upper, rel_tol=1e-6)]
-            fits[key] = dict(
-                test=test, current=cur, amplitude_mm=rec.metadata["amplitude_mm"],
-                frequency_hz=rec.metadata["frequency_hz"], n_raw=n_raw, decimation=q, n_samples=rec.n_times,
-                dt=rec.dt, periods=rec.duration * rec.metadata["frequency_hz"],
-                params={k: res.params[k] for k in (*FREE, "A_f")}, stderr={k: res.stderr[k] for k in FREE},
-                invariants=invariants(res.params), nrmse=res.nrmse, success=res.success, status=res.status,
-                n_iter=res.n_iter, timings=res.timings, wall_s=wall, start_costs=res.settings["start_costs"],
-                starts_converged=res.settings["starts_converged"], load_s=t_load, nrmse_near_reversal=near,
-                nrmse_elsewhere=far, nrmse_viscous=visc, friction_index=fric, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
-                peak_force=float(np.max(np.abs(rec.y))), peak_velocity=float(np.max(np.abs(v))),
-            )
-            results[key], records[key] = res, rec
-            for name, a in (("t", rec.t), ("d", rec.d), ("v", v), ("y", rec.y), ("y_fit", res.y_sim[0])):
-                arrays[f"{key}_{name}"] = np.asarray(a)
-            print(f"  {key:>16}: n {rec.n_times:5d} (q {q:2d}), NRMSE {res.nrmse:.3f} ({res.status}), "
-                  f"near reversals {near:.3f}, elsewhere {far:.3f}, viscous {visc:.3f}, {wall:.1f} s", flush=True)
+    items = [(test, cur, cfg, seed) for seed, (cur, test) in
+             enumerate((c, t) for c in cfg.currents for t in cfg.tests)]
+    done: list = [None] * len(items)
+    with Engine(cfg.workers) as engine:
+        for o in engine.as_completed(fit_test, items):
+            if not o.ok:
+                raise o.error
+            done[o.index] = o.value
+            print(f"  fitted {_file_name(*items[o.index][:2])} ({o.value[5]:.1f} s)", flush=True)
+    for (test, cur, _, _), (rec, q, n_raw, res, t_load, wall) in zip(items, done):
+        key = rec.name
+        v = np.asarray(rec.velocity())
+        near, far = _split_nrmse(rec.y, res.y_sim[0], v, cfg.reversal_band)
+        visc, c_visc, k_visc = _viscous_nrmse(rec)
+        fric = _friction_index(rec.y, v)
+        at_bound = [k for k in FREE if math.isclose(res.params[k], model.param(k).lower, abs_tol=1e-5)
+                    or math.isclose(res.params[k], model.param(k).upper, rel_tol=1e-6)]
+        fits[key] = dict(
+            test=test, current=cur, amplitude_mm=rec.metadata["amplitude_mm"],
+            frequency_hz=rec.metadata["frequency_hz"], n_raw=n_raw, decimation=q, n_samples=rec.n_times,
+            dt=rec.dt, periods=rec.duration * rec.metadata["frequency_hz"],
+            params={k: res.params[k] for k in (*FREE, "A_f")}, stderr={k: res.stderr[k] for k in FREE},
+            invariants=invariants(res.params), nrmse=res.nrmse, success=res.success, status=res.status,
+            n_iter=res.n_iter, timings=res.timings, wall_s=wall, start_costs=res.settings["start_costs"],
+            starts_converged=res.settings["starts_converged"], load_s=t_load, nrmse_near_reversal=near,
+            nrmse_elsewhere=far, nrmse_viscous=visc, friction_index=fric, viscous_c=c_visc, viscous_k=k_visc, at_bound=at_bound,
+            peak_force=float(np.max(np.abs(rec.y))), peak_velocity=float(np.max(np.abs(v))),
+        )
+        results[key], records[key] = res, rec
+        for name, a in (("t", rec.t), ("d", rec.d), ("v", v), ("y", rec.y), ("y_fit", res.y_sim[0])):
+            arrays[f"{key}_{name}"] = np.asarray(a)
+        print(f"  {key:>16}: n {rec.n_times:5d} (q {q:2d}), NRMSE {res.nrmse:.3f} ({res.status}), "
+              f"near reversals {near:.3f}, elsewhere {far:.3f}, viscous {visc:.3f}, {wall:.1f} s", flush=True)
     t_fits = time.perf_counter() - t_all
 
     # cross-validation at the same current

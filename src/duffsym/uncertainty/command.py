@@ -36,10 +36,10 @@ def cmd_sample(args) -> int:
         _err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
              f"{args.steps} steps")
     pool = None
-    if args.workers and args.workers > 1:
-        import multiprocessing
+    if (args.workers and args.workers > 1) or args.scheduler:
+        from duffsym.engine import Engine  # emcee's pool: local worker processes or a Dask cluster
 
-        pool = multiprocessing.get_context("spawn").Pool(args.workers)
+        pool = Engine(args.workers, scheduler=args.scheduler).start()
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConvergenceWarning)
@@ -54,7 +54,6 @@ def cmd_sample(args) -> int:
     finally:
         if pool is not None:
             pool.close()
-            pool.join()
     written = []
     if args.chains:
         written.append(str(chains.save(args.chains)))
@@ -124,6 +123,8 @@ def register(sub) -> None:
                    "(deadzone, as fit --mask auto) or a file of 0/1 per sample")
     s.add_argument("--workers", type=int, default=None, help="evaluate walkers in this many processes (default: all "
                    "walkers in one compiled batch call, usually faster)")
+    s.add_argument("--scheduler", metavar="ADDRESS", help="evaluate walkers on the workers of this Dask scheduler "
+                   "(for expensive likelihoods: each evaluation is a task)")
     s.add_argument("--threads", type=int, default=1, help="numba threads of the batch call (default 1: on a busy "
                    "machine waking threads costs more than the work)")
     s.add_argument("--strict", action="store_true", help="fail (exit 2) when the chain is shorter than 50 tau")
