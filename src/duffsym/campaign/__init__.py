@@ -118,6 +118,8 @@ def _document(command: str, job: Job, digest: str, outcome) -> dict:
     if outcome.ok:
         v = outcome.value
         status = {0: "ok", 1: "failed"}.get(v["exit_code"], "error")
+        if status == "failed" and ": internal error:" in v["message"]:  # the CLI's exit 1 for a crash
+            status = "error"
         meta = dict(message=v["message"], seconds=v["seconds"], worker=v["worker"], exit_code=v["exit_code"],
                     stderr=v["stderr"], complete=True)
         body = v["result"] or {}
