@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import duffsym
-from duffsym.campaign import batch
+from duffsym import batch
 from duffsym.cli import main
 from duffsym.data import read_csv, synthetic_record, write_csv
 from duffsym.engine import Engine

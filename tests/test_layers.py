@@ -33,7 +33,7 @@ LAYERS = (
     "sindy",
     "uncertainty",
     "diagnose",
-    "engine", "batch",  # run commands over many records (they drive everything below)
+    "engine", "campaign",  # run commands over many records (they drive everything below)
     "cli",
 )
 RANK = {name: i for i, name in enumerate(LAYERS)}

@@ -20,7 +20,7 @@ def __getattr__(name):
 
         return getattr(identify, name)
     if name == "batch":  # many records on local processes or a Dask cluster (duffsym.campaign)
-        from duffsym.campaign import batch
+        from duffsym.campaign.command import batch
 
         return batch
     if name == "read_csv":

@@ -1,7 +1,8 @@
 """Many records at once: ``duffsym batch`` and :func:`batch`, on an :class:`~duffsym.engine.Engine`.
 
 Each record is run by its own ``duffsym`` command (``fit``, ``validate``, ``diagnose``, ``ladder`` or
-``sample``) inside a worker process that has paid the start-up once (see :mod:`duffsym.campaign.runner`).
+``sample``) inside a worker process that has paid the start-up once (see :mod:`duffsym.campaign.run_command`;
+the public entry points, :func:`duffsym.batch` and ``duffsym batch``, are in :mod:`duffsym.campaign.command`).
 One result file per record is written atomically to the results folder as each record finishes;
 it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
 options). A rerun skips the records whose result is complete and whose hash is unchanged, so an
@@ -24,7 +25,7 @@ from duffsym.campaign.summary import plot_summary, row, write_csv
 from duffsym.errors import DataError
 
 STATUSES = ("ok", "failed", "error")
-__all__ = ["batch", "BatchResult", "COMMANDS", "collect_jobs", "Job"]
+__all__ = ["run_batch", "BatchResult", "COMMANDS", "collect_jobs", "Job"]
 
 
 @dataclass(frozen=True)
@@ -137,10 +138,11 @@ def _document(command: str, job: Job, digest: str, outcome) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------- main
-def batch(inputs: Iterable = (), *, command: str = "fit", out, manifest=None, fit=None, options: Any = None,
-          workers: int | None = None, scheduler: str | None = None, engine=None, retry_failed: bool = False,
-          progress: bool = True, figure: bool = True) -> BatchResult:
-    """Run a ``duffsym`` command on every record of a folder, a glob or a manifest.
+def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manifest=None, fit=None, options: Any = None,
+              workers: int | None = None, scheduler: str | None = None, engine=None, retry_failed: bool = False,
+              progress: bool = True, figure: bool = True) -> BatchResult:
+    """Run ``runner`` (a picklable function of a task dict, :func:`duffsym.campaign.run_command.run_task`
+    for :func:`duffsym.batch`) on every record of a folder, a glob or a manifest.
 
     Parameters
     ----------
@@ -194,10 +196,8 @@ def batch(inputs: Iterable = (), *, command: str = "fit", out, manifest=None, fi
         if todo:
             if own:
                 engine.start()
-            from duffsym.campaign.runner import run_task
-
             n_bad = 0
-            for outcome in engine.as_completed(run_task, [_task(command, j) for j in todo]):
+            for outcome in engine.as_completed(runner, [_task(command, j) for j in todo]):
                 job = todo[outcome.index]
                 doc = _document(command, job, digests[job.name], outcome)
                 write_json_atomic(out / f"{job.name}.json", _jsonable(doc), default=str)

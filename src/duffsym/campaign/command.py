@@ -1,10 +1,26 @@
-"""``duffsym batch`` (see the contract): a command on many records, on local processes or a Dask cluster."""
+"""``duffsym batch`` and :func:`duffsym.batch` (see the contract): a command on many records, on local
+processes or a Dask cluster."""
 from __future__ import annotations
 
 
+def batch(inputs=(), *, command: str = "fit", out, **options):
+    """Run a ``duffsym`` command on every record of folders, globs or a manifest; see
+    :func:`duffsym.campaign.run_batch` for the parameters (``manifest``, ``fit``, ``options``, ``workers``,
+    ``scheduler``, ``engine``, ``retry_failed``, ``progress``, ``figure``).
+
+    Returns
+    -------
+    duffsym.campaign.BatchResult
+        One row per record (status, NRMSE, result file, message, ...), with ``summary()`` and ``to_dict()``.
+    """
+    from duffsym.campaign import run_batch
+    from duffsym.campaign.run_command import run_task
+
+    return run_batch(inputs, runner=run_task, command=command, out=out, **options)
+
+
 def cmd_batch(args) -> int:
-    from duffsym.campaign import batch
-    from duffsym.cli import CLIError, _emit_json
+    from duffsym._cli_common import CLIError, _emit_json
 
     if args.workers is not None and args.workers < 0:
         raise CLIError(f"--workers must be 0 (in this process) or more; got {args.workers}")

@@ -1,4 +1,5 @@
-"""The work of one record, as a worker does it: the ``duffsym`` command itself, run in-process.
+"""The work of one record, as a worker does it: the ``duffsym`` command itself, run in-process
+(a command-line module: it drives :func:`duffsym.cli.main`).
 
 A task carries the bytes of its input files, so a worker needs no shared file system: it writes
 them to a private temporary folder (keeping their names), runs ``duffsym COMMAND ... --json`` there
@@ -94,7 +95,7 @@ def _last_line(text: str) -> str:
 
 
 def run_task(task: dict) -> dict:
-    """Run one record (a task built by :func:`duffsym.campaign.batch`); never raises for the record's own errors.
+    """Run one record (a task built by :func:`duffsym.campaign.run_batch`); never raises for the record's own errors.
 
     Returns ``{"exit_code": int, "result": dict|None, "message": str, "stderr": str, "seconds": float,
     "worker": str}``: exit code 0 (a usable result), 1 (the command ran; its result is not usable,
