@@ -129,10 +129,15 @@ def plot_summary(rows: list[dict], command: str, path) -> Path:
                 continue
             key = tuple(r["labels"].get(o) for o in others)
             groups.setdefault(key, []).append((r["labels"][x_label], float(v)))
-        for key, pts in sorted(groups.items(), key=lambda kv: str(kv[0])):
+        for key, pts in sorted(groups.items(), key=lambda kv: tuple(-np.inf if v is None else v for v in kv[0])):
             pts.sort()
             lab = ", ".join(f"{o} {k:g}" for o, k in zip(others, key)) if others else None
             pa.plot([a for a, _ in pts], [b for _, b in pts], "o-", ms=3, lw=0.8, label=lab)
+        mags = np.abs([b for pts in groups.values() for _, b in pts])
+        if mags.size and np.median(mags) > 0 and mags.max() > 30 * np.median(mags):
+            # a few fits far off the others (e.g. a parameter running to large values) would flatten the rest
+            pa.set_yscale("symlog", linthresh=float(np.median(mags)))
+            p += " (symlog)"
         pa.set_title(p, fontsize=9)
         pa.set_xlabel(x_label, fontsize=8)
         pa.tick_params(labelsize=7)
