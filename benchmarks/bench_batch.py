@@ -23,6 +23,11 @@ Run from the repository root (the machine is shared: run it niced)::
     nice -n 10 python benchmarks/bench_batch.py --records 6     # every 5th test
 
 It writes ``benchmarks/results/batch[_N].json``.
+
+``--diagnose TEST`` instead times ``duffsym diagnose`` of one test (e.g. ``2mm5Hz1A``, prepared as
+above) with its candidates fitted one after the other (the default) and on ``--workers`` local
+processes (``diagnose --workers 2``), and checks that both give the same candidates, numbers and
+verdict; it writes ``benchmarks/results/batch_diagnose.json``.
 """
 from __future__ import annotations
 
@@ -112,14 +117,52 @@ def compare(serial: dict, docs: dict) -> dict:
     return {"identical": len(same), "n": len(serial), "differences": diffs}
 
 
+def run_diagnose(folder: Path, name: str, workers: int) -> dict:
+    """``duffsym diagnose`` of one record, serial and on ``workers`` processes (same run, same file)."""
+    out = {}
+    for label, extra in (("serial", []), (f"workers_{workers}", ["--workers", str(workers)])):
+        t0, c0 = time.perf_counter(), _cpu()
+        p = subprocess.run([*DUFFSYM, "diagnose", str(folder / f"{name}.csv"), "--json", "--quiet", "--no-sindy",
+                            *extra], capture_output=True, text=True)
+        wall, cpu = time.perf_counter() - t0, _cpu() - c0
+        if not p.stdout.strip():
+            raise SystemExit(f"diagnose failed: {p.stderr[-2000:]}")
+        out[label] = {"seconds": wall, "cpu_seconds": cpu, "doc": json.loads(p.stdout)}
+        print(f"  diagnose {label}: {wall:.1f} s (CPU {cpu:.1f} s)", flush=True)
+    a, b = (out[k]["doc"] for k in out)
+    keys = ("effect", "nrmse_after", "delta_bic", "all_params", "success")
+    same = [[c.get(k) for k in keys] for c in a["candidates"]] == [[c.get(k) for k in keys] for c in b["candidates"]]
+    return {"record": name, "workers": workers, "serial_seconds": out["serial"]["seconds"],
+            "parallel_seconds": out[f"workers_{workers}"]["seconds"],
+            "ratio": out["serial"]["seconds"] / out[f"workers_{workers}"]["seconds"],
+            "cpu_seconds": {k: v["cpu_seconds"] for k, v in out.items()},
+            "candidates_identical": same, "verdict_identical": a["verdict"] == b["verdict"],
+            "n_candidates": len(a["candidates"]), "needed": a["needed"], "nrmse": a["nrmse"],
+            "note": "candidate_cpu_time budget (30 CPU s per candidate) applies in both runs; --no-sindy"}
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--records", type=int, default=None, help="a subset: every k-th test (default: all 30)")
     ap.add_argument("--samples-per-period", type=int, default=100)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--keep", help="keep the CSV files and results in this folder")
+    ap.add_argument("--diagnose", metavar="TEST", help="time duffsym diagnose of this test, serial vs --workers")
     args = ap.parse_args(argv)
     import duffsym
+
+    if args.diagnose:
+        with tempfile.TemporaryDirectory(prefix="bench-batch-") as tmp:
+            prepare(Path(tmp), args.samples_per_period, None)
+            res = run_diagnose(Path(tmp), args.diagnose, args.workers)
+        res["machine"] = {"cpus": os.cpu_count(), "loadavg_at_end": os.getloadavg(),
+                          "note": "2 cores shared with other jobs; niced"}
+        out = ROOT / "benchmarks" / "results" / "batch_diagnose.json"
+        out.write_text(json.dumps(res, indent=2) + "\n")
+        print(f"diagnose {args.diagnose}: serial {res['serial_seconds']:.1f} s, {args.workers} workers "
+              f"{res['parallel_seconds']:.1f} s, ratio {res['ratio']:.2f}; candidates identical "
+              f"{res['candidates_identical']}, verdict identical {res['verdict_identical']}; wrote {out}")
+        return 0
 
     with tempfile.TemporaryDirectory(prefix="bench-batch-") as tmp:
         folder = Path(args.keep) if args.keep else Path(tmp)
