@@ -150,12 +150,12 @@ def _complete_results(out: Path) -> list[str]:
     return sorted(p.stem for p in out.glob("*.json") if not p.name.startswith("summary"))
 
 
-@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
-def test_killed_batch_leaves_no_truncated_file_and_resumes(tmp_path, sig):
+@pytest.mark.parametrize("sig, workers", [(signal.SIGKILL, 0), (signal.SIGINT, 0), (signal.SIGINT, 2)])
+def test_killed_batch_leaves_no_truncated_file_and_resumes(tmp_path, sig, workers):
     recs = _records(tmp_path / "recs", 8, periods=8.0)
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "duffsym.cli", "batch", str(tmp_path / "recs"), "--command", "fit", "--out", str(out),
-           "--workers", "0", "--quiet"]
+           "--workers", str(workers), "--quiet"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120
     while time.time() < deadline and len(_complete_results(out)) < 2 and proc.poll() is None:
