@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -212,22 +213,33 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
         raise
     finally:
         bar.close()
-        if own:
-            engine.close()
-        rows = []
-        for j in jobs:
-            doc = fresh.get(j.name) or done.get(j.name)
-            if doc is None:
-                rows.append({"record": j.name, "status": "interrupted", "success": False, "nrmse": None, "result": None,
-                             "message": "not run: the batch was interrupted; rerun to complete it", "seconds": None,
-                             "reused": False, "data": str(j.data), "worker": None, "labels": dict(j.labels),
-                             "params": {}})
-            else:
-                rows.append(row(command, j.name, out / f"{j.name}.json", doc, reused=j.name in done))
-        res = BatchResult(command=command, out=out, rows=tuple(rows), seconds=time.perf_counter() - t0,
-                          engine=repr(engine), n_ran=len(fresh), interrupted=interrupted)
-        _write_summary(res, figure and not interrupted)
+        # a local cluster takes a few seconds to stop: it does so while the summary is written
+        closing = threading.Thread(target=engine.close, name="duffsym-engine-close") if own else None
+        if closing is not None:
+            closing.start()
+        try:
+            rows = _rows(command, jobs, fresh, done, out)
+            res = BatchResult(command=command, out=out, rows=tuple(rows), seconds=time.perf_counter() - t0,
+                              engine=repr(engine), n_ran=len(fresh), interrupted=interrupted)
+            _write_summary(res, figure and not interrupted)
+        finally:
+            if closing is not None:
+                closing.join()
     return _with_figure(res, out / "summary.png" if figure and not interrupted else None)
+
+
+def _rows(command: str, jobs: list[Job], fresh: dict, done: dict, out: Path) -> list[dict]:
+    """The summary rows in input order: this run's results, the reused ones, and those not run."""
+    rows = []
+    for j in jobs:
+        doc = fresh.get(j.name) or done.get(j.name)
+        if doc is None:
+            rows.append({"record": j.name, "status": "interrupted", "success": False, "nrmse": None, "result": None,
+                         "message": "not run: the batch was interrupted; rerun to complete it", "seconds": None,
+                         "reused": False, "data": str(j.data), "worker": None, "labels": dict(j.labels), "params": {}})
+        else:
+            rows.append(row(command, j.name, out / f"{j.name}.json", doc, reused=j.name in done))
+    return rows
 
 
 def _with_figure(res: BatchResult, fig: Path | None) -> BatchResult:
