@@ -156,7 +156,10 @@ def test_killed_batch_leaves_no_truncated_file_and_resumes(tmp_path, sig, worker
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "duffsym.cli", "batch", str(tmp_path / "recs"), "--command", "fit", "--out", str(out),
            "--workers", str(workers), "--quiet"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # a shell's background job ignores SIGINT and its children inherit that: give the batch the default
+    # (Python then turns SIGINT into KeyboardInterrupt, as at a terminal)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 120
     while time.time() < deadline and len(_complete_results(out)) < 2 and proc.poll() is None:
         time.sleep(0.01)
