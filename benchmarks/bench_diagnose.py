@@ -1,5 +1,21 @@
 """Benchmark: the diagnosis on data with a hidden effect — confusion matrix, recovery, error fall.
 
+Default source (issue 16): records made by the *independent generator* ``tests/independent_sim.py``
+(numpy only, no duffsym code: the paper's Eq. 12 integrated by RK4 at 20 substeps per sample, each
+effect placed where the physics acts — exact play on the actuator path, seal friction on the piston
+velocity, accumulator on the piston displacement, lag on the load cell, ...; Table 2 rows perturbed
+by +-10 %, sine / multisine / random inputs, 1 % noise; optionally pre-filtered). Each record is
+diagnosed as a user would: ``diagnose(record)`` with the defaults (``A_f = max|y|``, the whole
+catalogue, 30 % held out; the SINDy cross-check off, it never decides). Two-effect records
+(``--pairs``) go through ``ladder``: does it find both, and does it end within 2x the noise?
+
+    python benchmarks/bench_diagnose.py --seeds 3 --workers 2                 # independent, single effects
+    python benchmarks/bench_diagnose.py --seeds 3 --pairs --workers 2         # two-effect ladders
+    python benchmarks/bench_diagnose.py --source scenarios --seeds 10         # the old, secondary table
+
+The old source (``--source scenarios``, issue 4) is kept only as a secondary table: its records are
+made by ``duffsym.effects`` itself, the code under test, so it cannot see an effect placed elsewhere.
+
 Issue 4, "Done when": for every catalogued effect, synthetic data with that effect hidden (sine,
 multisine and band-limited random inputs; Table 2 rows cycling with the seed; 1 % white output
 noise; 800 samples at dt = 0.005 s) must be diagnosed with the right effect first, its parameter
@@ -34,6 +50,92 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 OUT_OF_CATALOGUE = "drift"
+
+
+#: generator effect -> the parameter of the catalogue effect it should be recovered as (same units)
+RECOVER = {"force-offset": ("off_y0", "offset"), "gas-accumulator": ("gas_k", "gas_stiffness"),
+           "inertia": ("inertia_m", "inertia"), "seal-friction": ("seal_F", "seal_friction"),
+           "asymmetry": ("asym_a", "asymmetry"), "output-lag": ("lag_tau", "lag"),
+           "input-delay": ("delay_tau", "delay"), "backlash": ("bl_h", "backlash")}
+PAIRS = (("seal-friction", "backlash"), ("force-offset", "output-lag"), ("gas-accumulator", "asymmetry"))
+PREFILTERED = ("clean-movavg", "seal-friction-lowpass")
+
+
+def independent_record(label: str, seed: int):
+    """A generator record for ``label`` (an effect, "clean", "drift", a pair "a+b", or a pre-filtered
+    variant "clean-movavg" / "seal-friction-lowpass") and the generator's truth."""
+    sys.path.insert(0, str(HERE.parent / "tests"))
+    import independent_sim as gen
+
+    from duffsym.data.record import Record
+
+    kw = {}
+    effects = label
+    if label.endswith("-movavg"):
+        effects, kw = label[: -len("-movavg")], dict(filter_kind="movavg", filter_width=5)
+    elif label.endswith("-lowpass"):
+        effects, kw = label[: -len("-lowpass")], dict(filter_kind="lowpass", filter_width=15.0)
+    g = gen.scenario(tuple(effects.split("+")), seed, **kw)
+    rec = Record(t=g.t, d=g.d, y=g.y, name=f"{label}-{g.truth['kind']}-s{seed}", source="independent_sim")
+    return rec, g
+
+
+def run_independent(label: str, seed: int, screen=4) -> dict:
+    import numpy as np
+
+    from duffsym.diagnose import diagnose
+
+    rec, g = independent_record(label, seed)
+    t0 = time.perf_counter()
+    dg = diagnose(rec, screen=screen, sindy=False)
+    seconds = time.perf_counter() - t0
+    k = dg.split["n_fit"]
+    y = np.asarray(rec.y)
+    noise_held = g.noise_std / float(np.std(y[k:]))
+    best = dg.best
+    hidden = label.split("-movavg")[0].split("-lowpass")[0]
+    ok = [c for c in dg.candidates if c.success]
+    row = dict(hidden=label, seed=seed, record=rec.name, kind=g.truth["kind"], voltage=g.truth["voltage"],
+               seconds=seconds, top1=best.effect if best else None, needed=list(dg.needed), verdict=dg.verdict,
+               nrmse_heldout_base=dg.nrmse_heldout, noise_nrmse_heldout=noise_held, noise_estimate=dg.noise,
+               noise_true=g.noise_std,
+               rank_of_truth=next((i + 1 for i, c in enumerate(ok) if c.effect == hidden), None),
+               candidates=[dict(effect=c.effect, nrmse_after=c.nrmse_after, delta_bic=c.delta_bic,
+                                explained=c.explained, params=c.params, stderr=c.stderr, success=c.success,
+                                needed=c.needed, supported=c.supported, seconds=c.seconds, message=c.message)
+                           for c in dg.candidates])
+    if hidden in RECOVER or hidden == "coulomb-friction":
+        mine = next((c for c in dg.candidates if c.effect == hidden and c.success), None)
+        row["heldout_ratio"] = mine.nrmse_after / dg.nrmse_heldout if mine else math.nan
+        row["recovered"] = None
+        if mine is not None and hidden in RECOVER:
+            pname, gname = RECOVER[hidden]
+            row["recovered"] = {pname: dict(true=g.truth["physics"][gname], fitted=mine.params.get(pname, math.nan),
+                                            stderr=mine.stderr.get(pname, math.nan))}
+        row["correct_top1"] = bool(best is not None and best.effect == hidden and hidden in dg.needed)
+    else:
+        row["false_positive"] = bool(dg.needed)
+    return row
+
+
+def run_pair(label: str, seed: int, screen=4) -> dict:
+    import numpy as np
+
+    from duffsym.diagnose import ladder
+
+    rec, g = independent_record(label, seed)
+    t0 = time.perf_counter()
+    lad = ladder(rec, screen=screen, sindy=False)
+    seconds = time.perf_counter() - t0
+    want = set(label.split("+"))
+    last = lad.steps[-1]
+    k = last.diagnosis.split["n_fit"]
+    noise_held = g.noise_std / float(np.std(np.asarray(rec.y)[k:]))
+    return dict(hidden=label, seed=seed, record=rec.name, kind=g.truth["kind"], seconds=seconds,
+                effects=list(lad.effects), found_both=want <= set(lad.effects),
+                steps=[dict(effects=list(s.effects), nrmse_heldout=s.nrmse_heldout) for s in lad.steps],
+                nrmse_heldout_end=last.nrmse_heldout, noise_nrmse_heldout=noise_held,
+                within_2x_noise=bool(last.nrmse_heldout <= 2 * noise_held), stopped=lad.stopped)
 
 
 def run_one(hidden: str, seed: int, screen=4) -> dict:
@@ -86,10 +188,25 @@ def _undetectable(r: dict) -> bool:
     return r["nrmse_heldout_base"] <= 1.1 * r["noise_nrmse_heldout"]
 
 
-def summarise(rows: list[dict]) -> dict:
-    from duffsym.diagnose.scenarios import HIDDEN
+def _effects(source: str) -> list[str]:
+    if source == "scenarios":
+        from duffsym.diagnose.scenarios import HIDDEN
 
-    labels = list(HIDDEN) + ["clean", OUT_OF_CATALOGUE]
+        return list(HIDDEN)
+    sys.path.insert(0, str(HERE.parent / "tests"))
+    import independent_sim as gen
+
+    return list(gen.EFFECTS) + ["seal-friction-lowpass"]
+
+
+def _others(source: str) -> list[str]:
+    return ["clean", OUT_OF_CATALOGUE] + (["clean-movavg"] if source == "independent" else [])
+
+
+def summarise(rows: list[dict], source: str = "scenarios") -> dict:
+    HIDDEN = _effects(source)
+    rows = [r for r in rows if "+" not in r["hidden"]]
+    labels = list(HIDDEN) + _others(source)
     out = {}
     for h in labels:
         rs = [r for r in rows if r["hidden"] == h]
@@ -110,6 +227,9 @@ def summarise(rows: list[dict]) -> dict:
             ratios = [r["heldout_ratio"] for r in rs if r.get("heldout_ratio") is not None
                       and math.isfinite(r["heldout_ratio"])]
             s["halved_rate"] = sum(q <= 0.5 for q in ratios) / len(rs)
+            ranks = [r.get("rank_of_truth") for r in rs if "rank_of_truth" in r]
+            if ranks:
+                s["truth_ranked_below_another"] = sum(q is None or q > 1 for q in ranks)
             s["median_heldout_ratio"] = sorted(ratios)[len(ratios) // 2] if ratios else math.nan
             rel = []
             for r in rs:
@@ -131,13 +251,31 @@ def summarise(rows: list[dict]) -> dict:
     return out
 
 
-def print_matrix(summary: dict) -> None:
-    from duffsym.diagnose.scenarios import HIDDEN
+def summarise_pairs(rows: list[dict]) -> dict:
+    out = {}
+    for label in sorted({r["hidden"] for r in rows if "+" in r["hidden"]}):
+        rs = [r for r in rows if r["hidden"] == label]
+        out[label] = dict(n=len(rs), found_both=sum(r["found_both"] for r in rs),
+                          within_2x_noise=sum(r["within_2x_noise"] for r in rs),
+                          ended_with=[r["effects"] for r in rs],
+                          end_over_noise=[r["nrmse_heldout_end"] / r["noise_nrmse_heldout"] for r in rs])
+    return out
 
+
+def print_pairs(pairs: dict) -> None:
+    for label, s in pairs.items():
+        ratios = ", ".join(f"{q:.1f}" for q in s["end_over_noise"])
+        print(f"{label:<34} found both {s['found_both']}/{s['n']}  within 2x noise {s['within_2x_noise']}/{s['n']}  "
+              f"end/noise: {ratios}  ended with {s['ended_with']}")
+
+
+def print_matrix(summary: dict, source: str = "scenarios") -> None:
+    HIDDEN = _effects(source)
     called = {c for h, v in summary.items() if isinstance(v, dict) for c in v.get("calls", {})}
-    cols = list(HIDDEN) + sorted(called - set(HIDDEN) - {"(none needed)"}) + ["(none needed)"]
+    base = [h for h in HIDDEN if not h.endswith(("-lowpass", "-movavg"))]
+    cols = base + sorted(called - set(base) - {"(none needed)"}) + ["(none needed)"]
     print("hidden \\ called".ljust(18) + "".join(c[:9].rjust(10) for c in cols) + "   top1  +tied  halved  undet.")
-    for h in list(HIDDEN) + ["clean", OUT_OF_CATALOGUE]:
+    for h in list(HIDDEN) + _others(source):
         if h not in summary:
             continue
         s = summary[h]
@@ -153,25 +291,35 @@ def print_matrix(summary: dict) -> None:
 
 
 def main(argv=None) -> int:
-    from duffsym.diagnose.scenarios import HIDDEN
-
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--screen", default="4", help="candidates continued after the screening budget, or 'all'")
     ap.add_argument("--only", help="comma-separated scenarios (effects, clean, drift)")
-    ap.add_argument("--out", default=str(RESULTS / "diagnose.json"))
+    ap.add_argument("--source", choices=("independent", "scenarios"), default="independent",
+                    help="independent generator (default) or duffsym.diagnose.scenarios (the old, circular table)")
+    ap.add_argument("--pairs", action="store_true", help="two-effect records through the ladder")
+    ap.add_argument("--out", default=None)
     ap.add_argument("--summarize", action="store_true", help="recompute the summary of an existing --out file")
     args = ap.parse_args(argv)
+    if args.out is None:
+        name = "diagnose.json" if args.source == "scenarios" else (
+            "diagnose_independent_pairs.json" if args.pairs else "diagnose_independent.json")
+        args.out = str(RESULTS / name)
     if args.summarize:
         doc = json.loads(Path(args.out).read_text())
-        doc["summary"] = summarise(doc["runs"])
+        src = doc.get("source", "scenarios")
+        doc["summary"] = summarise(doc["runs"], src)
+        doc["pairs"] = summarise_pairs(doc["runs"])
         Path(args.out).write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
-        print_matrix(doc["summary"])
+        print_matrix(doc["summary"], src)
+        print_pairs(doc["pairs"])
         return 0
     screen = None if args.screen == "all" else int(args.screen)
-    labels = list(HIDDEN) + ["clean", OUT_OF_CATALOGUE]
+    labels = _effects(args.source) + _others(args.source)
+    if args.pairs:
+        labels = ["+".join(p) for p in PAIRS]
     if args.only:
         labels = [s.strip() for s in args.only.split(",")]
     jobs = [(h, s) for s in range(args.first_seed, args.first_seed + args.seeds) for h in labels]
@@ -181,29 +329,39 @@ def main(argv=None) -> int:
     out_path.parent.mkdir(parents=True, exist_ok=True)
 
     def save():
-        summary = summarise(rows)
-        doc = dict(benchmark="diagnose", screen=args.screen, python=sys.version.split()[0], machine=platform.machine(),
+        summary = summarise(rows, args.source)
+        doc = dict(benchmark="diagnose", source=args.source, date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                   pairs=summarise_pairs(rows), screen=args.screen, python=sys.version.split()[0], machine=platform.machine(),
                    cpus=os.cpu_count(), workers=args.workers, wall_seconds=time.perf_counter() - t0,
                    summary=summary, runs=rows)
         out_path.write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
         return summary
 
+    runner = run_one if args.source == "scenarios" else (run_pair if args.pairs else run_independent)
+
+    def report(r):
+        if "found_both" in r:
+            print(f"{r['hidden']:>30} seed {r['seed']:2d}: ladder {r['effects']} end/noise "
+                  f"{r['nrmse_heldout_end'] / r['noise_nrmse_heldout']:.1f} ({r['seconds']:.0f} s)", flush=True)
+        else:
+            print(f"{r['hidden']:>22} seed {r['seed']:2d}: called {r['needed'] or '-'} top {r['top1']} "
+                  f"({r['seconds']:.0f} s)", flush=True)
+
     if args.workers > 1:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(run_one, h, s, screen): (h, s) for h, s in jobs}
+            futures = {pool.submit(runner, h, s, screen): (h, s) for h, s in jobs}
             for f in futures:
                 rows.append(f.result())
-                r = rows[-1]
-                print(f"{r['hidden']:>17} seed {r['seed']:2d}: called {r['needed'] or '-'} top {r['top1']} "
-                      f"({r['seconds']:.0f} s)", flush=True)
+                report(rows[-1])
                 save()
     else:
         for h, s in jobs:
-            rows.append(run_one(h, s, screen))
-            r = rows[-1]
-            print(f"{h:>17} seed {s:2d}: called {r['needed'] or '-'} top {r['top1']} ({r['seconds']:.0f} s)", flush=True)
+            rows.append(runner(h, s, screen))
+            report(rows[-1])
             save()
-    print_matrix(save())
+    summary = save()
+    print_matrix(summary, args.source)
+    print_pairs(summarise_pairs(rows))
     return 0
 
 

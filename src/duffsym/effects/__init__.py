@@ -12,7 +12,8 @@ effect             form                                                         
 force-offset       y += off_y0                                                  off_y0
 gas-accumulator    y += off_y0 + gas_k d (preload = the force offset)           off_y0, gas_k
 inertia            y += inertia_m d''                                           inertia_m
-coulomb-friction   x'' += -fric_mu tanh(x'/0.01)                                fric_mu
+coulomb-friction   x'' += -fric_mu tanh(x'/0.01) (inside the fluid model)           fric_mu
+seal-friction      y += seal_F tanh(d'/seal_eps) (on the piston velocity)           seal_F, seal_eps
 asymmetry          y += asym_a F tanh(x'/0.05)                                  asym_a
 output-lag         z' = (y - z)/lag_tau, output z                               lag_tau
 input-delay        Pade all-pass state q; d -> 2q - d                           delay_tau
@@ -26,16 +27,16 @@ input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part
 from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
-from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia
+from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia, SealFriction
 from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
 
 #: Effects by name.
 CATALOGUE: dict[str, Effect] = {e.name: e for e in (
-    ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), Asymmetry(), OutputLag(),
+    ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), SealFriction(), Asymmetry(), OutputLag(),
     InputDelay(), InputShift(), Backlash(), QuadraticStiffness(), CubicDamping(), InputCurvature(),
 )}
 
-__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "Asymmetry",
+__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "SealFriction", "Asymmetry",
            "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain",
            "initial_states_with_effects",
            "CATALOGUE"]

@@ -1,4 +1,7 @@
-"""Effects on the mechanical state equations: continuous Coulomb (seal) friction."""
+"""Effects on the mechanical state equations: continuous Coulomb friction inside the fluid model.
+
+Its twin on the piston side, seal friction on the measured piston velocity added to the measured
+force, is :class:`duffsym.effects.output.SealFriction` (``seal-friction``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -13,8 +16,13 @@ from duffsym.model.symbols import ParamSpec
 
 @dataclass(frozen=True)
 class CoulombFriction(Effect):
-    """Continuous Coulomb (seal) friction on the moving mass:
+    """Continuous Coulomb friction inside the fluid model, on its internal velocity:
     :math:`\\ddot x \\mathrel{+}= -\\mu\\tanh(\\dot x/\\varepsilon)`.
+
+    Where it acts, and why here: on the model's moving mass (the fluid's :math:`x`), i.e. friction
+    whose effect on the force passes through the fluid dynamics (e.g. a yield-stress-like resistance
+    of the fluid itself). Friction of the piston seals acts on the piston velocity and adds to the
+    measured force directly: that is ``seal-friction`` (:class:`~duffsym.effects.output.SealFriction`).
 
     A force of constant magnitude opposing the motion, made continuous (the paper's point) and
     differentiable for IPOPT by ``tanh`` with a fixed :math:`\\varepsilon = 0.01`. It acts on the
@@ -31,7 +39,8 @@ class CoulombFriction(Effect):
 
     name: str = "coulomb-friction"
     prefix: str = "fric_"
-    physics: str = "seal friction: a force of constant magnitude opposing the motion (continuous, tanh)"
+    physics: str = ("friction inside the fluid model: a force of constant magnitude opposing the internal velocity x' "
+                    "(continuous, tanh); piston seal friction is seal-friction")
     signature: str = "step-like residual at velocity reversals, odd in velocity (opposes the motion)"
     form: str = "x_ddot += -fric_mu * tanh(x_dot / 0.01)"
     guess: str = "mu = 10 * (step of the residual against sign(y_model)) / max|y| (rough)"
