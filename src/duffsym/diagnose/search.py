@@ -33,7 +33,8 @@ import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
-from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, noise_level, rising_crossings
+from duffsym.diagnose.residuals import (ResidualAnalysis, analyse_residuals, has_noise_floor, noise_level,
+                                       rising_crossings)
 from duffsym.errors import DataError, ModelError
 
 BIC_THRESHOLD = -10.0
@@ -48,6 +49,12 @@ CANDIDATE_CPU_TIME = 30.0
 #: IPOPT iterations of a candidate's first, screening fit; candidates continued after it (see :func:`diagnose`)
 SCREEN_ITER = 30
 SCREEN = 4
+#: a free run whose largest |output| exceeds this multiple of the data's is called diverged
+DIVERGED = 10.0
+#: candidates (best first) whose fitted set is checked against the derived stability certificate
+STABILITY_CHECKED = 4
+#: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
+EXACT_FIT = 1e-3
 
 
 @dataclass(frozen=True)
@@ -70,13 +77,18 @@ class Candidate:
     supported: bool = False
     needed: bool = False
     physics: str = ""
+    diverged: bool = False  # its free run failed or left the data's range (> DIVERGED x max|y|)
+    stable: bool | None = None  # the fitted set satisfies the derived stability certificate (None: not checked)
+    stability: str = ""  # the certificate's failed conditions, when it fails
+    start: int = 1  # 2 when the second start (from the base solution) won
 
     def to_dict(self) -> dict:
         return dict(effect=self.effect, nrmse_after=self.nrmse_after, delta_bic=self.delta_bic, params=self.params,
                     stderr=self.stderr, nrmse_after_fit=self.nrmse_after_fit, nrmse_after_all=self.nrmse_after_all,
                     improvement=self.improvement, explained=self.explained, supported=self.supported,
                     needed=self.needed, success=self.success, message=self.message, seconds=self.seconds,
-                    all_params=self.all_params, physics=self.physics)
+                    all_params=self.all_params, physics=self.physics, diverged=self.diverged, stable=self.stable,
+                    stability=self.stability, start=self.start)
 
 
 @dataclass(frozen=True)
@@ -113,10 +125,13 @@ class Diagnosis:
     timings: dict = field(default_factory=dict)
     y_candidates: dict = field(default_factory=dict)
     sindy: dict | None = None
+    noise_method: str = "given"
+    base_check: dict = field(default_factory=dict)
 
     @property
     def best(self) -> Candidate | None:
-        return self.candidates[0] if self.candidates else None
+        """The lowest held-out error among converged candidates whose free run did not diverge."""
+        return next((c for c in self.candidates if c.success and not c.diverged), None)
 
     def to_dict(self) -> dict:
         return dict(
@@ -124,21 +139,23 @@ class Diagnosis:
             verdict=self.verdict, model=self.model, effects=list(self.effects), nrmse_heldout=self.nrmse_heldout,
             noise=self.noise, bic_base=self.bic_base, split=self.split, findings=self.residuals.findings(),
             residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
-            sindy=self.sindy,
+            sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
     def summary(self) -> str:
         lines = [f"diagnosis of {self.model}{' + ' + ' + '.join(self.effects) if self.effects else ''}: "
-                 f"free-run NRMSE {self.nrmse:.4g} (held-out {self.nrmse_heldout:.4g}), noise level {self.noise:.3g}"]
+                 f"free-run NRMSE {self.nrmse:.4g} (held-out {self.nrmse_heldout:.4g}), noise level {self.noise:.3g} "
+                 f"({self.noise_method})"]
         lines.append("where it fails:")
         lines += [f"  - {s}" for s in self.residuals.findings()]
         lines.append("candidates (best first; held-out NRMSE, dBIC, share of excess error explained):")
         for c in self.candidates:
             flag = "needed" if c.needed else ("partial" if c.supported else "")
             pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
+            mark = "" if c.stable is not False else f"  [outside the stability certificate: {c.stability}]"
             lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
-                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{_why_not(c.message)}]"))
+                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{_why_not(c.message)}]") + mark)
         if self.sindy is not None:
             lines.append(f"SINDy cross-check: {self.sindy.get('verdict')}: {self.sindy.get('message', '')}")
         lines.append(f"verdict: {self.verdict}")
@@ -146,8 +163,8 @@ class Diagnosis:
 
 
 def _why_not(message: str) -> str:
-    """Why a candidate has no result: screened out, or its fit failed."""
-    return message if message.startswith("screened out") else f"fit failed: {message}"
+    """Why a candidate has no result: screened out, its free run diverged, or its fit failed."""
+    return message if message.startswith(("screened out", "free run")) else f"fit failed: {message}"
 
 
 # ---------------------------------------------------------------------------------------------- split
@@ -201,7 +218,8 @@ def _n_estimated(result, model) -> int:
 
 
 def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
-         n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None):
+         n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None,
+         bound_restart: bool = False):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in fixed.items() if k in model.param_names}
@@ -214,10 +232,10 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
     options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else None
-    # no restart off bounds: an effect that is not needed ends with its parameter on a bound by design,
-    # and fit_with_effects already gives every candidate two starts
+    # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
+    # by design); the base fit restarts as a plain ``fit`` does
     return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
-               ipopt_options=options, bound_restart=False)
+               ipopt_options=options, bound_restart=bound_restart)
 
 
 class _CandidateFit:
@@ -247,6 +265,7 @@ class _CandidateFit:
         except (ModelError, DataError) as exc:
             return str(exc), time.perf_counter() - t0
         y_ext = _free_run(ext, fr.params, self.record, fr.x0[0])
+        y_ext = y_ext if _within_range(y_ext, self.record.y) else None
         k = self.k  # the fitting part: the first k samples of the record
         y = np.asarray(self.record.y, dtype=float)
         ss = float(np.sum((y[:k] - y_ext[:k]) ** 2)) if y_ext is not None else math.inf
@@ -296,6 +315,7 @@ def diagnose(
     sindy: bool = True,
     progress=None,
     engine=None,
+    second_start: bool = True,
 ) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
 
@@ -333,8 +353,12 @@ def diagnose(
         :class:`duffsym._progress.Progress` (counts and time left), or None.
     engine : a started :class:`~duffsym.engine.Engine` to fit the candidates on its workers (the same
         fits, in parallel), or None (default): one after the other in this process.
+    second_start : a candidate whose fit failed, diverged, or ended worse on the fitting part than the
+        base it extends (a local optimum: it contains the base model) is fitted again from the base
+        solution itself with the effect's parameters at their neutral defaults; the better is kept
+        (``settings["candidate_start"] = 2`` when the second won). Measured in ``bench_diagnose.py``.
     """
-    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.effects import CATALOGUE
 
     t_start = time.perf_counter()
     say = reporter(progress)
@@ -355,33 +379,155 @@ def diagnose(
     rec_fit = _part(record, k)
     held = slice(k, record.n_times)
     y = np.asarray(record.y, dtype=float)
-    sigma = float(noise) if noise is not None else noise_level(y)
+    floor_noise = False
+    if noise is not None:
+        sigma, noise_method = float(noise), "given"
+    else:
+        sigma, noise_method = noise_level(y), "third differences of the measured force"
+        floor_noise = not has_noise_floor(y, record.dt)
     fixed = with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
 
     say(f"base fit of {model.name} on {k} of {record.n_times} samples")
     if start is None and fit_result is not None:
         start = dict(fit_result.params)
-    base = _fit(model, rec_fit, fixed, start, mask=mask_fit)
-    if not base.success:
-        raise ModelError(f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged base "
-                         "model: check the data and the model, or give a fit with --fit")
-    y_base = _free_run(model, base.params, record, base.x0[0])
-    if y_base is None:
-        raise ModelError("the base model's free run over the whole record failed; the diagnosis needs a stable base model")
-    res = analyse_residuals(record, y_base, noise=sigma)
+    base, y_base, base_check = _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say)
     r_base = y - y_base
     mse_held = float(np.mean(r_base[held] ** 2))
     ss_fit = float(np.sum(r_base[:k] ** 2))
     bic_base = _bic(ss_fit, k, _n_estimated(base, model))
+    base_check["stable"], base_check["stability"] = _certificate(model, base.params)
     from duffsym.identify.result import nrmse as _nrmse
 
-    out: list[Candidate] = []
     y_cands = {}
-    # every candidate is fitted; with screening, first on a short iteration budget: those that have
-    # not converged by then continue only if their free-run error ranks among the best ``screen``
+    runs = _candidate_runs(names, model, rec_fit, record, base, y_base[:k], fixed, mask_fit, candidate_max_iter,
+                           candidate_cpu_time, screen, say, second_start, engine)
+    failed = [r for r in runs if isinstance(r, Candidate)]
+    runs = [r for r in runs if not isinstance(r, Candidate)]
+    if floor_noise:
+        # no white-noise floor near Nyquist (pre-filtered or noise-free force): the third-difference
+        # estimate measures smoothness; the lowest held-out error of any fitted model bounds the noise
+        held_rms = [math.sqrt(mse_held)] + [math.sqrt(float(np.mean((y[held] - r[5][held]) ** 2)))
+                                            for r in runs if r[4] is not None and r[4].success and r[5] is not None]
+        noise_method = (f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; the "
+                        f"force has no white-noise floor near the Nyquist frequency (pre-filtered or noise-free), "
+                        f"so the third-difference estimate ({sigma:.3g}) measures its smoothness")
+        sigma = min(held_rms)
+    res = analyse_residuals(record, y_base, noise=sigma)
+    shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
+    out: list[Candidate] = list(failed)
+    exts = {}
+    for ss, name, effect, ext, fr, y_ext, secs in runs:
+        if fr is None:
+            out.append(_failed(name, effect, y_ext, secs))
+            continue
+        if not fr.success:
+            out.append(_failed(name, effect, fr.message, secs))
+            continue
+        if y_ext is None:
+            out.append(_failed(name, effect, f"free run diverged (failed, or left {DIVERGED:g}x the data's range)",
+                               secs, diverged=True))
+            continue
+        y_cands[name] = y_ext
+        exts[name] = ext
+        r = y - y_ext
+        mse_h = float(np.mean(r[held] ** 2))
+        improvement = 1 - math.sqrt(mse_h / mse_held) if mse_held > 0 else 0.0
+        excess = mse_held - sigma**2
+        explained = (mse_held - mse_h) / excess if excess > 0 else 0.0
+        dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, ext)) - bic_base
+        own = [p.name for p in ext.params if p.name not in model.param_names]
+        supported = dbic < bic_threshold and improvement >= min_improvement
+        # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
+        enough = explained >= min_explained or (name == "force-offset" and shifted)
+        out.append(Candidate(
+            effect=name, nrmse_after=_nrmse(y[held], y_ext[held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
+            nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
+            explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
+            stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
+            message=fr.message, seconds=secs, supported=supported,
+            needed=supported and enough and not res.at_noise_level, physics=effect.physics,
+            start=int(fr.settings.get("candidate_start", 1))))
+    out = _mark_stability(_rank(out), exts)
+    needed = tuple(c.effect for c in out if c.needed)
+    base_held = _nrmse(y[held], y_base[held])
+    evidence = _sindy_evidence(record, base, model, say) if sindy else None
+    verdict = (_verdict(res, out, base_held, noise_method, shifted) + _sindy_sentence(evidence, out)
+               + _base_sentence(base_check))
+    return Diagnosis(
+        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
+        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
+        y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
+        noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
+        y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check,
+    )
+
+
+def _within_range(y_run, y) -> bool:
+    return y_run is not None and float(np.max(np.abs(y_run))) <= DIVERGED * float(np.max(np.abs(y)))
+
+
+def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say):
+    """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
+
+    The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
+    plain fit of the whole record (or ``fit_result``) is the reference. When the reference's free
+    run is better on the fitting part, the base is refitted from the reference's parameters and the
+    better of the two kept. ``base_check`` reports both errors, which start won, and whether the
+    base is as good as the reference (within 5 %); the verdict says so when it is not.
+    """
+    y = np.asarray(record.y, dtype=float)
+    k = rec_fit.n_times
+    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True)
+    y_base = _free_run(model, base.params, record, base.x0[0]) if base.success else None
+    y_base = y_base if _within_range(y_base, y) else None
+    if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
+        plain, plain_src = fit_result, "the given fit"
+    else:
+        say("  reference: a plain fit of the whole record")
+        plain, plain_src = _fit(model, record, fixed, start, mask=mask, bound_restart=True), "a plain fit of the record"
+    x0p = plain.x0[0] if plain.x0 and len(plain.x0[0]) == model.n_states else None
+    y_plain = _free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
+    y_plain = y_plain if _within_range(y_plain, y) else None
+
+    def err(yy):
+        return math.inf if yy is None else math.sqrt(float(np.mean((y[:k] - yy[:k]) ** 2))) / float(np.std(y[:k]))
+
+    won = "tuning guess" if start is None else "given start"
+    if err(y_plain) < 0.99 * err(y_base):
+        say("  base refit from the reference's parameters")
+        alt = _fit(model, rec_fit, fixed, dict(plain.params), mask=mask_fit, bound_restart=True)
+        y_alt = _free_run(model, alt.params, record, alt.x0[0]) if alt.success else None
+        y_alt = y_alt if _within_range(y_alt, y) else None
+        if err(y_alt) < err(y_base):
+            base, y_base, won = alt, y_alt, "the reference's parameters"
+    if y_base is None:
+        if not base.success:
+            raise ModelError(f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged "
+                             "base model: check the data and the model, or give a fit with --fit")
+        raise ModelError("the base model's free run over the whole record failed; the diagnosis needs a stable base "
+                         "model")
+    e_base, e_plain = err(y_base), err(y_plain)
+    check = dict(reference=plain_src, nrmse_fit_part=e_base, reference_nrmse_fit_part=e_plain, start=won,
+                 as_good=bool(e_base <= 1.05 * e_plain))
+    return base, y_base, check
+
+
+def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, candidate_max_iter,
+                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None) -> list:
+    """Each candidate fitted (with screening, see :func:`diagnose`; a second start, see ``second_start``;
+    on ``engine``'s workers when given): rows ``[ss, name, effect, ext, fit, y_ext, seconds]`` (``y_ext``
+    None when the free run diverged; ``fit`` None when screened out, with the reason in place of
+    ``y_ext``), or a failed :class:`Candidate`."""
+    from duffsym.effects import CATALOGUE, apply_effects
+
+    y = np.asarray(record.y, dtype=float)
+    k = rec_fit.n_times
+    ss_base = float(np.sum((y[:k] - np.asarray(y_model_fit)) ** 2))
+    out: list = []
     budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
-    job = _CandidateFit(record, k, rec_fit, dict(base.params), y_base[:k], fixed, mask_fit, candidate_cpu_time)
+    job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit), fixed, mask_fit,
+                        candidate_cpu_time)
     tasks = []
     for name in names:
         try:
@@ -395,6 +541,20 @@ def diagnose(
             continue
         ss, fr, y_ext, secs = got
         runs.append([ss, name, CATALOGUE[name], ext, fr, y_ext, secs])
+    if second_start:
+        # lost to a local optimum (failed, diverged, or worse than the base it extends): a second start
+        # at the base solution itself, the effect's parameters at their neutral defaults
+        lost = [r for r in runs if not r[4].success or r[0] > ss_base]
+        starts = [(r[1], r[3], budget, {**dict(base.params), **{p.name: p.default for p in r[2].parameters()}})
+                  for r in lost]
+        for run, got in zip(lost, _map(engine, job, starts, say, "second start for")):
+            if isinstance(got[0], str):
+                continue
+            ss2, fr2, y2, secs2 = got
+            run[6] += secs2
+            if (fr2.success or not run[4].success) and (ss2 < run[0] or (fr2.success and not run[4].success)):
+                fr2.settings["candidate_start"] = 2
+                run[0], run[4], run[5] = ss2, fr2, y2
     if screen is not None:
         runs.sort(key=lambda item: item[0])
         go_on = []
@@ -413,42 +573,42 @@ def diagnose(
             if isinstance(got[0], str):
                 run[4], run[5] = None, got[0]
                 continue
+            start2 = run[4].settings.get("candidate_start")
             run[4], run[5], run[6] = got[1], got[2], run[6] + got[3]
-    for ss, name, effect, ext, fr, y_ext, secs in runs:
-        if fr is None:
-            out.append(_failed(name, effect, y_ext, secs))
-            continue
-        if not fr.success or y_ext is None:
-            out.append(_failed(name, effect, fr.message if not fr.success else "free run failed", secs))
-            continue
-        y_cands[name] = y_ext
-        r = y - y_ext
-        mse_h = float(np.mean(r[held] ** 2))
-        improvement = 1 - math.sqrt(mse_h / mse_held) if mse_held > 0 else 0.0
-        excess = mse_held - sigma**2
-        explained = (mse_held - mse_h) / excess if excess > 0 else 0.0
-        dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, ext)) - bic_base
-        own = [p.name for p in ext.params if p.name not in model.param_names]
-        supported = dbic < bic_threshold and improvement >= min_improvement
-        out.append(Candidate(
-            effect=name, nrmse_after=_nrmse(y[held], y_ext[held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
-            nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
-            explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
-            stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
-            message=fr.message, seconds=secs, supported=supported,
-            needed=supported and explained >= min_explained and not res.at_noise_level, physics=effect.physics))
-    out = _rank(out)
-    needed = tuple(c.effect for c in out if c.needed)
-    base_held = _nrmse(y[held], y_base[held])
-    evidence = _sindy_evidence(record, base, model, say) if sindy else None
-    verdict = _verdict(res, out, base_held) + _sindy_sentence(evidence, out)
-    return Diagnosis(
-        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
-        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
-        y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
-        noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
-        y_candidates=y_cands, sindy=evidence,
-    )
+            if start2:
+                run[4].settings["candidate_start"] = start2
+    return out + runs
+
+
+def _certificate(model, params) -> tuple[bool | None, str]:
+    """Whether ``params`` satisfy the derived stability certificate of ``model`` (None: not derivable
+    for this model), and the failed conditions in words."""
+    from duffsym.derive.stability import stability_certificate
+
+    try:
+        cert = stability_certificate(model, dict(params))
+    except (ModelError, ValueError, TypeError, NotImplementedError, ArithmeticError):
+        return None, ""
+    if any(c.statement.split(" (")[0].strip() == "False" for c in cert.failed):
+        return None, ""  # a condition false for every parameter set: the argument does not cover this model
+    return bool(cert.holds), "; ".join(f"{c.name} ({c.statement})" for c in cert.failed)
+
+
+def _mark_stability(cands: list[Candidate], exts: Mapping) -> list[Candidate]:
+    """The first ``STABILITY_CHECKED`` converged candidates and every supported one, checked against
+    the stability certificate; one outside it is marked and is not *needed* (energy-producing terms,
+    e.g. a negative cubic damping, are not a passive damper's physics), though it stays supported."""
+    from dataclasses import replace
+
+    out = []
+    seen = 0
+    for c in cands:
+        if c.success and c.effect in exts and (seen < STABILITY_CHECKED or c.supported):
+            seen += 1
+            stable, why = _certificate(exts[c.effect], c.all_params)
+            c = replace(c, stable=stable, stability=why, needed=c.needed and stable is not False)
+        out.append(c)
+    return out
 
 
 def _rank(cands: list[Candidate]) -> list[Candidate]:
@@ -490,35 +650,72 @@ def _sindy_sentence(evidence: dict | None, cands: Sequence[Candidate]) -> str:
     return f" The SINDy cross-check selects term(s) the model lacks: {terms}."
 
 
-def _failed(name, effect, message, seconds) -> Candidate:
+def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate:
     return Candidate(effect=name, nrmse_after=math.nan, nrmse_after_fit=math.nan, nrmse_after_all=math.nan,
                      delta_bic=math.nan, improvement=math.nan, explained=math.nan, params={}, stderr={},
-                     all_params={}, success=False, message=message, seconds=seconds, physics=effect.physics)
+                     all_params={}, success=False, message=message, seconds=seconds, physics=effect.physics,
+                     diverged=diverged)
 
 
-def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float) -> str:
-    ok = [c for c in cands if c.success]
+def _base_sentence(check: Mapping) -> str:
+    s = ""
+    if check and not check.get("as_good", True):
+        s += (f" Caution: the diagnosis's base fit (free-run NRMSE {check['nrmse_fit_part']:.3g} on the fitting part) "
+              f"is worse than {check['reference']} ({check['reference_nrmse_fit_part']:.3g}): every candidate is "
+              "judged against a weaker base.")
+    if check.get("stable") is False:
+        s += (f" The base fit is outside the derived stability certificate ({check.get('stability')}): "
+              "an energy-producing parameter set; treat its numbers with care.")
+    return s
+
+
+def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float, noise_method: str = "given",
+             shifted: bool = False) -> str:
+    ok = [c for c in cands if c.success and not c.diverged]
     best = ok[0] if ok else None
     where = res.findings()
+    floor = noise_method.startswith("held-out residual floor")
+    noise_said = f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})"
+    if base_held < EXACT_FIT and not any(c.needed for c in ok):
+        return (f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
+                "data?); nothing is left to explain and no effect is needed.")
     if res.at_noise_level and not any(c.needed for c in ok):
-        return (f"No effect is needed: the residual is white and at the noise level "
-                f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}); no catalogued effect improves the held-out error "
-                f"convincingly.")
+        if floor:
+            return ("The model fits as well as any candidate: no catalogued effect lowers the held-out error "
+                    f"convincingly (held-out NRMSE {base_held:.3g}); the noise level is not measurable on this record"
+                    f"{noise_said}.")
+        return (f"The model fits to the noise: the residual is white and at the noise level "
+                f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
+                f"catalogued effect improves the held-out error convincingly.")
+    unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
+    tail = ""
+    if unstable:
+        tail = (" Not taken although supported, because the fitted set is outside the derived stability certificate "
+                "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + ".")
     if best is not None and best.needed:
-        s = (f"The model fails: {where[0] if where else 'the residual is structured'}. "
+        s = (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
              f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
              f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {100 * best.explained:.0f} % of the excess error).")
+        if best.effect == "force-offset" and shifted and best.explained < 0.5:
+            s += " It is taken because the loop is shifted (residual mean a large share of its RMS)."
         ties = [c for c in ok[1:] if c.needed and c.nrmse_after <= best.nrmse_after * (1 + TIE)]
         if ties:
             s += (f" {', '.join(c.effect for c in ties)} explain{'s' if len(ties) == 1 else ''} it almost as well "
                   "here: this record cannot tell them apart.")
-        return s
+        return s + tail
+    needed = next((c for c in ok if c.needed), None)
+    if needed is not None:
+        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
+                f"Adding {needed.effect} ({needed.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} "
+                f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {100 * needed.explained:.0f} % of the "
+                f"excess error).") + tail
     if best is not None and best.supported:
-        return (f"The model fails: {where[0] if where else 'the residual is structured'}. "
+        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
                 f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
                 f"{best.delta_bic:.0f}) but removes only {100 * best.explained:.0f} % of the excess error, so it is not "
-                f"the missing effect with confidence. What remains: {'; '.join(where[:2]) if where else 'unclear'}.")
+                f"the missing effect with confidence. What remains: {'; '.join(where[:2]) if where else 'unclear'}."
+                ) + tail
     return ("No catalogued effect explains what the model misses: "
-            + ("; ".join(where[:3]) if where else "the residual is structured")
+            + ("; ".join(where[:3]) if where else "the residual is structured") + noise_said
             + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
-               f"{best.nrmse_after:.3g}." if best is not None else "."))
+               f"{best.nrmse_after:.3g}." if best is not None else ".") + tail)
