@@ -102,8 +102,11 @@ def run_independent(label: str, seed: int, screen=4) -> dict:
                rank_of_truth=next((i + 1 for i, c in enumerate(ok) if c.effect == hidden), None),
                candidates=[dict(effect=c.effect, nrmse_after=c.nrmse_after, delta_bic=c.delta_bic,
                                 explained=c.explained, params=c.params, stderr=c.stderr, success=c.success,
-                                needed=c.needed, supported=c.supported, seconds=c.seconds, message=c.message)
-                           for c in dg.candidates])
+                                needed=c.needed, supported=c.supported, seconds=c.seconds, message=c.message,
+                                start=getattr(c, "start", 1), stable=getattr(c, "stable", None),
+                                diverged=getattr(c, "diverged", False))
+                           for c in dg.candidates],
+               noise_method=getattr(dg, "noise_method", ""), base_check=getattr(dg, "base_check", {}))
     if hidden in RECOVER or hidden == "coulomb-friction":
         mine = next((c for c in dg.candidates if c.effect == hidden and c.success), None)
         row["heldout_ratio"] = mine.nrmse_after / dg.nrmse_heldout if mine else math.nan

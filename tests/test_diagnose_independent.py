@@ -78,3 +78,14 @@ def test_candidate_outside_the_stability_certificate_is_marked_and_not_needed():
     assert c.success and c.params["cdamp_c"] < 0
     assert c.stable is False and "cdamp_c" in c.stability and not c.needed
     assert "outside the stability certificate" in dg.summary()
+
+
+@pytest.mark.slow
+def test_second_start_recovers_a_true_effect_lost_to_a_diverged_fit():
+    # measured: from the base optimum + data guess, the gas-accumulator fit converged to a set whose free run
+    # diverged, so the true effect ranked below force-offset; the second start (base solution) finds it
+    rec, g = record("gas-accumulator", 0)
+    dg = diagnose(rec, candidates=["gas-accumulator", "force-offset"], sindy=False)
+    c = dg.best
+    assert c.effect == "gas-accumulator" and c.start == 2
+    assert c.params["gas_k"] == pytest.approx(g.truth["physics"]["gas_stiffness"], rel=0.2)
