@@ -56,7 +56,7 @@ def test_clean_data_need_no_effect():
     dg = diagnose(rec, candidates=FEW)
     assert dg.needed == ()
     assert dg.residuals.at_noise_level
-    assert dg.verdict.startswith("No effect is needed")
+    assert dg.verdict.startswith("The model fits to the noise")
     # nothing improves the held-out error by more than a few per cent
     assert all(c.nrmse_after >= 0.95 * dg.nrmse_heldout for c in dg.candidates if c.success)
 

@@ -19,7 +19,7 @@ def test_s07_ladder_finds_both_hidden_effects_and_reaches_the_noise(tmp_path, mo
     assert sorted(steps[-1]["effects"]) == ["coulomb-friction", "force-offset"]
     held = [s["nrmse_heldout"] for s in steps]
     assert held == sorted(held, reverse=True) and held[-1] < held[0] / 5
-    assert steps[-1]["needed"] == [] and steps[-1]["verdict"].startswith("No effect is needed")
+    assert steps[-1]["needed"] == [] and steps[-1]["verdict"].startswith("The model fits to the noise")
     final = case["final"]["params"]
     assert abs(final["fric_mu"] - 20.0) < 1.0 and abs(final["off_y0"] - 0.2) < 0.01
     for panel in ("where", "candidates", "ladder"):
