@@ -104,6 +104,9 @@ class InputDelay(Effect):
     response is not a delay: with :math:`\tau` near the sampling step the state is stiff
     (:math:`2/\tau`), which the A-stable collocation handles; simulation substeps adapt.
 
+    Where it acts: on the measurement channels (the force responds to the displacement of
+    :math:`\\tau` earlier), i.e. on the input path of the model, not on the fluid.
+
     Physics: transport delay between the displacement sensor and the force sensor, actuator or
     acquisition delay. Only positive delays (input leading the force) are modelled. A zero-order
     hold (a delay of ``dt/2`` to first order) is better represented by :class:`InputShift`: see the
@@ -215,6 +218,10 @@ class InputShift(Effect):
 @dataclass(frozen=True)
 class Backlash(Effect):
     r"""Joint backlash (play) between the actuator and the piston: the deadzone of the paper's Fig. 8.
+
+    Where it acts: on the actuator path, between the measured actuator displacement ``d`` and the
+    piston, which drives the fluid model; effects applied after it that use the piston velocity
+    (``seal-friction``) see the piston's :math:`\\dot b`.
 
     The piston position :math:`b` (a new state) stays put while the actuator ``d`` moves inside a
     gap of half-width :math:`h` around it and is dragged along when ``d`` pushes on an edge; the

@@ -46,6 +46,9 @@ def whole_cycle_mean(record) -> float:
 class ForceOffset(Effect):
     """A constant offset of the measured force: :math:`y \\leftarrow y + y_0`.
 
+    Where it acts: on the sensor (load-cell zero error) or, as a preload, on the piston; the same
+    constant in the measured force either way.
+
     Physics: load-cell zero error, or the preload force of a gas accumulator. On a single record a
     constant preload and a sensor offset are the same term (not separable); the
     :class:`GasAccumulator` therefore uses this very parameter, ``off_y0``, for its preload, and
@@ -85,6 +88,10 @@ class ForceOffset(Effect):
 class GasAccumulator(Effect):
     """Gas accumulator: preload and gas-spring stiffness on the piston displacement,
     :math:`y \\leftarrow y + y_0 + k_a d`.
+
+    Where it acts: on the piston, through its displacement (the rod volume in the cylinder), and
+    directly on the measured force. The measured ``d`` stands for the piston displacement: with a
+    joint play the actuator and piston differ by at most the half-width, a second-order error here.
 
     The accumulator's gas volume changes with the rod volume in the cylinder, so its pressure, and
     the force it adds, is (linearised) a preload plus a stiffness on the piston displacement ``d``.
@@ -134,6 +141,10 @@ class GasAccumulator(Effect):
 class PistonInertia(Effect):
     """Piston and fluid inertia: :math:`y \\leftarrow y + m_p \\ddot d`.
 
+    Where it acts: on the piston (its mass, and the fluid it drags, are accelerated by the
+    actuator), directly in the measured force; not in the fluid model, whose mass ``m`` the paper
+    normalises away (Eq. 12).
+
     The mass of the piston, rod and the fluid it accelerates adds a force proportional to the
     piston acceleration. The model gains the input channel :math:`\\ddot d` (``d_ddot``): from an
     :class:`~duffsym.excitation.Excitation` it is exact; from a record it is the Savitzky–Golay
@@ -181,6 +192,9 @@ class Asymmetry(Effect):
     """Different force levels in compression and extension:
     :math:`y \\leftarrow y + a\\,F\\tanh(\\dot x/\\varepsilon)`, with :math:`F` the model's force before the
     additive output terms (offset, gas, inertia).
+
+    Where it acts: in the fluid force, switched by the direction of the fluid flow :math:`\\dot x`
+    (which chamber is pressurised), so inside the model's output rather than on the piston.
 
     With :math:`F = A_f\\dot x` this is :math:`A_f\\dot x\\,(1 + a\\,\\mathrm{sign}\\,\\dot x)`: gain
     :math:`1 + a` for :math:`\\dot x > 0` and :math:`1 - a` for :math:`\\dot x < 0` (rod-side vs
@@ -236,6 +250,9 @@ class OutputLag(Effect):
     """First-order dynamics between the model force and the measured force (coil inductance of the
     field, sensor or anti-alias filter): a state :math:`z` with :math:`\\tau\\dot z = y - z`; the
     output becomes :math:`z`.
+
+    Where it acts: on the sensor chain (load cell, amplifier, anti-alias filter), after every
+    force of the device is summed.
 
     To first order in :math:`\\tau\\omega` the lag is :math:`z \\approx y - \\tau\\dot y`, the same as an
     input delay :math:`\\tau` (:class:`~duffsym.effects.inputs.InputDelay`); they differ at second order

@@ -10,6 +10,11 @@ velocity states), in the model's own state units:
 - ``cubic-damping``: :math:`\ddot x \mathrel{+}= -c_3 \dot x^3`, damping growing with the speed
   (an amplifier's or a damper's non-linear resistance).
 
+Where they act: inside the fluid (or oscillator) model, on its internal states x and x', like
+the paper's own k3 and c3 terms; not on the piston or the sensor. A negative cubic damping is an
+energy-producing term: the diagnosis marks such a fit as outside the stability certificate and
+does not call it needed (issue 16). ``input-curvature`` acts on the input path (d -> d + k d'').
+
 Both are linear in their parameter and add no state. In ``duffsym derive`` the cubic damping
 adds :math:`-c_3\dot x^4 \le 0` to :math:`\dot V` (dissipative for :math:`c_3 \ge 0`; either sign is
 allowed here, the data decide); the quadratic stiffness adds the potential :math:`k_q x^3/3`,
