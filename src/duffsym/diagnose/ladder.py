@@ -31,12 +31,16 @@ class Step:
     params: dict
     stderr: dict
     diagnosis: Diagnosis
+    discovered: dict | None = None  # the discovered term this step added (see diagnose.discover)
 
     def to_dict(self) -> dict:
-        return dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
-                    nrmse_heldout=self.nrmse_heldout, params=self.params, stderr=self.stderr,
-                    verdict=self.diagnosis.verdict, needed=list(self.diagnosis.needed),
-                    candidates=[c.to_dict() for c in self.diagnosis.candidates])
+        out = dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
+                   nrmse_heldout=self.nrmse_heldout, params=self.params, stderr=self.stderr,
+                   verdict=self.diagnosis.verdict, needed=list(self.diagnosis.needed),
+                   candidates=[c.to_dict() for c in self.diagnosis.candidates])
+        if self.discovered is not None:
+            out.update(term=self.discovered["term"], latex=self.discovered["latex"], discovered=self.discovered)
+        return out
 
 
 @dataclass(frozen=True)
@@ -70,7 +74,7 @@ class Ladder:
 
 def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
            fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           accept: str = "needed", progress=None, **rules) -> Ladder:
+           accept: str = "needed", discover: bool = False, progress=None, **rules) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
 
     Parameters
@@ -83,6 +87,9 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         half of what is left) — for records where several small real effects remain, each too small
         to dominate the residual. Stricter evidence against an effect outside the catalogue is then
         the user's call: each step's held-out error is reported.
+    discover : when no catalogued effect is needed, try a term outside the catalogue
+        (:func:`~duffsym.diagnose.discover.discover_term`); it is added only when it passes the same
+        evidence as a needed catalogued effect, and the step says so (``"term"``, ``"latex"``).
     rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose`.
     """
     from duffsym.effects import CATALOGUE, apply_effects
@@ -98,6 +105,7 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
     steps: list[Step] = []
     start = None
     stopped = ""
+    found = None  # the discovered term of the next step
     while True:
         say(f"step {len(steps)}: {' + '.join(('base',) + tuple(model.effects))}")
         dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise, mask=mask,
@@ -106,12 +114,18 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         steps.append(Step(
             effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
             nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
-            stderr=dict(dg.base_fit.stderr), diagnosis=dg))
+            stderr=dict(dg.base_fit.stderr), diagnosis=dg, discovered=found))
+        found = None
         if accept not in ("needed", "supported"):
             raise ValueError(f"accept must be 'needed' or 'supported'; got {accept!r}")
         chosen = dg.needed[0] if dg.needed else None
         if chosen is None and accept == "supported":
             chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
+        if chosen is None and discover and len(steps) <= max_steps:  # ---- discovery hook (diagnose.discover)
+            found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
+            if found is not None:
+                continue
+            dg = _with_note(dg, note)
         if chosen is None:
             stopped = "no further effect is supported by the evidence: " + dg.verdict
             break
@@ -125,6 +139,26 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
     last = steps[-1]
     final = _fit(model, record, with_default_af(model, fixed, record), last.params)
     return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0})
+
+
+def _discovered(record, model, dg, fixed, mask, progress, rules):
+    """(discovery dict, extended model, start) when a discovered term is needed; else (None, model, None, note)."""
+    from duffsym.diagnose.discover import discover_term
+
+    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **rules)
+    if not disc.needed:
+        return None, model, None, " Discovery outside the catalogue: " + disc.summary().replace("\n", ";")
+    (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
+    info = disc.to_dict()
+    info["note"] = ("no catalogued effect was needed; this discovered term passes the same held-out evidence "
+                    "(dBIC, held-out fall, share of the excess error)")
+    return info, disc.model, dict(disc.all_params), ""
+
+
+def _with_note(dg: Diagnosis, note: str) -> Diagnosis:
+    import dataclasses
+
+    return dataclasses.replace(dg, verdict=dg.verdict + note) if note else dg
 
 
 def error_fell(lad: Ladder) -> float:

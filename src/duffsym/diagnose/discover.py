@@ -1,0 +1,384 @@
+"""When the catalogue has no answer, discover a term: sparse regression of what the model misses.
+
+:func:`discover_term` regresses the free-run residual of a base fit (on the fitting part of a
+record) on a library of candidate output terms built from the record and the model's simulated
+states — the piston displacement, velocity and acceleration ``d, d', d''``, the model's internal
+states ``x, x'``, their powers, products, smooth absolute values ``s·tanh(s/ε)`` and smooth signs
+``tanh(s/ε)`` (ε = 10 % of the signal's RMS). The sparse selection is scikit-learn's orthogonal
+matching pursuit (:class:`sklearn.linear_model.OrthogonalMatchingPursuit`) on the standardised
+library, with the number of terms chosen on held-out whole input cycles at the end of the fitting
+part (the fewest terms within 5 % of the best validation error). The selected terms become a
+:class:`DiscoveredEffect` — a model extension adding ``Σ c_i·term_i`` to the output, with the
+coefficients as parameters — fitted through the normal path
+(:func:`duffsym.identify.fit_with_effects`) and judged by the same held-out evidence as a
+catalogued effect (ΔBIC, fall of the held-out error, share of the excess error removed).
+
+Delayed copies of the signals are not in the library: an output term must be a function of the
+model's current states and inputs, and a short delay of ``d`` is ``d - τ d'`` to first order,
+which the library spans.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+import sympy as sp
+
+from duffsym.effects.base import Effect
+from duffsym.errors import DataError, ModelError
+from duffsym.model.core import InputChannel, SymbolicModel
+from duffsym.model.symbols import ParamSpec, state_symbol
+
+D, DD, DDD = state_symbol("d"), state_symbol("d_dot"), state_symbol("d_ddot")
+#: how the signals are printed in words and in LaTeX
+_WORDS = {"d": "d", "d_dot": "d'", "d_ddot": "d''", "x": "x", "x_dot": "x'"}
+_TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot": r"\dot{x}"}
+#: the fewest terms whose validation error is within this factor of the best is chosen
+PARSIMONY = 1.05
+MAX_TERMS = 3
+
+
+# ---------------------------------------------------------------------------------------------- the effect
+@dataclass(frozen=True)
+class DiscoveredEffect(Effect):
+    """``y += Σ c_i·term_i``: terms found by :func:`discover_term`, coefficients ``disc{index}_c{i}``.
+
+    Acts on the output (the measured force), like the catalogue's output effects; the terms are
+    functions of the model's states and the piston motion. ``coefs`` are the starting values (from
+    the regression, or the fitted values when rebuilt with them) and appear in the name.
+    """
+
+    terms: tuple = ()
+    coefs: tuple = ()
+    index: int = 1
+    name: str = field(default="", init=False)
+    prefix: str = field(default="", init=False)
+    physics: str = field(default="", init=False)
+    form: str = field(default="", init=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "prefix", f"disc{self.index}_")
+        object.__setattr__(self, "name", "discovered: " + term_words(self.expression(self.coefs)) + " on the output")
+        object.__setattr__(self, "physics", "; ".join(resembles(t) or describe(t) for t in self.terms))
+        object.__setattr__(self, "form", "y += " + str(self.expression()))
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return tuple(ParamSpec(f"{self.prefix}c{i + 1}", f"c_{{d{self.index},{i + 1}}}", float(c), -1e9, 1e9,
+                               unit="output unit / term unit", scale=max(abs(float(c)), 1e-6),
+                               description=f"coefficient of {term_words(t)} (discovered)")
+                     for i, (t, c) in enumerate(zip(self.terms, self.coefs)))
+
+    def expression(self, values=None) -> sp.Expr:
+        """``Σ c_i·term_i`` with the parameter symbols, or with ``values`` (numbers) in their place."""
+        cs = [p.symbol for p in self.parameters()] if values is None else [sp.Float(v, 4) for v in values]
+        return sp.Add(*[c * t for c, t in zip(cs, self.terms)])
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        known = {c.symbol for c in model.inputs} | set(model.states)
+        needs = set().union(*(t.free_symbols for t in self.terms)) if self.terms else set()
+        extra = tuple(InputChannel("d", 2) for s in needs if s == DDD and DDD not in known)
+        missing = needs - known - {DDD}
+        if missing:
+            raise ModelError(f"{self.name}: model {model.name} has no signal(s) {sorted(map(str, missing))}")
+        return model.extend(effect=self.name, params=self.parameters(), inputs=extra, output_add=self.expression())
+
+    def base_output(self, y, record, params):
+        cols = _record_signals(record)
+        if any(str(s) not in cols for t in self.terms for s in t.free_symbols):
+            return y  # a term on the model's states: not known before the fit
+        out = np.asarray(y, dtype=float).copy()
+        for p, t in zip(self.parameters(), self.terms):
+            out -= params[p.name] * _evaluate(t, cols)
+        return out
+
+
+# ---------------------------------------------------------------------------------------------- library
+def _record_signals(record) -> dict[str, np.ndarray]:
+    return {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float),
+            "d_ddot": np.asarray(record.acceleration(), float)}
+
+
+def _evaluate(term: sp.Expr, cols: Mapping[str, np.ndarray]) -> np.ndarray:
+    syms = sorted(term.free_symbols, key=str)
+    f = sp.lambdify(syms, term, "numpy")
+    n = len(next(iter(cols.values())))
+    return np.broadcast_to(np.asarray(f(*[cols[str(s)] for s in syms]), float), (n,)).copy()
+
+
+def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str, np.ndarray]:
+    """The library's signals: the record's ``d, d', d''`` and the model's ``x, x'`` (from ``states``)."""
+    cols = _record_signals(record)
+    if states is not None:
+        for sym, key in ((model.position, "x"), (model.velocity, "x_dot")):
+            if sym is not None and sym in model.states:
+                cols[key] = np.asarray(states[:, model.states.index(sym)], float)
+    return cols
+
+
+def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
+    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.1 RMS(s)),
+    and the pairwise products of ``d, d', x, x'``. ``x`` and ``x'`` appear as ``x, x'`` symbols."""
+    out: list[sp.Expr] = [sp.Integer(1)]
+    for key, v in cols.items():
+        s = state_symbol(key)
+        rms = float(np.sqrt(np.mean(v**2)))
+        if not rms > 0:
+            continue
+        eps = sp.Float(float(f"{0.1 * rms:.2g}"))
+        out += [s, s**2, s**3]
+        if key != "d_ddot":
+            sg = sp.tanh(s / eps)
+            out += [sg, s * sg, s**2 * sg]
+    keys = [k for k in ("d", "d_dot", "x", "x_dot") if k in cols]
+    out += [state_symbol(a) * state_symbol(b) for i, a in enumerate(keys) for b in keys[i + 1:]]
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- words
+def term_words(expr: sp.Expr) -> str:
+    """``+0.156·tanh(d'/0.02) - 3.1·d`` — a SymPy expression printed with primes and a middle dot."""
+    text = sp.sstr(expr, full_prec=False)
+    for key in ("d_ddot", "d_dot", "x_dot"):
+        text = text.replace(key, _WORDS[key])
+    text = text.replace("**", "^").replace("*", "·")
+    return text if text.startswith("-") else "+" + text
+
+
+def term_latex(expr: sp.Expr) -> str:
+    return sp.latex(expr, symbol_names={state_symbol(k): v for k, v in _TEX.items()})
+
+
+def _kind(term: sp.Expr) -> tuple[str | None, str]:
+    """(signal key, shape) of a library term; shape: constant, linear, square, cube, sign (tanh(s/ε)),
+    abs (s·tanh(s/ε)), sabs (s²·tanh(s/ε)) or product."""
+    syms = sorted(map(str, term.free_symbols))
+    if not syms:
+        return "1", "constant"
+    if len(syms) != 1:
+        return None, "product"
+    s = state_symbol(syms[0])
+    poly = sp.Mul(*[a for a in sp.Mul.make_args(term) if not isinstance(a, sp.tanh)])
+    deg = int(sp.degree(poly, s)) if poly.has(s) else 0
+    if term.has(sp.tanh):
+        return syms[0], {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
+    return syms[0], {1: "linear", 2: "square", 3: "cube"}.get(deg, "power")
+
+
+_RESEMBLES = {
+    ("d_dot", "sign"): "friction on the piston velocity (seal friction F_c·sign d'; the catalogue's "
+                       "coulomb-friction acts on the internal velocity x' instead)",
+    ("x_dot", "sign"): "coulomb-friction (dry friction on the internal velocity x')",
+    ("x_dot", "abs"): "asymmetry (force level differs between compression and extension)",
+    ("d_dot", "abs"): "asymmetry (an even-in-velocity force: compression vs extension)",
+    ("d", "linear"): "gas-accumulator (stiffness on the piston displacement)",
+    ("d_ddot", "linear"): "inertia (force proportional to the piston acceleration)",
+    ("d_dot", "linear"): "viscous damping on the piston velocity (the model's c1 term)",
+    ("d_dot", "sabs"): "quadratic (orifice) damping on the piston velocity, d'|d'|",
+    ("x_dot", "cube"): "cubic-damping (here on the output rather than in the state equation)",
+    ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
+    ("d_dot", "cube"): "a cubic damping on the piston velocity",
+    ("1", "constant"): "force-offset (a constant force)",
+}
+
+
+def resembles(term: sp.Expr) -> str:
+    """The catalogue effect (or known physics) a term resembles, '' if none."""
+    return _RESEMBLES.get(_kind(term), "")
+
+
+def describe(term: sp.Expr) -> str:
+    key, shape = _kind(term)
+    if key is None:
+        return f"a product term {term_words(term).lstrip('+')}"
+    return f"{shape} term in {_WORDS.get(key, key)}"
+
+
+# ---------------------------------------------------------------------------------------------- selection
+def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int = MAX_TERMS) -> tuple[list[int], dict]:
+    """Sparse support of ``r ≈ Theta c``: OMP on the standardised library for 1..``max_terms`` terms,
+    fitted on the first ``n_train`` rows and scored on the rest; the fewest terms within
+    ``PARSIMONY`` of the best validation MSE. Returns (column indices, per-size validation MSE)."""
+    from sklearn.linear_model import OrthogonalMatchingPursuit
+
+    scale = np.sqrt(np.mean(Theta[:n_train] ** 2, axis=0))
+    ok = scale > 0
+    Z = np.where(ok, Theta / np.where(ok, scale, 1.0), 0.0)
+    tr, va = slice(0, n_train), slice(n_train, None)
+    scores, supports = {0: float(np.mean(r[va] ** 2))}, {0: []}
+    for k in range(1, max_terms + 1):
+        omp = OrthogonalMatchingPursuit(n_nonzero_coefs=k, fit_intercept=False).fit(Z[tr], r[tr])
+        scores[k] = float(np.mean((r[va] - omp.predict(Z[va])) ** 2))
+        supports[k] = [int(i) for i in np.flatnonzero(omp.coef_)]
+    best = min(scores.values())
+    k = min(k for k, s in scores.items() if s <= best * PARSIMONY)
+    return supports[k], scores
+
+
+def _train_rows(record, k: int) -> int:
+    """Rows of the fitting part used to fit the selection; the rest (whole cycles if periodic) validate it."""
+    from duffsym.diagnose.residuals import rising_crossings
+
+    n = int(round(0.7 * k))
+    rising = rising_crossings(np.asarray(record.d)[:k])
+    ok = rising[(rising > 0.5 * k) & (rising < 0.9 * k)]
+    return int(ok[np.argmin(np.abs(ok - n))]) if ok.size else n
+
+
+# ---------------------------------------------------------------------------------------------- discovery
+@dataclass(frozen=True)
+class Discovery:
+    """A discovered output term, fitted through the normal path, with the diagnosis's held-out evidence.
+
+    ``supported``/``needed`` follow the rules of :func:`~duffsym.diagnose.diagnose` (ΔBIC below the
+    threshold and a held-out fall of at least ``min_improvement``; needed when it also removes at
+    least ``min_explained`` of the excess held-out error and the base is not at the noise level).
+    """
+
+    found: bool
+    effect: str
+    term: str  # SymPy string with the fitted coefficients
+    latex: str
+    words: str
+    resembles: list
+    nrmse_before: float  # held-out NRMSE of the base model
+    nrmse_after: float
+    delta_bic: float
+    improvement: float
+    explained: float
+    supported: bool
+    needed: bool
+    params: dict
+    stderr: dict
+    all_params: dict
+    success: bool
+    message: str
+    selection: dict
+    seconds: float
+    model: object = None
+    y_ext: np.ndarray | None = None
+
+    def to_dict(self) -> dict:
+        keys = ("found", "effect", "term", "latex", "words", "resembles", "nrmse_before", "nrmse_after", "delta_bic",
+                "improvement", "explained", "supported", "needed", "params", "stderr", "success", "message",
+                "selection", "seconds")
+        return {k: getattr(self, k) for k in keys}
+
+    def summary(self) -> str:
+        if not self.found:
+            return f"discovery: no term found ({self.message})"
+        like = f"; resembles {', '.join(self.resembles)}" if self.resembles else ""
+        verdict = "needed" if self.needed else ("supported, partial" if self.supported else "not supported")
+        return (f"discovery: {self.effect}{like}\n  held-out NRMSE {self.nrmse_before:.4g} -> {self.nrmse_after:.4g}, "
+                f"dBIC {self.delta_bic:.1f}, {100 * self.explained:.0f} % of the excess error explained: {verdict}")
+
+
+def _nothing(message: str, before: float, selection: dict, seconds: float) -> Discovery:
+    nan = math.nan
+    return Discovery(found=False, effect="", term="", latex="", words="", resembles=[], nrmse_before=before,
+                     nrmse_after=nan, delta_bic=nan, improvement=nan, explained=nan, supported=False, needed=False,
+                     params={}, stderr={}, all_params={}, success=False, message=message, selection=selection,
+                     seconds=seconds)
+
+
+def _states(model, params, record, x0) -> np.ndarray | None:
+    from duffsym.identify.collocation import _input_matrix
+    from duffsym.simulate import simulate
+
+    tr = simulate(model, model.param_vector(params), np.asarray(record.t), _input_matrix(model, record), x0=x0,
+                  on_failure="return")
+    return np.asarray(tr.x, float) if tr.success and np.all(np.isfinite(tr.x)) else None
+
+
+def propose(record, model, dg) -> tuple[DiscoveredEffect | None, dict]:
+    """The sparse term set for ``dg``'s base fit (fitting part only), as an effect; and the selection scores."""
+    k = dg.split["n_fit"]
+    cols = signals(record, model, _states(model, dg.base_fit.params, record, dg.base_fit.x0[0]))
+    terms, columns = [], []
+    for t in library(cols):
+        c = _evaluate(t, cols)
+        if np.all(np.isfinite(c)) and np.ptp(c[:k]) + abs(c[0]) > 0:
+            terms.append(t)
+            columns.append(c)
+    Theta = np.column_stack(columns)
+    r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
+    support, scores = select_terms(Theta[:k], r[:k], _train_rows(record, k))
+    selection = {"library": len(terms), "validation_mse": {str(n): v for n, v in scores.items()},
+                 "n_terms": len(support), "selector": "sklearn OrthogonalMatchingPursuit"}
+    if not support:
+        return None, selection
+    coefs, *_ = np.linalg.lstsq(Theta[:k, support], r[:k], rcond=None)
+    index = 1 + sum(e.startswith("discovered:") for e in model.effects)
+    return DiscoveredEffect(tuple(terms[i] for i in support), tuple(float(c) for c in coefs), index), selection
+
+
+def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None, mask=None,
+                  bic_threshold: float | None = None, min_improvement: float | None = None,
+                  min_explained: float | None = None, max_iter: int = 300, progress=None) -> Discovery:
+    """Discover an output term that ``model`` lacks on ``record``, from the diagnosis ``dg`` of it.
+
+    The term is selected on the fitting part (``dg.split``) only, fitted by
+    :func:`duffsym.identify.fit_with_effects` on the fitting part, and judged on the held-out tail by
+    the same rules as a catalogued candidate (defaults: those of :mod:`duffsym.diagnose.search`).
+    """
+    import time
+
+    from duffsym.diagnose import search as S
+    from duffsym.identify import Problem, fit_with_effects
+    from duffsym.identify.result import nrmse as _nrmse
+
+    t0 = time.perf_counter()
+    say = progress or (lambda msg: None)
+    k = dg.split["n_fit"]
+    y = np.asarray(record.y, float)
+    held = slice(k, None)
+    before = _nrmse(y[held], dg.y_base[held])
+    say("  discovering a term outside the catalogue")
+    try:
+        effect, selection = propose(record, model, dg)
+    except (ModelError, DataError, ValueError, np.linalg.LinAlgError) as exc:
+        return _nothing(f"the term library could not be built: {exc}", before, {}, time.perf_counter() - t0)
+    if effect is None:
+        return _nothing("no term beats the base model on the validation cycles", before, selection,
+                        time.perf_counter() - t0)
+    say(f"  fitting {effect.name}")
+    rec_fit = S._part(record, k)
+    fixed = S.with_default_af(model, fixed, rec_fit)
+    ext = effect.apply(model)
+    problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names},
+                      mask=None if mask is None else np.asarray(mask, bool)[:k])
+    fr = fit_with_effects(problem, [effect], dg.base_fit.params, dg.y_base[:k], max_iter=max_iter,
+                          compute_stderr=True, bound_restart=False)
+    y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
+    if y_ext is None:
+        return _nothing(f"the fit of {effect.name} failed: {fr.message if not fr.success else 'free run failed'}",
+                        before, selection, time.perf_counter() - t0)
+    own = [p.name for p in effect.parameters()]
+    final = DiscoveredEffect(effect.terms, tuple(float(fr.params[n]) for n in own), effect.index)
+    model_out = final.apply(model)
+    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
+                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
+                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
+    ev = _evidence(y, dg, y_ext, S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext)), rules)
+    expr = final.expression(final.coefs)
+    return Discovery(
+        found=True, effect=final.name, term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
+        words=f"{term_words(expr)} added to the output", resembles=[r for r in map(resembles, final.terms) if r],
+        nrmse_before=before, nrmse_after=_nrmse(y[held], y_ext[held]), params={n: float(fr.params[n]) for n in own},
+        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own}, all_params=dict(fr.params), success=True,
+        message=fr.message, selection=selection, seconds=time.perf_counter() - t0, model=model_out, y_ext=y_ext, **ev)
+
+
+def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
+    """The diagnosis's evidence for a candidate: ΔBIC, held-out fall, share of the excess error removed."""
+    k = dg.split["n_fit"]
+    mse_held = float(np.mean((y[k:] - dg.y_base[k:]) ** 2))
+    mse_h = float(np.mean((y[k:] - y_ext[k:]) ** 2))
+    improvement = 1 - math.sqrt(mse_h / mse_held) if mse_held > 0 else 0.0
+    excess = mse_held - dg.noise**2
+    explained = float(min((mse_held - mse_h) / excess, 1.0)) if excess > 0 else 0.0
+    dbic = bic_ext - dg.bic_base
+    supported = bool(dbic < rules["bic_threshold"] and improvement >= rules["min_improvement"])
+    needed = bool(supported and explained >= rules["min_explained"] and not dg.residuals.at_noise_level)
+    return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)
