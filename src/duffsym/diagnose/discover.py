@@ -4,7 +4,7 @@
 record) on a library of candidate output terms built from the record and the model's simulated
 states — the piston displacement, velocity and acceleration ``d, d', d''``, the model's internal
 states ``x, x'``, their powers, products, smooth absolute values ``s·tanh(s/ε)`` and smooth signs
-``tanh(s/ε)`` (ε = 10 % of the signal's RMS). The sparse selection is scikit-learn's orthogonal
+``tanh(s/ε)`` (ε = 3, 10 and 30 % of the signal's RMS). The sparse selection is scikit-learn's orthogonal
 matching pursuit (:class:`sklearn.linear_model.OrthogonalMatchingPursuit`) on the standardised
 library, with the number of terms chosen on held-out whole input cycles at the end of the fitting
 part (the fewest terms within 5 % of the best validation error). The selected terms become a
@@ -20,6 +20,7 @@ which the library spans.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -38,6 +39,8 @@ _TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot":
 #: the fewest terms whose validation error is within this factor of the best is chosen
 PARSIMONY = 1.05
 MAX_TERMS = 3
+#: ε of the smooth signs and absolute values, as fractions of the signal's RMS
+EPS_FRACTIONS = (0.03, 0.1, 0.3)
 
 
 # ---------------------------------------------------------------------------------------------- the effect
@@ -118,7 +121,7 @@ def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str
 
 
 def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
-    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.1 RMS(s)),
+    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.03, 0.1 and 0.3 RMS(s)),
     and the pairwise products of ``d, d', x, x'``. ``x`` and ``x'`` appear as ``x, x'`` symbols."""
     out: list[sp.Expr] = [sp.Integer(1)]
     for key, v in cols.items():
@@ -126,11 +129,11 @@ def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
         rms = float(np.sqrt(np.mean(v**2)))
         if not rms > 0:
             continue
-        eps = sp.Float(float(f"{0.1 * rms:.2g}"))
         out += [s, s**2, s**3]
         if key != "d_ddot":
-            sg = sp.tanh(s / eps)
-            out += [sg, s * sg, s**2 * sg]
+            for frac in EPS_FRACTIONS:  # sharp to soft switches
+                sg = sp.tanh(s / sp.Float(float(f"{frac * rms:.2g}")))
+                out += [sg, s * sg, s**2 * sg]
     keys = [k for k in ("d", "d_dot", "x", "x_dot") if k in cols]
     out += [state_symbol(a) * state_symbol(b) for i, a in enumerate(keys) for b in keys[i + 1:]]
     return out
@@ -142,6 +145,7 @@ def term_words(expr: sp.Expr) -> str:
     text = sp.sstr(expr, full_prec=False)
     for key in ("d_ddot", "d_dot", "x_dot"):
         text = text.replace(key, _WORDS[key])
+    text = re.sub(r"tanh\(([0-9.e+-]+)\*([a-z_']+)\)", lambda m: f"tanh({m[2]}/{1 / float(m[1]):.2g})", text)
     text = text.replace("**", "^").replace("*", "·")
     return text if text.startswith("-") else "+" + text
 

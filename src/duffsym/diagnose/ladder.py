@@ -67,6 +67,8 @@ class Ladder:
         for i, s in enumerate(self.steps):
             lines.append(f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
                          f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
+        lines += [f"  step {i} adds a term outside the catalogue, because no catalogued effect was needed and it passes "
+                  f"the same held-out evidence: {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
         lines.append(f"stopped: {self.stopped}")
         lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
         return "\n".join(lines)
@@ -147,7 +149,7 @@ def _discovered(record, model, dg, fixed, mask, progress, rules):
 
     disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **rules)
     if not disc.needed:
-        return None, model, None, " Discovery outside the catalogue: " + disc.summary().replace("\n", ";")
+        return None, model, None, " Outside the catalogue, " + disc.summary().replace("\n", ";")
     (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
     info = disc.to_dict()
     info["note"] = ("no catalogued effect was needed; this discovered term passes the same held-out evidence "
