@@ -8,6 +8,8 @@ The friction-like catalogue entries are withheld, as for an effect the catalogue
 """
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -86,6 +88,22 @@ def test_seal_friction_is_discovered_when_the_catalogue_lacks_it():
     names = [e for e in last.effects if e.startswith("discovered:")]
     assert names and "tanh" in names[0] and "d'" in names[0], lad.summary()
     assert last.nrmse_heldout <= 2 * floor, lad.summary()
-    step = lad.to_dict()["steps"][-1]
-    assert "d_dot" in step["term"] and "tanh" in step["latex"]
+    step = json.loads(json.dumps(lad.to_dict()))["steps"][-1]
+    assert "d_dot" in step["term"] and "tanh" in step["latex"] and "nrmse_heldout" in step
+    disc = step["discovered"]
+    assert any("piston velocity" in r for r in disc["resembles"]), disc
+    assert disc["delta_bic"] < -10 and disc["explained"] >= 0.5
+    # the fitted switch is the seal friction: its coefficient (in force units) within 10 % of F_c = 0.3
+    f_c = [v for k, v in disc["params"].items() if k.startswith("disc1_")]
+    assert any(abs(v - 0.3) < 0.03 for v in f_c), disc["params"]
     assert "discovered" in lad.stopped or "discovered" in lad.summary()
+
+
+def test_no_term_is_discovered_on_a_record_the_model_explains():
+    """No seal friction (F_c = 0): the base model fits to the noise and discovery adds nothing."""
+    from duffsym.diagnose import ladder
+
+    rec, sigma = _record(f_c=0.0, n=1000, seed=3)
+    lad = ladder(rec, candidates=["force-offset"], discover=True)
+    assert lad.effects == (), lad.summary()
+    assert not any(s.discovered for s in lad.steps)

@@ -92,7 +92,7 @@ def cmd_ladder(args) -> int:
     with _engine(args) as engine:
         lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
                      holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                     progress=_progress(args), engine=engine)
+                     progress=_progress(args), engine=engine, discover=args.discover)
     if args.out:
         lad.final_fit.save(args.out)
     from duffsym.diagnose.report import write_ladder_report
@@ -144,4 +144,6 @@ def register(sub) -> None:
                    "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
                    "held-out error)")
     s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
+    s.add_argument("--discover", action="store_true", help="when no catalogued effect is needed, try a term found by "
+                   "sparse regression of the residual (added only if it passes the same held-out evidence)")
     s.set_defaults(func=cmd_ladder)

@@ -79,13 +79,15 @@ class DiscoveredEffect(Effect):
         return sp.Add(*[c * t for c, t in zip(cs, self.terms)])
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
-        known = {c.symbol for c in model.inputs} | set(model.states)
-        needs = set().union(*(t.free_symbols for t in self.terms)) if self.terms else set()
-        extra = tuple(InputChannel("d", 2) for s in needs if s == DDD and DDD not in known)
-        missing = needs - known - {DDD}
+        # the library's x, x' are the model's mechanical states (position, velocity)
+        subs = {state_symbol(k): s for k, s in (("x", model.position), ("x_dot", model.velocity)) if s is not None}
+        expr = self.expression().xreplace(subs)
+        known = {c.symbol for c in model.inputs} | set(model.states) | {p.symbol for p in self.parameters()}
+        extra = (InputChannel("d", 2),) if DDD in expr.free_symbols and DDD not in known else ()
+        missing = expr.free_symbols - known - {DDD}
         if missing:
             raise ModelError(f"{self.name}: model {model.name} has no signal(s) {sorted(map(str, missing))}")
-        return model.extend(effect=self.name, params=self.parameters(), inputs=extra, output_add=self.expression())
+        return model.extend(effect=self.name, params=self.parameters(), inputs=extra, output_add=expr)
 
     def base_output(self, y, record, params):
         cols = _record_signals(record)

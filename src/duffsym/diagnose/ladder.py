@@ -147,7 +147,8 @@ def _discovered(record, model, dg, fixed, mask, progress, rules):
     """(discovery dict, extended model, start) when a discovered term is needed; else (None, model, None, note)."""
     from duffsym.diagnose.discover import discover_term
 
-    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **rules)
+    judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
+    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **judge)
     if not disc.needed:
         return None, model, None, " Outside the catalogue, " + disc.summary().replace("\n", ";")
     (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
