@@ -46,8 +46,9 @@ def run(test: str, per_period: int) -> dict:
     model = _model()
     dg = diagnose(rec, model, candidates=[], sindy=False)
     disc = discover_term(rec, model, dg)
+    print(disc.summary(), flush=True)
     out = dict(test=f"{test} 0 A", samples=rec.n_times, base_heldout=dg.nrmse_heldout, noise=dg.noise,
-               seconds=time.perf_counter() - t0, **{k: v for k, v in disc.to_dict().items()
+               total_seconds=time.perf_counter() - t0, **{k: v for k, v in disc.to_dict().items()
                                                    if k not in ("stderr", "selection")})
     return out
 

@@ -124,7 +124,8 @@ def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str
 
 def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
     """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.03, 0.1 and 0.3 RMS(s)),
-    and the pairwise products of ``d, d', x, x'``. ``x`` and ``x'`` appear as ``x, x'`` symbols."""
+    the pairwise products of ``d, d', x, x'``, and ``d·sign d'``, ``d·sign x'``, ``x·sign d'``, ``x·sign x'``
+    (ε = 0.1 RMS). ``x`` and ``x'`` appear as ``x, x'`` symbols (the model's states when applied)."""
     out: list[sp.Expr] = [sp.Integer(1)]
     for key, v in cols.items():
         s = state_symbol(key)
@@ -138,7 +139,16 @@ def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
                 out += [sg, s * sg, s**2 * sg]
     keys = [k for k in ("d", "d_dot", "x", "x_dot") if k in cols]
     out += [state_symbol(a) * state_symbol(b) for i, a in enumerate(keys) for b in keys[i + 1:]]
+    # a displacement times the direction of motion: a stroke-dependent force that differs between
+    # compression and extension (e.g. a plateau that changes over the stroke in one direction only)
+    for a in (k for k in ("d", "x") if k in cols):
+        for b in (k for k in ("d_dot", "x_dot") if k in cols):
+            out.append(state_symbol(a) * sp.tanh(state_symbol(b) / sp.Float(float(f"{0.1 * _rms(cols[b]):.2g}"))))
     return out
+
+
+def _rms(v: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.asarray(v) ** 2)))
 
 
 # ---------------------------------------------------------------------------------------------- words
@@ -163,7 +173,7 @@ def _kind(term: sp.Expr) -> tuple[str | None, str]:
     if not syms:
         return "1", "constant"
     if len(syms) != 1:
-        return None, "product"
+        return None, "stroke-direction" if term.has(sp.tanh) else "product"
     s = state_symbol(syms[0])
     poly = sp.Mul(*[a for a in sp.Mul.make_args(term) if not isinstance(a, sp.tanh)])
     deg = int(sp.degree(poly, s)) if poly.has(s) else 0
@@ -186,6 +196,7 @@ _RESEMBLES = {
     ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
     ("d_dot", "cube"): "a cubic damping on the piston velocity",
     ("1", "constant"): "force-offset (a constant force)",
+    (None, "stroke-direction"): "asymmetry that grows over the stroke (compression vs extension, displacement-dependent)",
 }
 
 
