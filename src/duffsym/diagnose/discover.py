@@ -342,7 +342,6 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     import time
 
     from duffsym.diagnose import search as S
-    from duffsym.identify import Problem, fit_with_effects
     from duffsym.identify.result import nrmse as _nrmse
 
     t0 = time.perf_counter()
@@ -359,7 +358,36 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     if effect is None:
         return _nothing("no term beats the base model on the validation cycles", before, selection,
                         time.perf_counter() - t0)
+    fitted = _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say)
+    if fitted is None:
+        return _nothing(f"the fit of {effect.name} failed or its free run diverged", before, selection,
+                        time.perf_counter() - t0)
+    pruned = _prune(fitted, record, model, dg, fixed, mask, max_iter, say)
+    if pruned is not None and pruned[3] <= fitted[3] + 2.0:  # fewer terms, BIC no worse (within 2)
+        fitted = pruned
+    final, fr, y_ext, bic_ext = fitted
+    own = [p.name for p in final.parameters()]
+    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
+                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
+                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
+    expr = final.expression(final.coefs)
+    return Discovery(
+        found=True, effect=final.name, term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
+        words=f"{term_words(expr)} added to the output", resembles=[r for r in map(resembles, final.terms) if r],
+        nrmse_before=before, nrmse_after=_nrmse(y[held], y_ext[held]), params={n: float(fr.params[n]) for n in own},
+        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own}, all_params=dict(fr.params), success=True,
+        message=fr.message, selection=selection, seconds=time.perf_counter() - t0, model=final.apply(model),
+        y_ext=y_ext, **_evidence(y, dg, y_ext, bic_ext, rules))
+
+
+def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
+    """``effect`` fitted on the fitting part by :func:`duffsym.identify.fit_with_effects`:
+    (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part); None on failure."""
+    from duffsym.diagnose import search as S
+    from duffsym.identify import Problem, fit_with_effects
+
     say(f"  fitting {effect.name}")
+    k = dg.split["n_fit"]
     rec_fit = S._part(record, k)
     fixed = S.with_default_af(model, fixed, rec_fit)
     ext = effect.apply(model)
@@ -369,22 +397,23 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
                           compute_stderr=True, bound_restart=False)
     y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
     if y_ext is None:
-        return _nothing(f"the fit of {effect.name} failed: {fr.message if not fr.success else 'free run failed'}",
-                        before, selection, time.perf_counter() - t0)
-    own = [p.name for p in effect.parameters()]
-    final = DiscoveredEffect(effect.terms, tuple(float(fr.params[n]) for n in own), effect.index)
-    model_out = final.apply(model)
-    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
-                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
-                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
-    ev = _evidence(y, dg, y_ext, S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext)), rules)
-    expr = final.expression(final.coefs)
-    return Discovery(
-        found=True, effect=final.name, term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
-        words=f"{term_words(expr)} added to the output", resembles=[r for r in map(resembles, final.terms) if r],
-        nrmse_before=before, nrmse_after=_nrmse(y[held], y_ext[held]), params={n: float(fr.params[n]) for n in own},
-        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own}, all_params=dict(fr.params), success=True,
-        message=fr.message, selection=selection, seconds=time.perf_counter() - t0, model=model_out, y_ext=y_ext, **ev)
+        return None
+    y = np.asarray(record.y, float)
+    bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
+    coefs = tuple(float(fr.params[p.name]) for p in effect.parameters())
+    return DiscoveredEffect(effect.terms, coefs, effect.index), fr, y_ext, bic
+
+
+def _prune(fitted, record, model, dg, fixed, mask, max_iter, say):
+    """Refit without the terms whose fitted coefficient is within 2 standard errors of 0 (None if none is)."""
+    effect, fr = fitted[0], fitted[1]
+    keep = [i for i, p in enumerate(effect.parameters())
+            if abs(fr.params[p.name]) > 2 * float(fr.stderr.get(p.name, math.inf) or math.inf)]
+    if not keep or len(keep) == len(effect.terms):
+        return None
+    smaller = DiscoveredEffect(tuple(effect.terms[i] for i in keep), tuple(effect.coefs[i] for i in keep),
+                               effect.index)
+    return _fit_effect(smaller, record, model, dg, fixed, mask, max_iter, say)
 
 
 def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:

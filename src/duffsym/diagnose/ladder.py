@@ -123,7 +123,7 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         chosen = dg.needed[0] if dg.needed else None
         if chosen is None and accept == "supported":
             chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
-        if chosen is None and discover and len(steps) <= max_steps:  # ---- discovery hook (diagnose.discover)
+        if chosen is None and discover and len(steps) <= max_steps and not dg.residuals.at_noise_level:  # discovery
             found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
             if found is not None:
                 continue
@@ -150,7 +150,7 @@ def _discovered(record, model, dg, fixed, mask, progress, rules):
     judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
     disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **judge)
     if not disc.needed:
-        return None, model, None, " Outside the catalogue, " + disc.summary().replace("\n", ";")
+        return None, model, None, " Term discovery outside the catalogue: " + disc.summary().removeprefix("discovery: ").replace("\n", ";")
     (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
     info = disc.to_dict()
     info["note"] = ("no catalogued effect was needed; this discovered term passes the same held-out evidence "
