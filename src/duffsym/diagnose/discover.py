@@ -123,7 +123,7 @@ def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str
 
 
 def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
-    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.03, 0.1 and 0.3 RMS(s)),
+    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, at ε = 0.03, 0.1, 0.3 RMS(s)),
     the pairwise products of ``d, d', x, x'``, and ``d·sign d'``, ``d·sign x'``, ``x·sign d'``, ``x·sign x'``
     (ε = 0.1 RMS). ``x`` and ``x'`` appear as ``x, x'`` symbols (the model's states when applied)."""
     out: list[sp.Expr] = [sp.Integer(1)]
@@ -196,7 +196,8 @@ _RESEMBLES = {
     ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
     ("d_dot", "cube"): "a cubic damping on the piston velocity",
     ("1", "constant"): "force-offset (a constant force)",
-    (None, "stroke-direction"): "asymmetry that grows over the stroke (compression vs extension, displacement-dependent)",
+    (None, "stroke-direction"): ("asymmetry that grows over the stroke (compression vs extension, "
+                                 "displacement-dependent)"),
 }
 
 
@@ -382,7 +383,8 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
 
 def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     """``effect`` fitted on the fitting part by :func:`duffsym.identify.fit_with_effects`:
-    (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part); None on failure."""
+    (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part);
+    None on failure."""
     from duffsym.diagnose import search as S
     from duffsym.identify import Problem, fit_with_effects
 

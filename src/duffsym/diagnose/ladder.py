@@ -67,8 +67,8 @@ class Ladder:
         for i, s in enumerate(self.steps):
             lines.append(f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
                          f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
-        lines += [f"  step {i} adds a term outside the catalogue, because no catalogued effect was needed and it passes "
-                  f"the same held-out evidence: {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
+        lines += [f"  step {i} adds a term outside the catalogue (no catalogued effect was needed; it passes the "
+                  f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
         lines.append(f"stopped: {self.stopped}")
         lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
         return "\n".join(lines)
@@ -150,7 +150,8 @@ def _discovered(record, model, dg, fixed, mask, progress, rules):
     judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
     disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **judge)
     if not disc.needed:
-        return None, model, None, " Term discovery outside the catalogue: " + disc.summary().removeprefix("discovery: ").replace("\n", ";")
+        why = disc.summary().removeprefix("discovery: ").replace("\n", ";")
+        return None, model, None, " Term discovery outside the catalogue: " + why
     (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
     info = disc.to_dict()
     info["note"] = ("no catalogued effect was needed; this discovered term passes the same held-out evidence "
