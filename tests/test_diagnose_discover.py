@@ -62,14 +62,29 @@ def test_simulator_is_accurate():
     assert np.max(np.abs(a - b)) < 1e-6 * np.max(np.abs(a))
 
 
+def test_discovered_effect_is_rebuilt_from_its_name():
+    from duffsym.effects.discovered import DiscoveredEffect, from_name
+    from duffsym.model.library import mr_damper
+    from duffsym.model.symbols import state_symbol
+
+    d, v, xd = state_symbol("d"), state_symbol("d_dot"), state_symbol("x_dot")
+    eff = DiscoveredEffect((sp.tanh(v / sp.Float(0.27)), d * xd, v**3), (0.30185, -64.32, -6.965e-5))
+    back = from_name(eff.name)
+    assert back.name == eff.name and back.terms == eff.terms
+    assert [p.name for p in back.parameters()] == [p.name for p in eff.parameters()]
+    m = back.apply(mr_damper())
+    assert m.effects == (eff.name,) and {"disc1_c1", "disc1_c2", "disc1_c3"} <= set(m.param_names)
+    assert m.output.has(m.velocity) and m.output.has(sp.tanh)
+
+
 def test_library_words_and_resemblance():
-    from duffsym.diagnose.discover import DiscoveredEffect, resembles, term_latex, term_words
+    from duffsym.effects.discovered import DiscoveredEffect, resembles, term_latex, term_words
     from duffsym.model.symbols import state_symbol
 
     v = state_symbol("d_dot")
     term = sp.tanh(v / sp.Float(0.02))
     eff = DiscoveredEffect((term,), (0.156,))
-    assert eff.name == "discovered: +0.156·tanh(50.0·d') on the output" or "tanh" in eff.name
+    assert eff.name == "discovered: +0.156·tanh(d'/0.02) on the output"
     assert "piston velocity" in resembles(term)
     assert r"\dot{d}" in term_latex(eff.expression(eff.coefs))
     assert term_words(-2.0 * state_symbol("d")) == "-2.0·d"
@@ -103,7 +118,11 @@ def test_seal_friction_is_discovered_when_the_catalogue_lacks_it(tmp_path, capsy
     assert disc["delta_bic"] < -10 and disc["explained"] >= 0.5 and disc["needed"]
     # the fitted switch is the seal friction: its coefficient (force units) within 10 % of F_c = 0.3
     assert any(abs(v - 0.3) < 0.03 for v in disc["params"].values()), disc["params"]
-    assert (tmp_path / "fit.json").is_file() and (tmp_path / "rep").is_dir()
+    assert (tmp_path / "rep").is_dir()
+    # the saved fit is read back with its discovered term (rebuilt from its name) and validates
+    assert main(["validate", str(tmp_path / "fit.json"), str(path), "--json"]) == 0
+    val = json.loads(capsys.readouterr().out)
+    assert val["nrmse"] <= 2 * sigma / float(np.std(rec.y)), val["nrmse"]
 
 
 def test_no_term_is_discovered_on_a_record_the_model_explains():

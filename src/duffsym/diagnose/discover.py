@@ -20,22 +20,18 @@ which the library spans.
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.base import Effect
+from duffsym.effects.discovered import (DiscoveredEffect, _evaluate, _record_signals, resembles, term_latex,
+                                        term_words)
 from duffsym.errors import DataError, ModelError
-from duffsym.model.core import InputChannel, SymbolicModel
-from duffsym.model.symbols import ParamSpec, state_symbol
+from duffsym.model.core import SymbolicModel
+from duffsym.model.symbols import state_symbol
 
-D, DD, DDD = state_symbol("d"), state_symbol("d_dot"), state_symbol("d_ddot")
-#: how the signals are printed in words and in LaTeX
-_WORDS = {"d": "d", "d_dot": "d'", "d_ddot": "d''", "x": "x", "x_dot": "x'"}
-_TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot": r"\dot{x}"}
 #: the fewest terms whose validation error is within this factor of the best is chosen
 PARSIMONY = 1.05
 MAX_TERMS = 3
@@ -44,75 +40,6 @@ MAX_TERMS = 3
 TRIES = 3
 #: ε of the smooth signs and absolute values, as fractions of the signal's RMS
 EPS_FRACTIONS = (0.03, 0.1, 0.3)
-
-
-# ---------------------------------------------------------------------------------------------- the effect
-@dataclass(frozen=True)
-class DiscoveredEffect(Effect):
-    """``y += Σ c_i·term_i``: terms found by :func:`discover_term`, coefficients ``disc{index}_c{i}``.
-
-    Acts on the output (the measured force), like the catalogue's output effects; the terms are
-    functions of the model's states and the piston motion. ``coefs`` are the starting values (from
-    the regression, or the fitted values when rebuilt with them) and appear in the name.
-    """
-
-    terms: tuple = ()
-    coefs: tuple = ()
-    index: int = 1
-    name: str = field(default="", init=False)
-    prefix: str = field(default="", init=False)
-    physics: str = field(default="", init=False)
-    form: str = field(default="", init=False)
-
-    def __post_init__(self):
-        object.__setattr__(self, "prefix", f"disc{self.index}_")
-        object.__setattr__(self, "name", "discovered: " + term_words(self.expression(self.coefs)) + " on the output")
-        object.__setattr__(self, "physics", "; ".join(resembles(t) or describe(t) for t in self.terms))
-        object.__setattr__(self, "form", "y += " + str(self.expression()))
-
-    def parameters(self) -> tuple[ParamSpec, ...]:
-        return tuple(ParamSpec(f"{self.prefix}c{i + 1}", f"c_{{d{self.index},{i + 1}}}", float(c), -1e9, 1e9,
-                               unit="output unit / term unit", scale=max(abs(float(c)), 1e-6),
-                               description=f"coefficient of {term_words(t)} (discovered)")
-                     for i, (t, c) in enumerate(zip(self.terms, self.coefs)))
-
-    def expression(self, values=None) -> sp.Expr:
-        """``Σ c_i·term_i`` with the parameter symbols, or with ``values`` (numbers) in their place."""
-        cs = [p.symbol for p in self.parameters()] if values is None else [sp.Float(v, 4) for v in values]
-        return sp.Add(*[c * t for c, t in zip(cs, self.terms)])
-
-    def _extend(self, model: SymbolicModel) -> SymbolicModel:
-        # the library's x, x' are the model's mechanical states (position, velocity)
-        subs = {state_symbol(k): s for k, s in (("x", model.position), ("x_dot", model.velocity)) if s is not None}
-        expr = self.expression().xreplace(subs)
-        known = {c.symbol for c in model.inputs} | set(model.states) | {p.symbol for p in self.parameters()}
-        extra = (InputChannel("d", 2),) if DDD in expr.free_symbols and DDD not in known else ()
-        missing = expr.free_symbols - known - {DDD}
-        if missing:
-            raise ModelError(f"{self.name}: model {model.name} has no signal(s) {sorted(map(str, missing))}")
-        return model.extend(effect=self.name, params=self.parameters(), inputs=extra, output_add=expr)
-
-    def base_output(self, y, record, params):
-        cols = _record_signals(record)
-        if any(str(s) not in cols for t in self.terms for s in t.free_symbols):
-            return y  # a term on the model's states: not known before the fit
-        out = np.asarray(y, dtype=float).copy()
-        for p, t in zip(self.parameters(), self.terms):
-            out -= params[p.name] * _evaluate(t, cols)
-        return out
-
-
-# ---------------------------------------------------------------------------------------------- library
-def _record_signals(record) -> dict[str, np.ndarray]:
-    return {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float),
-            "d_ddot": np.asarray(record.acceleration(), float)}
-
-
-def _evaluate(term: sp.Expr, cols: Mapping[str, np.ndarray]) -> np.ndarray:
-    syms = sorted(term.free_symbols, key=str)
-    f = sp.lambdify(syms, term, "numpy")
-    n = len(next(iter(cols.values())))
-    return np.broadcast_to(np.asarray(f(*[cols[str(s)] for s in syms]), float), (n,)).copy()
 
 
 def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str, np.ndarray]:
@@ -152,69 +79,6 @@ def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
 
 def _rms(v: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.asarray(v) ** 2)))
-
-
-# ---------------------------------------------------------------------------------------------- words
-def term_words(expr: sp.Expr) -> str:
-    """``+0.156·tanh(d'/0.02) - 3.1·d`` — a SymPy expression printed with primes and a middle dot."""
-    text = sp.sstr(expr, full_prec=False)
-    for key in ("d_ddot", "d_dot", "x_dot"):
-        text = text.replace(key, _WORDS[key])
-    text = re.sub(r"tanh\(([0-9.e+-]+)\*([a-z_']+)\)", lambda m: f"tanh({m[2]}/{1 / float(m[1]):.2g})", text)
-    text = text.replace("**", "^").replace("*", "·")
-    return text if text.startswith("-") else "+" + text
-
-
-def term_latex(expr: sp.Expr) -> str:
-    return sp.latex(expr, symbol_names={state_symbol(k): v for k, v in _TEX.items()})
-
-
-def _kind(term: sp.Expr) -> tuple[str | None, str]:
-    """(signal key, shape) of a library term; shape: constant, linear, square, cube, sign (tanh(s/ε)),
-    abs (s·tanh(s/ε)), sabs (s²·tanh(s/ε)) or product."""
-    syms = sorted(map(str, term.free_symbols))
-    if not syms:
-        return "1", "constant"
-    if len(syms) != 1:
-        return None, "stroke-direction" if term.has(sp.tanh) else "product"
-    s = state_symbol(syms[0])
-    poly = sp.Mul(*[a for a in sp.Mul.make_args(term) if not isinstance(a, sp.tanh)])
-    deg = int(sp.degree(poly, s)) if poly.has(s) else 0
-    if term.has(sp.tanh):
-        return syms[0], {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
-    return syms[0], {1: "linear", 2: "square", 3: "cube"}.get(deg, "power")
-
-
-_RESEMBLES = {
-    ("d_dot", "sign"): "friction on the piston velocity (seal friction F_c·sign d'; the catalogue's "
-                       "coulomb-friction acts on the internal velocity x' instead)",
-    ("x_dot", "sign"): "coulomb-friction (dry friction on the internal velocity x')",
-    ("x_dot", "abs"): "asymmetry (force level differs between compression and extension)",
-    ("d_dot", "abs"): "asymmetry (an even-in-velocity force: compression vs extension)",
-    ("d", "linear"): "gas-accumulator (stiffness on the piston displacement)",
-    ("d_ddot", "linear"): "inertia (force proportional to the piston acceleration)",
-    ("d_dot", "linear"): "viscous damping on the piston velocity (the model's c1 term)",
-    ("d_dot", "sabs"): "quadratic (orifice) damping on the piston velocity, d'|d'|",
-    ("x_dot", "cube"): "cubic-damping (here on the output rather than in the state equation)",
-    ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
-    ("d_dot", "cube"): "a cubic damping on the piston velocity",
-    ("1", "constant"): "force-offset (a constant force)",
-    (None, "stroke-direction"): ("asymmetry that grows over the stroke (compression vs extension, "
-                                 "displacement-dependent)"),
-}
-
-
-def resembles(term: sp.Expr) -> str:
-    """The catalogue effect (or known physics) a term resembles, '' if none."""
-    return _RESEMBLES.get(_kind(term), "")
-
-
-def describe(term: sp.Expr) -> str:
-    key, shape = _kind(term)
-    if key is None:
-        return f"a product term {term_words(term).lstrip('+')}"
-    return f"{shape} term in {_WORDS.get(key, key)}"
-
 
 # ---------------------------------------------------------------------------------------------- selection
 def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int = MAX_TERMS):

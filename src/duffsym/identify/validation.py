@@ -57,10 +57,15 @@ def model_from_result(result: IdentificationResult):
     if result.effects:
         from duffsym.effects import CATALOGUE, apply_effects
 
-        missing = [e for e in result.effects if e not in CATALOGUE]
+        from duffsym.effects.discovered import PREFIX, from_name
+
+        missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith(PREFIX)]
         if missing:
             raise ModelError(f"the fit uses effect(s) {missing} unknown to this duffsym; known: {sorted(CATALOGUE)}")
-        model = apply_effects(model, [CATALOGUE[e] for e in result.effects])
+        n_disc = 0
+        for e in result.effects:  # a discovered term (duffsym ladder --discover) is rebuilt from its name
+            n_disc += e.startswith(PREFIX)
+            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else CATALOGUE[e]])
     return model
 
 
