@@ -23,6 +23,9 @@ quadratic-stiffness x'' += -quad_k x^2 (polynomial.py)                          
 cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         cdamp_c
 input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
 =================  ===========================================================  ===============
+
+Outside the catalogue: ``discovered: ...`` terms (:class:`duffsym.effects.discovered.DiscoveredEffect`,
+found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --discover``).
 """
 from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
