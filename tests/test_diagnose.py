@@ -135,6 +135,7 @@ def test_cli_ladder_saves_a_fit_that_validate_reads(offset_csv, capsys, tmp_path
     (["--candidates", "viscous-heating"], "unknown effect"),
     (["--holdout", "0.95"], "holdout must be between"),
     (["--mask", "/nonexistent/mask.txt"], "no such file"),
+    (["--decimate", "0"], "--decimate must be"),
 ])
 def test_cli_diagnose_bad_options_exit_2_with_one_line(offset_csv, capsys, argv, message):
     code = main(["diagnose", str(offset_csv), "--quiet", *argv])

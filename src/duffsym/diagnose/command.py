@@ -25,6 +25,7 @@ def _common(args):
         if screen < 1:
             raise CLIError(f"--screen must be a positive integer or 'all'; got {args.screen!r}")
     args.screen_n = None if args.screen == "all" else int(args.screen)
+    args.decimate_opt = _decimate_option(args.decimate)
     return record, cands, mask, fixed
 
 
@@ -37,6 +38,21 @@ def _engine(args):
     from duffsym.engine import Engine
 
     return Engine(args.workers, scheduler=args.scheduler)
+
+
+def _decimate_option(text: str):
+    """``--decimate auto|off|Q`` -> True, False or the largest factor allowed."""
+    from duffsym._cli_common import CLIError
+
+    if text in ("auto", "off"):
+        return text == "auto"
+    try:
+        q = int(text)
+    except ValueError:
+        q = 0
+    if q < 1:
+        raise CLIError(f"--decimate must be 'auto', 'off' or a positive integer (the largest factor); got {text!r}")
+    return q
 
 
 def _progress(args):
@@ -62,6 +78,7 @@ def cmd_diagnose(args) -> int:
     with _engine(args) as engine:
         dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
                       noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                      decimate=args.decimate_opt,
                       progress=_progress(args), engine=engine)
     from duffsym.diagnose.report import write_diagnosis_report
 
@@ -92,6 +109,7 @@ def cmd_ladder(args) -> int:
     with _engine(args) as engine:
         lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
                      holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
+                     decimate=args.decimate_opt,
                      progress=_progress(args), engine=engine, discover=args.discover)
     if args.out:
         lad.final_fit.save(args.out)
@@ -118,6 +136,8 @@ def _shared(s) -> None:
                    "(default: estimated from the measurement)")
     s.add_argument("--screen", default="4", help="candidates not converged within the screening budget that continue to the full "
                    "budget (the best by free-run error; default 4), or 'all'")
+    s.add_argument("--decimate", default="auto", help="fit on the record decimated where its spectrum allows "
+                   "(auto, default; the factor is reported), 'off', or the largest factor allowed")
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
     s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")

@@ -51,6 +51,7 @@ class Ladder:
     final_fit: object
     stopped: str
     timings: dict = field(default_factory=dict)
+    prepare: object = None  # the decimation of the final fit's data (duffsym.diagnose.prepare.Preparation)
 
     @property
     def effects(self) -> tuple[str, ...]:
@@ -60,7 +61,7 @@ class Ladder:
         return dict(steps=[s.to_dict() for s in self.steps], effects=list(self.effects), stopped=self.stopped,
                     final=dict(params=self.final_fit.params, stderr=self.final_fit.stderr, nrmse=self.final_fit.nrmse,
                                success=self.final_fit.success, status=self.final_fit.status),
-                    timings=self.timings)
+                    timings=self.timings, prepare=self.prepare.to_dict() if self.prepare is not None else None)
 
     def summary(self) -> str:
         lines = ["ladder (free-run NRMSE over the whole record / held-out tail, BIC on the fitting part):"]
@@ -71,6 +72,8 @@ class Ladder:
                   f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
         lines.append(f"stopped: {self.stopped}")
         lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
+        if self.prepare is not None:
+            lines.append("final " + self.prepare.summary())
         return "\n".join(lines)
 
 
@@ -139,8 +142,12 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         start = dict(best.all_params)
     say("final fit on the whole record")
     last = steps[-1]
-    final = _fit(model, record, with_default_af(model, fixed, record), last.params)
-    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0})
+    from duffsym.diagnose.prepare import prepare_record
+
+    prep, rec_final = prepare_record(record, rules.get("decimate", True))
+    final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params)
+    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0},
+                  prepare=prep)
 
 
 def _discovered(record, model, dg, fixed, mask, progress, rules):

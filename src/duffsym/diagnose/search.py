@@ -127,6 +127,7 @@ class Diagnosis:
     sindy: dict | None = None
     noise_method: str = "given"
     base_check: dict = field(default_factory=dict)
+    prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
 
     @property
     def best(self) -> Candidate | None:
@@ -140,6 +141,7 @@ class Diagnosis:
             noise=self.noise, bic_base=self.bic_base, split=self.split, findings=self.residuals.findings(),
             residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
             sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
+            prepare=self.prepare.to_dict() if self.prepare is not None else None,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
@@ -158,6 +160,8 @@ class Diagnosis:
                          f"{flag:<7} {pv}" + ("" if c.success else f"  [{_why_not(c.message)}]") + mark)
         if self.sindy is not None:
             lines.append(f"SINDy cross-check: {self.sindy.get('verdict')}: {self.sindy.get('message', '')}")
+        if self.prepare is not None:
+            lines.append(self.prepare.summary())
         lines.append(f"verdict: {self.verdict}")
         return "\n".join(lines)
 
@@ -313,6 +317,7 @@ def diagnose(
     candidate_cpu_time: float | None = CANDIDATE_CPU_TIME,
     screen: int | None = SCREEN,
     sindy: bool = True,
+    decimate: bool | int = True,
     progress=None,
     engine=None,
     second_start: bool = True,
@@ -349,6 +354,10 @@ def diagnose(
         with the base fit: an independent, data-driven view of which terms the data support. Its
         supported missing terms are quoted in the verdict as corroboration (or contradiction) of
         the ranking; they never decide it, and an inconclusive check is reported as such.
+    decimate : fit on the fitting part decimated where its spectrum allows (True, default; see
+        :mod:`duffsym.diagnose.prepare`), at most by this factor (an int), or not at all (False or 1). The
+        evidence (free runs, held-out errors, ΔBIC, residuals) is always computed at the record's rate;
+        the factor and why are in ``prepare``.
     progress : a callable taking a message string (e.g. ``print``), a
         :class:`duffsym._progress.Progress` (counts and time left), or None.
     engine : a started :class:`~duffsym.engine.Engine` to fit the candidates on its workers (the same
@@ -387,11 +396,14 @@ def diagnose(
         floor_noise = not has_noise_floor(y, record.dt)
     fixed = with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
+    prep, rec_fit, mask_fit = _prepare_fit(record, rec_fit, mask_fit, decimate)
+    q = prep.factor
 
-    say(f"base fit of {model.name} on {k} of {record.n_times} samples")
+    say(f"base fit of {model.name} on {k} of {record.n_times} samples" + (f" (decimated by {q})" if q > 1 else ""))
     if start is None and fit_result is not None:
         start = dict(fit_result.params)
-    base, y_base, base_check = _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say)
+    base, y_base, base_check = _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=k,
+                                         rec_plain=_prepare_fit(record, record, mask, decimate)[1:] if q > 1 else None)
     r_base = y - y_base
     mse_held = float(np.mean(r_base[held] ** 2))
     ss_fit = float(np.sum(r_base[:k] ** 2))
@@ -401,7 +413,7 @@ def diagnose(
 
     y_cands = {}
     runs = _candidate_runs(names, model, rec_fit, record, base, y_base[:k], fixed, mask_fit, candidate_max_iter,
-                           candidate_cpu_time, screen, say, second_start, engine)
+                           candidate_cpu_time, screen, say, second_start, engine, q=q)
     failed = [r for r in runs if isinstance(r, Candidate)]
     runs = [r for r in runs if not isinstance(r, Candidate)]
     if floor_noise:
@@ -459,7 +471,7 @@ def diagnose(
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
         y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
-        y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check,
+        y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
     )
 
 
@@ -467,17 +479,19 @@ def _within_range(y_run, y) -> bool:
     return y_run is not None and float(np.max(np.abs(y_run))) <= DIVERGED * float(np.max(np.abs(y)))
 
 
-def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say):
+def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None):
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
     plain fit of the whole record (or ``fit_result``) is the reference. When the reference's free
     run is better on the fitting part, the base is refitted from the reference's parameters and the
     better of the two kept. ``base_check`` reports both errors, which start won, and whether the
-    base is as good as the reference (within 5 %); the verdict says so when it is not.
+    base is as good as the reference (within 5 %); the verdict says so when it is not. ``k``: the
+    fitting part's length at the record's rate (default ``rec_fit``'s, when not decimated);
+    ``rec_plain``: (record, mask) of the plain fit (default ``record``, ``mask``; a decimated copy).
     """
     y = np.asarray(record.y, dtype=float)
-    k = rec_fit.n_times
+    k = rec_fit.n_times if k is None else k
     base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True)
     y_base = _free_run(model, base.params, record, base.x0[0]) if base.success else None
     y_base = y_base if _within_range(y_base, y) else None
@@ -485,7 +499,9 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
         plain, plain_src = fit_result, "the given fit"
     else:
         say("  reference: a plain fit of the whole record")
-        plain, plain_src = _fit(model, record, fixed, start, mask=mask, bound_restart=True), "a plain fit of the record"
+        rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
+        plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True)
+        plain_src = "a plain fit of the record"
     x0p = plain.x0[0] if plain.x0 and len(plain.x0[0]) == model.n_states else None
     y_plain = _free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
     y_plain = y_plain if _within_range(y_plain, y) else None
@@ -514,7 +530,7 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
 
 
 def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, candidate_max_iter,
-                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None) -> list:
+                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None, q: int = 1) -> list:
     """Each candidate fitted (with screening, see :func:`diagnose`; a second start, see ``second_start``;
     on ``engine``'s workers when given): rows ``[ss, name, effect, ext, fit, y_ext, seconds]`` (``y_ext``
     None when the free run diverged; ``fit`` None when screened out, with the reason in place of
@@ -522,11 +538,11 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
     from duffsym.effects import CATALOGUE, apply_effects
 
     y = np.asarray(record.y, dtype=float)
-    k = rec_fit.n_times
+    k = len(y_model_fit)  # the fitting part at the record's rate; rec_fit may be decimated by q
     ss_base = float(np.sum((y[:k] - np.asarray(y_model_fit)) ** 2))
     out: list = []
     budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
-    job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit), fixed, mask_fit,
+    job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit)[::q], fixed, mask_fit,
                         candidate_cpu_time)
     tasks = []
     for name in names:
@@ -609,6 +625,17 @@ def _mark_stability(cands: list[Candidate], exts: Mapping) -> list[Candidate]:
             c = replace(c, stable=stable, stability=why, needed=c.needed and stable is not False)
         out.append(c)
     return out
+
+
+def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate):
+    """(preparation, fitting data, their mask): ``rec_fit`` decimated on its own (no held-out sample
+    enters its anti-aliasing filter) by the factor chosen from the whole record's spectrum."""
+    from duffsym.diagnose.prepare import choose_decimation, decimate_mask, decimate_record
+
+    cap = 1 if decimate is False else (None if decimate is True else int(decimate))
+    prep = choose_decimation(record, n_fit=rec_fit.n_times, max_factor=cap)
+    rec = decimate_record(rec_fit, prep.factor)
+    return prep, rec, decimate_mask(mask_fit, prep.factor, rec.n_times)
 
 
 def _rank(cands: list[Candidate]) -> list[Candidate]:
