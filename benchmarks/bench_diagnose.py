@@ -44,7 +44,6 @@ import os
 import platform
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -298,11 +297,23 @@ def print_matrix(summary: dict, source: str = "scenarios") -> None:
               f"({summary['n_undetectable']} records where the base model already fits to the noise)")
 
 
+class _Job:
+    """One (hidden effect, seed) record through ``runner``: picklable, for the engine's workers."""
+
+    def __init__(self, runner, screen):
+        self.runner, self.screen = runner, screen
+
+    def __call__(self, job):
+        hidden, seed = job
+        return self.runner(hidden, seed, self.screen)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--first-seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--scheduler", default=None, help="address of a running Dask scheduler (overrides --workers)")
     ap.add_argument("--screen", default="4", help="candidates continued after the screening budget, or 'all'")
     ap.add_argument("--only", help="comma-separated scenarios (effects, clean, drift)")
     ap.add_argument("--source", choices=("independent", "scenarios"), default="independent",
@@ -355,16 +366,16 @@ def main(argv=None) -> int:
             print(f"{r['hidden']:>22} seed {r['seed']:2d}: called {r['needed'] or '-'} top {r['top1']} "
                   f"({r['seconds']:.0f} s)", flush=True)
 
-    if args.workers > 1:
-        with ProcessPoolExecutor(args.workers) as pool:
-            futures = {pool.submit(runner, h, s, screen): (h, s) for h, s in jobs}
-            for f in futures:
-                rows.append(f.result())
-                report(rows[-1])
-                save()
-    else:
-        for h, s in jobs:
-            rows.append(runner(h, s, screen))
+    # the package's engine (dask.distributed LocalCluster with --workers N >= 2, or a running cluster
+    # with --scheduler); serial in this process otherwise
+    from duffsym.engine import Engine
+
+    workers = args.workers if args.workers > 1 else None
+    with Engine(workers, scheduler=args.scheduler) as engine:
+        for outcome in engine.as_completed(_Job(runner, screen), jobs):
+            if not outcome.ok:
+                raise outcome.error
+            rows.append(outcome.value)
             report(rows[-1])
             save()
     summary = save()
