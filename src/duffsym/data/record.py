@@ -44,6 +44,22 @@ def _as_vector(name: str, values, where: str) -> np.ndarray:
     return arr
 
 
+#: Signals must lie within these magnitudes: squares and sums of squares of larger (smaller) values
+#: overflow (underflow) double precision somewhere in the fit.
+MAGNITUDE_RANGE = (1e-100, 1e100)
+
+
+def _check_magnitude(name: str, a: np.ndarray, where: str) -> None:
+    peak = float(np.max(np.abs(a))) if a.size else 0.0
+    lo, hi = MAGNITUDE_RANGE
+    if peak > hi:
+        raise DataError(f"{where}: signal {name} is too large (max |{name}| = {peak:.3g} > {hi:g}); rescale it "
+                        "(e.g. change its units)")
+    if 0.0 < peak < lo:
+        raise DataError(f"{where}: signal {name} is too small (max |{name}| = {peak:.3g} < {lo:g}); rescale it "
+                        "(e.g. change its units)")
+
+
 def zero_crossings(d: np.ndarray) -> np.ndarray:
     """Indices ``i`` where ``d - mean(d)`` changes sign between samples ``i`` and ``i + 1``.
 
@@ -264,6 +280,9 @@ class Record:
         require_increasing(arrays["t"], f"{where}: time")
         arrays["t"], sampling = _sampling(arrays["t"], self.metadata.get("sampling"))
         object.__setattr__(self, "metadata", {**dict(self.metadata), "sampling": sampling})
+        for k in ("d", "y", "d_dot"):
+            if k in arrays:
+                _check_magnitude(k, arrays[k], where)
         for k in ("d", "y"):
             if np.ptp(arrays[k]) == 0:
                 raise DataError(

@@ -186,6 +186,10 @@ class Problem:
                 raise ModelError(f"fixed value of {k} must be a number; got {v!r}") from None
             if not math.isfinite(v):
                 raise ModelError(f"fixed value of {k} must be finite; got {v}")
+            lower = model.param(k).lower
+            if lower >= 0 and v < lower:  # a sign the model needs (A_f > 0, c1 > 0, c3 >= 0, ...)
+                raise ModelError(f"fixed value of {k} = {v:g} is below its lower bound {lower:g} (the model needs "
+                                 f"{k} {'> 0' if lower > 0 else '>= 0'}); give a value >= {lower:g}")
             fixed_vals[k] = v
         defaults: dict[str, str] = {}
         requested = set(free or ()) | set(fixed_vals)
