@@ -255,3 +255,33 @@ def test_memory_estimate_matches_a_measured_fit():
     assert estimate_fit_memory(get_model("mr-damper"), [R()]) == pytest.approx(669e6, rel=0.25)
     R.n_times = 1_000_000
     assert estimate_fit_memory(get_model("mr-damper"), [R()]) > 20e9
+
+
+def test_interrupted_sample_keeps_the_chain_so_far(record_csv, tmp_path, capsys, monkeypatch):
+    """Ctrl-C during `sample --chains`: exit 130, one line, and NAME.partial.npz holds the steps that ran
+    (an interrupted sample used to keep nothing)."""
+    import duffsym.uncertainty.sampler as sampler
+    from duffsym.uncertainty import load_partial_chain
+
+    fit_json = tmp_path / "fit.json"
+    assert main(["fit", str(record_csv), "--out", str(fit_json), "--quiet"]) == 0
+    real = sampler._Vectorized.__call__
+    calls = {"n": 0}
+
+    def interrupt_later(self, *a, **k):
+        calls["n"] += 1
+        if calls["n"] == 25:
+            raise KeyboardInterrupt
+        return real(self, *a, **k)
+
+    monkeypatch.setattr(sampler._Vectorized, "__call__", interrupt_later)
+    capsys.readouterr()
+    chains = tmp_path / "chains.npz"
+    code = main(["sample", str(record_csv), "--fit", str(fit_json), "--walkers", "16", "--steps", "400",
+                 "--chains", str(chains), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 130 and "Traceback" not in err and "chains.partial.npz" in err
+    assert not chains.exists()
+    kept = load_partial_chain(tmp_path / "chains.partial.npz")
+    assert 5 <= kept["steps_done"] < 25 and kept["chain"].shape[:2] == (kept["steps_done"], 16)
+    assert kept["steps_planned"] == 400 and np.all(np.isfinite(kept["chain"]))

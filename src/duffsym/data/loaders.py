@@ -222,7 +222,8 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
     rec = Record(
         t=sig["time"], d=sig["input"], y=sig["output"], d_dot=sig.get("velocity"),
         current=scalars.get("current"), voltage=scalars.get("voltage"), units=unit_map,
-        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv"},
+        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv",
+                  **({"sampling": {"keep_stamps": True}} if sampling == "as-given" else {})},
         source=str(path), nan_policy=nan_policy,
     )
     return _apply_sampling(rec, sampling, path)
@@ -316,9 +317,6 @@ def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
     """``rec`` as the ``sampling`` policy of :func:`read_csv` wants it (see there)."""
     info = dict(rec.metadata["sampling"])
     if info["uniform"] or policy == "as-given":
-        if not info["uniform"]:
-            info["rule"] = "as given (non-uniform, --sampling as-given): " + info["rule"]
-            return rec.replace(metadata={**rec.metadata, "sampling": info})
         return rec
     t = np.asarray(rec.t)
     steps = np.diff(t)

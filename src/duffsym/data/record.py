@@ -193,6 +193,13 @@ def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.
 def _sampling(t: np.ndarray, previous: Mapping[str, Any] | None) -> tuple[np.ndarray, dict[str, Any]]:
     """The record's time base and its ``sampling`` metadata (:func:`rebuild_rounded_grid`); a grid
     rebuilt earlier (``previous``) keeps its rule when a slice or copy of it is validated again."""
+    if previous and previous.get("keep_stamps"):  # read_csv(..., sampling="as-given"): never rebuild
+        steps = np.diff(t)
+        dt = float(np.median(steps))
+        uniform = bool(np.all(np.abs(steps - dt) <= UNIFORM_RTOL * dt))
+        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": uniform, "rebuilt": False, "keep_stamps": True,
+                   "rule": "as given (sampling='as-given'): " + ("uniform" if uniform else
+                           f"non-uniform, steps from {steps.min():.6g} to {steps.max():.6g} s")}
     t, info = rebuild_rounded_grid(t)
     try:
         same = (bool(previous["uniform"]) == info["uniform"] and not info["rebuilt"]

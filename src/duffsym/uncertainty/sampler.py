@@ -456,6 +456,9 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     move_label = "de+snooker" if moves is None else ("stretch" if moves == "stretch" else str(moves))
     moves = default_moves() if moves is None else (None if moves == "stretch" else moves)
     sampler = emcee.EnsembleSampler(int(n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg, moves=moves)
+    if not getattr(sampler.log_prob_fn, "args", ()) and not getattr(sampler.log_prob_fn, "kwargs", {}):
+        # emcee's wrapper prints a traceback for any exception, Ctrl-C included; our function needs no wrapper
+        sampler.log_prob_fn = getattr(sampler.log_prob_fn, "f", sampler.log_prob_fn)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31 - 1))).get_state()
     import numba
 
