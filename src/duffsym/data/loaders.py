@@ -243,7 +243,8 @@ def _read_table(path: Path, columns, delimiter: str) -> tuple[list[str], dict[st
 
 def _read_header(path: Path, reader, columns) -> tuple[list[str], dict[str, int]]:
     header = next(reader, None)
-    header = [h.strip().strip('"').strip() for h in (header or [])]
+    # a byte-order mark is read as one by utf-8-sig; a second one (files joined together) is stripped too
+    header = [h.replace("\ufeff", "").strip().strip('"').strip() for h in (header or [])]
     while header and header[-1] == "":  # trailing delimiter, as in the Silverbox files
         header.pop()
     if not header:
