@@ -206,3 +206,13 @@ def test_record_metadata_reports_sampling():
     t, d, y = _sine()
     s = Record(t=t, d=d, y=y).metadata["sampling"]
     assert s["uniform"] and not s["rebuilt"] and s["rate_hz"] == pytest.approx(200.0)
+
+
+@pytest.mark.parametrize("value", ["\u0661\u0662", "1_000", "\uff11"])
+def test_numbers_python_would_take_but_a_csv_should_not(tmp_path, value):
+    """float() reads '١٢' as 12, '1_000' as 1000 and a full-width '１' as 1: in a data file they are typos
+    or foreign formats, not numbers (found by the fuzz corpus)."""
+    rows = _body()
+    rows[9] = rows[9].split(",")[0] + f",{value}," + rows[9].split(",")[2]
+    with pytest.raises(DataError, match="row 11, column 'displacement': cannot read"):
+        read_csv(_csv(tmp_path, HEADER + "\n" + "\n".join(rows)))

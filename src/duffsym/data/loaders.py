@@ -76,6 +76,7 @@ def external_data_dir() -> Path:
 #: Most data rows a CSV record may hold (a fit of 10^6 samples already needs gigabytes).
 MAX_ROWS = 5_000_000
 SAMPLING_POLICIES = ("strict", "resample", "as-given")
+_NUMBER = re.compile(r"^[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|(?i:nan|inf|infinity))$", re.ASCII)
 _DECIMAL_COMMA = re.compile(r"^[-+]?\d+,\d+$")
 
 
@@ -298,6 +299,8 @@ def _read_rows(path: Path, reader, header: list[str], index: dict[str, int]) -> 
                 vals.append(math.nan)
                 continue
             try:
+                if not _NUMBER.match(f):  # float() also takes "1_000" and non-ASCII digits ("١٢" = 12)
+                    raise ValueError
                 vals.append(float(f))
             except ValueError:
                 hint = "a decimal comma: use '.' as the decimal point" if _DECIMAL_COMMA.match(f) else (

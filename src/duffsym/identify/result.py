@@ -189,7 +189,7 @@ class IdentificationResult:
         free = tuple(r.strings("free", default=list(stderr)))
         cov = r.matrix("covariance", len(free))
         nrmse = r.number("nrmse", allow_none=True)
-        r2_default = 1 - nrmse**2 if math.isfinite(nrmse) else None
+        r2_default = 1 - nrmse**2 if math.isfinite(nrmse) and abs(nrmse) < 1e150 else None
         return cls(
             model=r.string("model"), params=params, free=free, fixed=r.numbers("fixed", default={}),
             stderr=stderr, covariance=cov, cost=r.number("cost", default=None, allow_none=True),
