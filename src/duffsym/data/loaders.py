@@ -362,7 +362,10 @@ def write_csv(record: Record, path) -> Path:
     if record.voltage is not None:
         cols["voltage"] = np.full(record.n_times, record.voltage)
     mat = np.column_stack(list(cols.values()))
-    np.savetxt(path, mat, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    from duffsym._io import atomic_write
+
+    with atomic_write(path) as fh:
+        np.savetxt(fh, mat, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
     return path
 
 
