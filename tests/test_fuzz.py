@@ -190,7 +190,7 @@ def _stub_fit(monkeypatch):
        add=st.sampled_from([None, "backlash", "nope", "backlash,backlash", ""]))
 def test_fit_options(fix, af, n, mask, add, record_csv, tmp_path, capsys, monkeypatch):
     _stub_fit(monkeypatch)
-    n_rows = 801
+    n_rows = 401
     masks = {"file01": "\n".join(str(i % 2) for i in range(n_rows)), "file2": "\n".join("2" for _ in range(n_rows)),
              "fileshort": "1\n0\n"}
     argv = ["fit", str(record_csv), "--quiet", "--af", af, "--n", n]
