@@ -10,6 +10,10 @@ When the velocity is absent it is derived from ``d`` by a Savitzky–Golay deriv
 FIR filter: zero lag, and an amplitude bias that is measured in the tests, below 1e-4 at
 2 Hz with dt = 0.005 s and the default window). It needs uniform sampling, which is checked there
 and not in the constructor.
+
+Time stamps printed with rounding (a 3004.8 Hz grid stamped to 0.1 ms steps by 0.0003 or 0.0004 s)
+are recognised in the constructor and replaced by the uniform grid they round
+(:func:`rebuild_rounded_grid`); ``metadata["sampling"]`` says what was done (rate, rule).
 """
 from __future__ import annotations
 
