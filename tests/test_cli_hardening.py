@@ -285,3 +285,16 @@ def test_interrupted_sample_keeps_the_chain_so_far(record_csv, tmp_path, capsys,
     kept = load_partial_chain(tmp_path / "chains.partial.npz")
     assert 5 <= kept["steps_done"] < 25 and kept["chain"].shape[:2] == (kept["steps_done"], 16)
     assert kept["steps_planned"] == 400 and np.all(np.isfinite(kept["chain"]))
+
+
+def test_sample_with_a_chain_too_short_for_tau_reports_not_converged(record_csv, tmp_path, capsys):
+    """`sample --steps 3`: tau cannot be estimated; this used to end in "cannot convert float NaN to integer"
+    (found by the fuzz corpus), now it reports an unconverged chain."""
+    fit_json = tmp_path / "fit.json"
+    assert main(["fit", str(record_csv), "--out", str(fit_json), "--quiet"]) == 0
+    capsys.readouterr()
+    code, out, err = run(["sample", str(record_csv), "--fit", str(fit_json), "--steps", "3", "--walkers", "16",
+                          "--quiet", "--json"], capsys)
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["converged"] is False and d["n_steps"] == 3 and d["burn"] == 1

@@ -478,7 +478,8 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     log_prob = sampler.get_log_prob()
     tau_full = autocorr_time(zchain)
     if burn is None:
-        burn = int(min(n_steps // 3, math.ceil(3 * float(np.max(tau_full)))))
+        tau_max = float(np.max(tau_full)) if np.all(np.isfinite(tau_full)) else math.inf  # too short to estimate
+        burn = int(min(n_steps // 3, math.ceil(3 * tau_max))) if math.isfinite(tau_max) else n_steps // 3
     if not 0 <= burn < n_steps - 1:
         raise ModelError(f"burn must be in [0, {n_steps - 1}); got {burn}")
     thin = 1 if thin is None else int(thin)
