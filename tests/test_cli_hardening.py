@@ -298,3 +298,11 @@ def test_sample_with_a_chain_too_short_for_tau_reports_not_converged(record_csv,
     assert code == 0, err
     d = json.loads(out)
     assert d["converged"] is False and d["n_steps"] == 3 and d["burn"] == 1
+
+
+def test_random_excitation_without_lines_is_a_one_line_error(tmp_path, capsys):
+    """--f-max below 1/duration left the random excitation without a line: ZeroDivisionError (found by
+    tests/test_fuzz.py)."""
+    code, _, err = run(["simulate", "--excitation", "random", "--duration", "1", "--f-max", "0.5",
+                        "--out", str(tmp_path / "s.csv")], capsys)
+    one_line_error(code, err, "below the lowest line")
