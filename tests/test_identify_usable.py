@@ -63,7 +63,9 @@ def test_force_equal_to_displacement_fails_with_exit_1(tmp_path, capsys):
     assert "V positive definite" in flags["outside-stability-certificate"]["failed"]
     assert "saddle" in flags["outside-stability-certificate"]["message"]
     assert sum(line.startswith("duffsym fit: note:") for line in err.splitlines()) == 1
-    assert json.loads((tmp_path / "fit.json").read_text())["success"] is False
+    # a failed fit never replaces --out: it is written beside it as NAME.failed.json
+    assert not (tmp_path / "fit.json").exists()
+    assert json.loads((tmp_path / "fit.failed.json").read_text())["success"] is False
 
 
 def test_af_zero_is_not_a_usable_model(tmp_path):

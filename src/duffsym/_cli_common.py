@@ -66,7 +66,44 @@ def _read_record(args, path):
     from duffsym.data import read_csv
 
     return read_csv(path, columns=_parse_mapping(args.columns, "--columns") or None,
-                    units=_parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy)
+                    units=_parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy,
+                    sampling=getattr(args, "sampling", "strict"))
+
+
+def _check_outputs(args, inputs, options=("out", "plot")) -> None:
+    """Before any work: each output option names a writable file that is none of the inputs."""
+    from duffsym._io import check_output_path
+
+    for opt in options:
+        value = getattr(args, opt, None)
+        if value:
+            check_output_path(value, inputs=[i for i in inputs if i], option=f"--{opt.replace('_', '-')}")
+
+
+def _failed_path(path) -> Path:
+    """Where a failed fit is written instead of ``--out``: ``NAME.failed.json`` beside it."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}.failed{path.suffix or '.json'}")
+
+
+def _save_fit(result, out: str, command: str) -> None:
+    """Write a fit to ``--out``; a failed fit goes to ``NAME.failed.json`` and never replaces ``--out``."""
+    if result.success:
+        result.save(out)
+        return
+    failed = _failed_path(out)
+    result.save(failed)
+    _err(f"duffsym {command}: {out} left unchanged; the failed fit is in {failed}")
+
+
+def _require_success(result, args) -> None:
+    """Refuse a fit marked ``success: false`` unless ``--force``."""
+    if result.success:
+        return
+    if not getattr(args, "force", False):
+        raise CLIError(f"{args.fit} is a failed fit (status {result.status!r}: {str(result.message)[:120]}); refit, "
+                       "or pass --force to use it anyway")
+    _err(f"warning: using the failed fit {args.fit} (--force): {result.status}")
 
 
 def _fit_model(args):
@@ -97,11 +134,18 @@ def _mask_from_args(spec: str | None, record):
     mask_path = Path(spec)
     if not mask_path.is_file():
         raise CLIError(f"--mask {spec}: no such file; give none, auto or a file of 0/1 per sample")
+    from duffsym._io import check_input_file
+
+    check_input_file(mask_path, what="mask file", limit=512 * 1024**2)
     try:
-        mask = np.loadtxt(mask_path, dtype=float).astype(bool).reshape(-1)
+        values = np.loadtxt(mask_path, dtype=float, ndmin=1).reshape(-1)
     except ValueError as exc:
-        raise CLIError(f"--mask {spec}: not a column of 0/1 values ({exc})") from None
-    return mask, {"rule": f"user mask from {spec}"}
+        raise CLIError(f"--mask {spec}: not a column of 0/1 values ({str(exc)[:80]})") from None
+    bad = np.flatnonzero((values != 0) & (values != 1))
+    if bad.size:
+        raise CLIError(f"--mask {spec}: value {values[bad[0]]:g} at sample {bad[0]} ({bad.size} value(s) not 0 or 1); "
+                       "give 1 to leave a sample out of the objective and 0 to keep it")
+    return values.astype(bool), {"rule": f"user mask from {spec}"}
 
 
 def _add_model_arguments(s: argparse.ArgumentParser) -> None:
@@ -115,3 +159,7 @@ def _add_file_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--units", help="record units, e.g. input=mm,output=N")
     s.add_argument("--nan-policy", choices=("raise", "omit"), default="raise",
                    help="samples with NaN/inf: raise an error (default) or omit them (with a warning)")
+    s.add_argument("--sampling", choices=("strict", "resample", "as-given"), default="strict",
+                   help="a time column that is not uniform: strict (default: a uniform grid printed with rounding is "
+                   "rebuilt and reported, anything else is an error), resample (interpolate onto a uniform grid at "
+                   "the median step) or as-given (use the stamps as they are)")

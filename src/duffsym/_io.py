@@ -1,28 +1,55 @@
-"""Atomic file output: write to a temporary file beside the destination, then rename it over it.
+"""Safe file output and bounded file input, shared by every writer and reader of duffsym.
 
-A reader, a crash or an interrupt never sees a half-written file: the destination holds the old
-content or the new one. (A small helper for ``duffsym batch``; the names match the shared
-``atomic_write``/``write_json_atomic`` helpers so that either can serve.)
+Writers go through :func:`atomic_write` (or its helpers :func:`write_text_atomic`,
+:func:`write_json_atomic`): the content is written to a temporary file in the destination's
+folder, flushed to disk and renamed over the destination, so a reader (or an interrupt, or a
+failed write) never sees a half-written file: the destination holds the old content or the new,
+never a mix.
+
+Readers that accept user paths check them first with :func:`check_input_file`: a FIFO, a
+character device (``/dev/urandom``, ``/dev/zero``) or a file above the size limit is refused with
+one line instead of hanging or exhausting the memory. (``duffsym batch`` and the campaign writers
+use the same helpers.)
 """
 from __future__ import annotations
 
 import contextlib
 import json
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import IO, Iterator
 
-#: Prefix/suffix of the temporary files (a crash by SIGKILL can leave one behind; they are never results).
+from duffsym.errors import DataError
+
+#: Suffix of the temporary files (a crash by SIGKILL can leave one behind; they are never results).
 TMP_SUFFIX = ".tmp"
+#: Largest input file read by default (bytes); ``DUFFSYM_MAX_INPUT_BYTES`` overrides it.
+MAX_INPUT_BYTES = 2 * 1024**3
+
+
+def max_input_bytes() -> int:
+    """The input size limit in bytes (``$DUFFSYM_MAX_INPUT_BYTES`` or :data:`MAX_INPUT_BYTES`)."""
+    env = os.environ.get("DUFFSYM_MAX_INPUT_BYTES")
+    try:
+        return int(env) if env else MAX_INPUT_BYTES
+    except ValueError:
+        return MAX_INPUT_BYTES
 
 
 @contextlib.contextmanager
-def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newline: str | None = None) -> Iterator[IO]:
-    """Open a temporary file beside ``path``; on success flush it to disk and rename it over ``path``.
+def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newline: str | None = None
+                 ) -> Iterator[IO]:
+    """Open a temporary file beside ``path`` for writing; on success rename it over ``path``.
 
-    On any exception (KeyboardInterrupt included) the temporary file is removed and ``path`` is
+    On any exception (including KeyboardInterrupt) the temporary file is removed and ``path`` is
     left as it was. The parent folder is created if missing.
+
+    Parameters
+    ----------
+    path : the destination.
+    mode : ``"w"`` (text) or ``"wb"`` (binary).
     """
     path = Path(path)
     if mode not in ("w", "wb"):
@@ -35,7 +62,7 @@ def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newli
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
+        _keep_mode(path, tmp)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -43,17 +70,27 @@ def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newli
         raise
 
 
+def _keep_mode(path: Path, tmp: str) -> None:
+    """Give the temporary file the permissions a plain ``open(path, "w")`` would have given."""
+    try:
+        os.chmod(tmp, stat.S_IMODE(os.stat(path).st_mode))
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+
+
 @contextlib.contextmanager
 def atomic_path(path) -> Iterator[Path]:
-    """A temporary path beside ``path`` (same suffix) for writers that want a file name (``savefig``);
-    renamed over ``path`` on success, removed on failure."""
+    """A temporary path beside ``path`` (same suffix) for writers that want a file name (``savefig``,
+    ``np.savez``); renamed over ``path`` on success, removed on failure."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f"{TMP_SUFFIX}{path.suffix}")
     os.close(fd)
     try:
         yield Path(tmp)
-        os.chmod(tmp, 0o644)
+        _keep_mode(path, tmp)
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -69,6 +106,87 @@ def write_text_atomic(path, text: str) -> Path:
 
 
 def write_json_atomic(path, obj, **kwargs) -> Path:
-    """Write ``obj`` as JSON (indent 2, no NaN) to ``path`` atomically; a serialisation error leaves ``path`` untouched."""
+    """Write ``obj`` as JSON (indent 2, no NaN) to ``path`` atomically; serialisation errors leave ``path`` untouched."""
     text = json.dumps(obj, indent=kwargs.pop("indent", 2), allow_nan=kwargs.pop("allow_nan", False), **kwargs)
     return write_text_atomic(path, text)
+
+
+def check_input_file(path, *, what: str = "data file", limit: int | None = None) -> int:
+    """Raise a one-line :class:`DataError` unless ``path`` is a regular file of at most ``limit`` bytes.
+
+    FIFOs, sockets and devices (``/dev/zero``, ``/dev/urandom``, ``<(cat file)``) cannot be sized
+    and would hang or fill the memory; they are refused with a note to copy the data to a file.
+
+    Returns
+    -------
+    int
+        The file size in bytes.
+    """
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file; check the path") from None
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read the {what} ({exc.strerror or exc}); check the path") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise DataError(f"{path}: is a folder, not a {what}; give a file")
+    if not stat.S_ISREG(st.st_mode):
+        kind = "a pipe (FIFO)" if stat.S_ISFIFO(st.st_mode) else (
+            "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file")
+        raise DataError(f"{path}: is {kind}, which cannot be sized; save the {what} to a regular file first")
+    limit = max_input_bytes() if limit is None else limit
+    if st.st_size > limit:
+        raise DataError(f"{path}: {st.st_size / 1e6:.1f} MB is more than the {limit / 1e6:.0f} MB limit for a "
+                        f"{what}; split the record or raise DUFFSYM_MAX_INPUT_BYTES")
+    return int(st.st_size)
+
+
+def same_file(a, b) -> bool:
+    """Whether paths ``a`` and ``b`` name the same existing file (or the same path once resolved)."""
+    a, b = Path(a), Path(b)
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return a.resolve() == b.resolve()
+
+
+def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
+    """Check before the work that ``path`` can be written and is none of ``inputs``.
+
+    Raises a one-line :class:`DataError` if ``path`` is an input, an existing folder, or its folder
+    cannot be created or written to. The folder is created if missing.
+    """
+    path = Path(path)
+    for src in inputs:
+        if src is not None and same_file(path, src):
+            raise DataError(f"{option} {path} is also an input ({src}); writing it would destroy the input: choose "
+                            "another output path")
+    if path.is_dir():
+        raise DataError(f"{option} {path} is a folder; give a file name")
+    parent = path.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataError(f"{option} {path}: cannot create the folder {parent} ({exc.strerror or exc}); choose "
+                        "another output path") from None
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise DataError(f"{option} {path}: the folder {parent} is not writable; choose another output path")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise DataError(f"{option} {path}: the file exists and is not writable; choose another output path")
+    return path
+
+
+def check_output_dir(folder, *, option: str = "--report") -> Path:
+    """Check before the work that ``folder`` is (or can be made) a writable folder."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise DataError(f"{option} {folder} is a file, not a folder; give a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataError(f"{option} {folder}: cannot create the folder ({exc.strerror or exc}); choose another "
+                        "folder") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise DataError(f"{option} {folder}: the folder is not writable; choose another folder")
+    return folder

@@ -79,6 +79,16 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         _err("interrupted")
         return 130
+    except RecursionError:
+        if args.debug:
+            raise
+        _err(f"duffsym {args.command}: error: input nested too deeply to process; check the input files")
+        return EXIT_ERROR
+    except MemoryError:
+        if args.debug:
+            raise
+        _err(f"duffsym {args.command}: error: out of memory; use a shorter or decimated record")
+        return EXIT_ERROR
     except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
         if args.debug:
             raise

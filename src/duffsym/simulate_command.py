@@ -3,13 +3,13 @@ from __future__ import annotations
 
 import math
 import sys
-from pathlib import Path
 
 from duffsym._cli_common import (
     CLIError,
     _add_model_arguments,
     _emit_json,
     _err,
+    _check_outputs,
     _parse_assignments,
 )
 
@@ -33,6 +33,34 @@ def _simulation_columns(model):
     return inputs, output
 
 
+#: Most samples ``duffsym simulate`` writes (``--dt 1e-9`` used to fill the memory).
+MAX_SIMULATE_SAMPLES = 10_000_000
+
+
+def _check_excitation_options(args) -> None:
+    """One-line errors for excitation options that cannot make a signal."""
+    for opt in ("amplitude", "frequency", "f_max", "duration"):
+        v = getattr(args, opt)
+        if not math.isfinite(v) or (opt != "amplitude" and v <= 0):
+            raise CLIError(f"--{opt.replace('_', '-')} must be a {'finite' if opt == 'amplitude' else 'positive'} "
+                           f"number; got {v}")
+    if args.periods is not None and not (math.isfinite(args.periods) and args.periods > 0):
+        raise CLIError(f"--periods must be a positive number; got {args.periods}")
+    if args.excitation == "multisine":
+        if not 1 <= args.lines <= 100_000:
+            raise CLIError(f"--lines must be between 1 and 100000; got {args.lines}")
+        if args.f_max < args.frequency:
+            raise CLIError(f"--f-max ({args.f_max:g} Hz) must be at least --frequency ({args.frequency:g} Hz), the "
+                           "lowest line of the multisine")
+    if args.substeps != "auto":
+        try:
+            sub = int(args.substeps)
+        except ValueError:
+            raise CLIError(f"--substeps must be 'auto' or a positive integer; got {args.substeps!r}") from None
+        if not 1 <= sub <= 100_000:
+            raise CLIError(f"--substeps must be between 1 and 100000; got {sub}")
+
+
 def cmd_simulate(args) -> int:
     import numpy as np
 
@@ -52,10 +80,16 @@ def cmd_simulate(args) -> int:
     pvec = model.param_vector(params, fill_defaults=True)
     if args.dt <= 0 or not math.isfinite(args.dt):
         raise CLIError(f"--dt must be a positive number of seconds; got {args.dt}")
+    _check_excitation_options(args)
+    _check_outputs(args, [])
     duration = args.duration if args.periods is None else args.periods / args.frequency
     if duration <= 0 or not math.isfinite(duration):
         raise CLIError(f"the duration must be positive; got {duration}")
-    t = np.arange(int(round(duration / args.dt)) + 1) * args.dt
+    n_samples = duration / args.dt
+    if n_samples > MAX_SIMULATE_SAMPLES:
+        raise CLIError(f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
+                       f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration")
+    t = np.arange(int(round(n_samples)) + 1) * args.dt
     exc = _excitation(args, next(iter(model.signals)))
     traj = simulate(model, pvec, t, exc, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
     in_cols, out_col = _simulation_columns(model)
@@ -63,10 +97,11 @@ def cmd_simulate(args) -> int:
     data = np.column_stack([traj.t, traj.u, traj.y])
     written = []
     if args.out:
-        out = Path(args.out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        np.savetxt(out, data, delimiter=",", header=",".join(header), comments="", fmt="%.10g")
-        written.append(str(out))
+        from duffsym._io import atomic_write
+
+        with atomic_write(args.out) as fh:  # an interrupt leaves the old file (or none), never a truncated one
+            np.savetxt(fh, data, delimiter=",", header=",".join(header), comments="", fmt="%.10g")
+        written.append(str(args.out))
     if args.plot:
         from duffsym.plot.loops import plot_loops, save_figure
 

@@ -6,11 +6,13 @@ second process pays neither code generation nor compilation.
 """
 from __future__ import annotations
 
-import importlib.util
+import contextlib
 import os
+import stat
 import sys
 import tempfile
 import threading
+import warnings
 from functools import lru_cache
 from pathlib import Path
 from types import ModuleType
@@ -50,20 +52,54 @@ def _power_by_squaring(base: str, e: int) -> str:
 
 
 def cache_dir() -> Path:
-    """Directory of generated code: ``$DUFFSYM_CACHE`` or ``~/.cache/duffsym`` (a temp dir if unwritable)."""
+    """Directory of generated code: ``$DUFFSYM_CACHE``, else ``~/.cache/duffsym``, else a per-user
+    ``$TMPDIR/duffsym-cache-<uid>``.
+
+    A directory is used only if the current user owns it and no one else can write to it (nor to
+    its ``__pycache__``, where numba keeps its pickled machine code): code loaded from a folder
+    another user can write to is code that user chose. A candidate that fails is skipped with a
+    warning saying why; no probe file is written (a fixed-name probe raced between processes).
+    """
     base = os.environ.get("DUFFSYM_CACHE")
-    candidates = [Path(base)] if base else []
-    candidates += [Path.home() / ".cache" / "duffsym", Path(tempfile.gettempdir()) / "duffsym-cache"]
+    candidates = [Path(base).expanduser()] if base else []
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    candidates += [Path.home() / ".cache" / "duffsym",
+                   Path(tempfile.gettempdir()) / (f"duffsym-cache-{uid}" if uid is not None else "duffsym-cache")]
+    problems = []
     for c in candidates:
-        try:
-            c.mkdir(parents=True, exist_ok=True)
-            probe = c / ".write-test"
-            probe.write_text("ok")
-            probe.unlink()
+        why = _unsafe_reason(c)
+        if why is None:
             return c
-        except OSError:
-            continue
-    raise OSError("no writable cache directory for generated code; set DUFFSYM_CACHE to a writable folder")
+        problems.append(f"{c}: {why}")
+        if base and c == candidates[0]:
+            warnings.warn(f"DUFFSYM_CACHE={base} is not used for generated code ({why}); using a private "
+                          "cache instead", UserWarning, stacklevel=2)
+    raise OSError("no safe cache directory for generated code (" + "; ".join(problems) + "); set DUFFSYM_CACHE "
+                  "to a folder you own that no one else can write to")
+
+
+def _unsafe_reason(folder: Path) -> str | None:
+    """Why ``folder`` cannot hold generated code (None if it can), creating it private (0700) if missing."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True, mode=0o700)
+    except OSError as exc:
+        return f"cannot create it ({exc.strerror or exc})"
+    for d in (folder, folder / "__pycache__"):
+        try:
+            st = os.stat(d)
+        except FileNotFoundError:
+            continue  # no __pycache__ yet: numba creates it inside the checked folder
+        except OSError as exc:
+            return f"cannot inspect {d} ({exc.strerror or exc})"
+        if not stat.S_ISDIR(st.st_mode):
+            return f"{d} is not a folder"
+        if hasattr(os, "getuid") and st.st_uid != os.getuid():
+            return f"{d} belongs to another user (uid {st.st_uid})"
+        if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+            return f"{d} can be written by other users (mode {stat.S_IMODE(st.st_mode):o})"
+    if not os.access(folder, os.W_OK | os.X_OK):
+        return "not writable"
+    return None
 
 
 def _assign_block(lhs: list[str], exprs: list[sp.Expr], printer: _Printer, indent: str = "    ") -> list[str]:
@@ -178,19 +214,42 @@ def compiled_module(model: SymbolicModel) -> ModuleType:
 
 
 def load_generated(key: str, source: str) -> ModuleType:
-    """Write ``source`` to ``<cache>/<key>.py`` (unless it is there already) and import it as ``key``."""
-    path = cache_dir() / f"{key}.py"
+    """Write ``source`` to ``<cache>/<key>.py`` (unless it is there already) and import it as ``key``.
+
+    The module is compiled from ``source`` itself, the text this process generated and checked:
+    neither the file (which could change after the comparison) nor a bytecode file beside it
+    (``__pycache__/*.pyc``, which Python's importer would trust) is ever executed. The file exists
+    so that numba can key its on-disk machine-code cache to it.
+    """
     with _lock:
-        if not path.exists() or path.read_text() != source:
-            # atomic replace, so that concurrent processes never import a half-written file
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "w") as fh:
-                fh.write(source)
-            os.replace(tmp, path)
         if key in sys.modules:
             return sys.modules[key]
-        spec = importlib.util.spec_from_file_location(key, path)
-        module = importlib.util.module_from_spec(spec)
+        path = cache_dir() / f"{key}.py"
+        if not path.is_file() or path.is_symlink() or _read(path) != source:
+            # atomic replace, so that concurrent processes never see a half-written file
+            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key}.", suffix=".tmp")
+            try:
+                with os.fdopen(fd, "w") as fh:
+                    fh.write(source)
+                os.replace(tmp, path)
+            except BaseException:
+                with contextlib.suppress(OSError):
+                    os.unlink(tmp)
+                raise
+        module = ModuleType(key)
+        module.__file__ = str(path)
+        code = compile(source, str(path), "exec", dont_inherit=True)
         sys.modules[key] = module
-        spec.loader.exec_module(module)
+        try:
+            exec(code, module.__dict__)
+        except BaseException:
+            sys.modules.pop(key, None)
+            raise
     return module
+
+
+def _read(path: Path) -> str | None:
+    try:
+        return path.read_text()
+    except (OSError, UnicodeDecodeError):
+        return None

@@ -73,22 +73,40 @@ def external_data_dir() -> Path:
 
 
 # ---------------------------------------------------------------------------- CSV
+#: Most data rows a CSV record may hold (a fit of 10^6 samples already needs gigabytes).
+MAX_ROWS = 5_000_000
+SAMPLING_POLICIES = ("strict", "resample", "as-given")
+_NUMBER = re.compile(r"^[-+]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|(?i:nan|inf|infinity))$", re.ASCII)
+_DECIMAL_COMMA = re.compile(r"^[-+]?\d+,\d+$")
+
+
+def _show(text, limit: int = 60) -> str:
+    """``repr`` of ``text`` cut to about ``limit`` characters (a 5 MB "line" is never echoed whole)."""
+    text = str(text)
+    return repr(text) if len(text) <= limit else repr(text[:limit]) + f"... ({len(text)} characters)"
+
+
 def _check_file(path: Path) -> bytes:
-    if not path.exists():
-        raise DataError(f"{path}: no such file; check the path")
-    if path.is_dir():
-        raise DataError(f"{path}: is a folder, not a data file; give a CSV file")
-    head = path.read_bytes()[:8192]
+    """The first 8 kB of ``path``, after checking it is a regular, sized, non-empty UTF-8 text file."""
+    from duffsym._io import check_input_file
+
+    check_input_file(path)
+    with path.open("rb") as fh:
+        head = fh.read(8192)
+    if head.startswith(b"\xef\xbb\xbf"):
+        head = head[3:]
     if not head.strip():
         raise DataError(f"{path}: the file is empty; give a CSV with a header row and one row per sample")
     if b"\x00" in head:
-        raise DataError(f"{path}: looks like a binary file (NUL bytes); give a text CSV with a header row")
+        hint = " (UTF-16 text? save it as UTF-8)" if head[:2] in (b"\xff\xfe", b"\xfe\xff") else ""
+        raise DataError(f"{path}: looks like a binary file (NUL bytes){hint}; give a text CSV with a header row")
     try:
         head.decode("utf-8")
     except UnicodeDecodeError as exc:
         # a multi-byte character cut at the 8 kB boundary is fine; anything earlier is not text
         if exc.start < len(head) - 4:
-            raise DataError(f"{path}: not UTF-8 text (byte {exc.start}); give a text CSV with a header row")
+            line = head[:exc.start].count(b"\n") + 1
+            raise DataError(f"{path}: row {line}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
     return head
 
 
@@ -139,12 +157,12 @@ def _resolve_columns(path: Path, header: list[str], columns: Mapping[str, str] |
 
 
 def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None, *,
-             nan_policy: str = "raise", delimiter: str | None = None) -> Record:
+             nan_policy: str = "raise", delimiter: str | None = None, sampling: str = "strict") -> Record:
     """Read a record from a CSV file with a header row (the format of ``docs/contract.md``).
 
     Parameters
     ----------
-    path : the CSV file.
+    path : the CSV file (UTF-8, with or without a byte-order mark).
     columns : role -> file column name, e.g. ``{"time": "t", "input": "V1", "output": "V2"}``.
         Roles: ``time``, ``input`` (synonym ``displacement``), ``output`` (synonym ``force``),
         ``velocity``, ``current``, ``voltage``. Unmapped roles use the default file columns
@@ -153,69 +171,35 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
     units : role -> unit text, stored in the record (``{"input": "mm", "output": "N"}``).
     nan_policy : ``"raise"`` or ``"omit"``; empty fields count as NaN.
     delimiter : field separator; sniffed from the header (``,`` ``;`` tab) when None.
+    sampling : what to do with a time column that is not uniform: ``"strict"`` (default) accepts
+        uniform steps and a uniform grid printed with rounding (rebuilt, see
+        :func:`~duffsym.data.record.rebuild_rounded_grid`) and rejects anything else;
+        ``"resample"`` interpolates every signal linearly onto a uniform grid at the median step;
+        ``"as-given"`` keeps the stamps as they are. The record's ``metadata["sampling"]`` says
+        what was done.
 
     Raises
     ------
     DataError
-        One line naming the file and the problem: empty file, header only, binary file, missing
-        column, unparsable value (with its row and column), ragged row, or any :class:`Record`
+        One line naming the file and the problem: empty file, header only, binary or non-UTF-8
+        file, missing, empty or duplicate column name, unparsable value or decimal comma (with its
+        row and column), ragged row, non-uniform time, too many rows, or any :class:`Record`
         validation failure.
     """
     path = Path(path)
+    if sampling not in SAMPLING_POLICIES:
+        raise DataError(f"sampling must be one of {set(SAMPLING_POLICIES)}; got {sampling!r}")
     head = _check_file(path)
     if delimiter is None:
         first = head.decode("utf-8", errors="replace").splitlines()[0]
         delimiter = max([",", ";", "\t"], key=first.count) if any(c in first for c in ",;\t") else ","
-    with path.open("r", encoding="utf-8", errors="replace", newline="") as fh:
-        reader = csv.reader(fh, delimiter=delimiter)
-        header = next(reader, None)
-        header = [h.strip().strip('"').strip() for h in (header or [])]
-        while header and header[-1] == "":  # trailing delimiter, as in the Silverbox files
-            header.pop()
-        if not header:
-            raise DataError(f"{path}: the file is empty; give a CSV with a header row and one row per sample")
-        numeric_header = True
-        for h in header:
-            try:
-                float(h)
-            except ValueError:
-                numeric_header = False
-        if numeric_header:
-            raise DataError(
-                f"{path}: the first row {header} is numeric, not a header; add a header row naming the columns "
-                "(time,displacement,force)"
-            )
-        index = _resolve_columns(path, header, columns)
-        roles = list(index)
-        cols = [index[r] for r in roles]
-        need = max(cols) + 1
-        data: list[list[float]] = []
-        for row in reader:
-            line = reader.line_num
-            if not row or all(not f.strip() for f in row):
-                continue
-            if len(row) < need:
-                raise DataError(
-                    f"{path}: row {line} has {len(row)} field(s), column {header[max(cols)]!r} needs {need}; "
-                    "fix the row or remove it"
-                )
-            vals = []
-            for r, c in zip(roles, cols):
-                f = row[c].strip().strip('"')
-                if f == "":
-                    vals.append(math.nan)
-                    continue
-                try:
-                    vals.append(float(f))
-                except ValueError:
-                    raise DataError(
-                        f"{path}: row {line}, column {header[c]!r}: cannot read {f[:40]!r} as a number; "
-                        "fix the value (use '.' as decimal point) or remove the row"
-                    ) from None
-            data.append(vals)
-    if not data:
-        raise DataError(f"{path}: the file has a header but no data rows; add one row per sample")
+    try:
+        header, index, data = _read_table(path, columns, delimiter)
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start} of a row); save the file as "
+                        "UTF-8") from None
     arr = np.array(data, dtype=float)
+    roles = list(index)
     sig = {r: arr[:, i] for i, r in enumerate(roles)}
     scalars = {}
     for r in ("current", "voltage"):
@@ -236,12 +220,134 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
         if role is None:
             raise DataError(f"unknown role {key!r} in units; use one of {{{', '.join(sorted(set(ROLE_KEYS)))}}}")
         unit_map[_FIELD[role]] = str(u)
-    return Record(
+    rec = Record(
         t=sig["time"], d=sig["input"], y=sig["output"], d_dot=sig.get("velocity"),
         current=scalars.get("current"), voltage=scalars.get("voltage"), units=unit_map,
-        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv"},
+        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv",
+                  **({"sampling": {"keep_stamps": True}} if sampling == "as-given" else {})},
         source=str(path), nan_policy=nan_policy,
     )
+    return _apply_sampling(rec, sampling, path)
+
+
+def _read_table(path: Path, columns, delimiter: str) -> tuple[list[str], dict[str, int], list[list[float]]]:
+    """Header, role -> column index and the numeric rows of the CSV, checked field by field."""
+    with path.open("r", encoding="utf-8-sig", errors="strict", newline="") as fh:
+        reader = csv.reader(fh, delimiter=delimiter)
+        try:
+            header, index = _read_header(path, reader, columns)
+            return header, index, _read_rows(path, reader, header, index)
+        except csv.Error as exc:
+            raise DataError(f"{path}: row {max(reader.line_num, 1)}: not a readable CSV row ({_show(exc, 80)}); fix the "
+                            "row (an unclosed quote, a NUL byte, a field longer than 128 kB)") from None
+
+
+def _read_header(path: Path, reader, columns) -> tuple[list[str], dict[str, int]]:
+    header = next(reader, None)
+    # a byte-order mark is read as one by utf-8-sig; a second one (files joined together) is stripped too
+    header = [h.replace("\ufeff", "").strip().strip('"').strip() for h in (header or [])]
+    while header and header[-1] == "":  # trailing delimiter, as in the Silverbox files
+        header.pop()
+    if not header:
+        raise DataError(f"{path}: the file is empty; give a CSV with a header row and one row per sample")
+    numeric_header = True
+    for h in header:
+        try:
+            float(h)
+        except ValueError:
+            numeric_header = False
+    if numeric_header:
+        raise DataError(
+            f"{path}: the first row {_show(header, 80)} is numeric, not a header; add a header row naming the "
+            "columns (time,displacement,force)"
+        )
+    for j, h in enumerate(header):
+        if h == "":
+            raise DataError(f"{path}: row 1, column {j + 1}: the header has an empty column name; name every column")
+    seen: dict[str, int] = {}
+    for j, h in enumerate(header):
+        if h.lower() in seen:
+            raise DataError(f"{path}: row 1, columns {seen[h.lower()] + 1} and {j + 1}: duplicate column name "
+                            f"{_show(h)}; give every column its own name")
+        seen[h.lower()] = j
+    return header, _resolve_columns(path, header, columns)
+
+
+def _read_rows(path: Path, reader, header: list[str], index: dict[str, int]) -> list[list[float]]:
+    cols = list(index.values())
+    width = len(header)
+    data: list[list[float]] = []
+    for row in reader:
+        line = reader.line_num
+        if not row or all(not f.strip() for f in row):
+            continue
+        if len(row) == width + 1 and row[-1].strip() == "":
+            row = row[:-1]  # trailing delimiter
+        if len(row) != width:
+            hint = ""
+            if len(row) > width and any(_DECIMAL_COMMA.match(f"{a.strip()},{b.strip()}")
+                                        for a, b in zip(row, row[1:])):
+                hint = " (a decimal comma? use '.' as the decimal point)"
+            raise DataError(
+                f"{path}: row {line} has {len(row)} field(s) but the header has {width}{hint}; fix the row or "
+                "remove it"
+            )
+        vals = []
+        for c in cols:
+            f = row[c].strip().strip('"').strip()
+            if f == "":
+                vals.append(math.nan)
+                continue
+            try:
+                if not _NUMBER.match(f):  # float() also takes "1_000" and non-ASCII digits ("١٢" = 12)
+                    raise ValueError
+                vals.append(float(f))
+            except ValueError:
+                hint = "a decimal comma: use '.' as the decimal point" if _DECIMAL_COMMA.match(f) else (
+                    "fix the value (use '.' as decimal point) or remove the row")
+                raise DataError(
+                    f"{path}: row {line}, column {header[c]!r}: cannot read {_show(f, 40)} as a number; {hint}"
+                ) from None
+        data.append(vals)
+        if len(data) > MAX_ROWS:
+            raise DataError(f"{path}: more than {MAX_ROWS} data rows; split or decimate the record (a fit of "
+                            "that many samples does not fit in memory)")
+    if not data:
+        raise DataError(f"{path}: the file has a header but no data rows; add one row per sample")
+    return data
+
+
+def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
+    """``rec`` as the ``sampling`` policy of :func:`read_csv` wants it (see there)."""
+    info = dict(rec.metadata["sampling"])
+    if info["uniform"] or policy == "as-given":
+        return rec
+    t = np.asarray(rec.t)
+    steps = np.diff(t)
+    dt = float(np.median(steps))
+    whole = np.round(steps / dt)
+    if policy == "strict" and np.all(np.abs(steps - whole * dt) <= 1e-6 * dt):
+        # a uniform grid with missing samples (omitted NaN rows, dropped frames): the stamps are exact
+        info["rule"] = (f"uniform grid at {dt:.9g} s ({1.0 / dt:.8g} Hz) with {int(np.sum(whole - 1))} missing "
+                        f"sample(s) in {int(np.sum(whole > 1))} gap(s), kept as given")
+        return rec.replace(metadata={**rec.metadata, "sampling": info})
+    if policy == "strict":
+        raise DataError(
+            f"{path}: the time column is not uniformly sampled ({info['rule']}); resample it (--sampling resample: "
+            "linear interpolation onto a uniform grid at the median step) or use the stamps as they are "
+            "(--sampling as-given)"
+        )
+    n = int(math.floor((t[-1] - t[0]) / dt * (1 + 1e-12))) + 1
+    grid = t[0] + np.arange(n) * dt
+
+    def on(x):
+        return None if x is None else np.interp(grid, t, np.asarray(x))
+
+    info = {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": True, "resampled": True,
+            "rule": f"resampled (--sampling resample): {info['rule']}; signals interpolated linearly onto "
+                    f"t = {t[0]:.9g} + k * {dt:.9g} s ({1.0 / dt:.8g} Hz), {n} samples"}
+    return rec.replace(t=grid, d=on(rec.d), y=on(rec.y), d_dot=on(rec.d_dot),
+                       metadata={**rec.metadata, "sampling": info})
 
 
 def write_csv(record: Record, path) -> Path:
@@ -256,7 +362,10 @@ def write_csv(record: Record, path) -> Path:
     if record.voltage is not None:
         cols["voltage"] = np.full(record.n_times, record.voltage)
     mat = np.column_stack(list(cols.values()))
-    np.savetxt(path, mat, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    from duffsym._io import atomic_write
+
+    with atomic_write(path) as fh:
+        np.savetxt(fh, mat, delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
     return path
 
 

@@ -10,6 +10,10 @@ When the velocity is absent it is derived from ``d`` by a Savitzky–Golay deriv
 FIR filter: zero lag, and an amplitude bias that is measured in the tests, below 1e-4 at
 2 Hz with dt = 0.005 s and the default window). It needs uniform sampling, which is checked there
 and not in the constructor.
+
+Time stamps printed with rounding (a 3004.8 Hz grid stamped to 0.1 ms steps by 0.0003 or 0.0004 s)
+are recognised in the constructor and replaced by the uniform grid they round
+(:func:`rebuild_rounded_grid`); ``metadata["sampling"]`` says what was done (rate, rule).
 """
 from __future__ import annotations
 
@@ -44,6 +48,22 @@ def _as_vector(name: str, values, where: str) -> np.ndarray:
     return arr
 
 
+#: Signals must lie within these magnitudes: squares and sums of squares of larger (smaller) values
+#: overflow (underflow) double precision somewhere in the fit.
+MAGNITUDE_RANGE = (1e-100, 1e100)
+
+
+def _check_magnitude(name: str, a: np.ndarray, where: str) -> None:
+    peak = float(np.max(np.abs(a))) if a.size else 0.0
+    lo, hi = MAGNITUDE_RANGE
+    if peak > hi:
+        raise DataError(f"{where}: signal {name} is too large (max |{name}| = {peak:.3g} > {hi:g}); rescale it "
+                        "(e.g. change its units)")
+    if 0.0 < peak < lo:
+        raise DataError(f"{where}: signal {name} is too small (max |{name}| = {peak:.3g} < {lo:g}); rescale it "
+                        "(e.g. change its units)")
+
+
 def zero_crossings(d: np.ndarray) -> np.ndarray:
     """Indices ``i`` where ``d - mean(d)`` changes sign between samples ``i`` and ``i + 1``.
 
@@ -72,6 +92,127 @@ def savgol_derivative(values: np.ndarray, dt: float, window: int, polyorder: int
     from scipy.signal import savgol_filter
 
     return savgol_filter(values, window_length=window, polyorder=polyorder, deriv=1, delta=dt, mode="interp")
+
+
+def printed_quantum(values: np.ndarray, max_digits: int = 15) -> np.ndarray:
+    """Per value, the last printed digit's unit ``10**-d``: the smallest ``d`` (0..``max_digits``) for
+    which the value is an integer multiple of ``10**-d`` (to double precision). ``24.6496`` -> 1e-4,
+    ``0.0003328`` -> 1e-7; a value computed in double precision (``k / fs``) gets ``10**-max_digits``."""
+    v = np.abs(np.asarray(values, dtype=float))
+    q = np.full(v.shape, 10.0 ** -max_digits)
+    todo = np.ones(v.shape, dtype=bool)
+    for d in range(max_digits + 1):
+        scaled = v[todo] * 10.0**d
+        hit = np.abs(scaled - np.round(scaled)) <= 1e-9 * np.maximum(scaled, 1.0)
+        idx = np.flatnonzero(todo)[hit]
+        q[idx] = 10.0**-d
+        todo[idx] = False
+        if not todo.any():
+            break
+    return q
+
+
+def _grid_precision(t: np.ndarray) -> np.ndarray:
+    """The printed precision of each time stamp: the finest :func:`printed_quantum` among the stamps of
+    the same decade (a value printed without its trailing zeros, ``24.65`` for ``24.6500``, shows
+    fewer digits than it has; fixed-decimal and significant-digit printing both give one precision
+    per decade). A zero constrains nothing (it is printed ``0`` at any precision)."""
+    q = printed_quantum(t)
+    nz = t != 0.0
+    decade = np.zeros(t.shape, dtype=int)
+    decade[nz] = np.floor(np.log10(np.abs(t[nz]))).astype(int)
+    out = q.copy()
+    for d in np.unique(decade[nz]):
+        sel = nz & (decade == d)
+        out[sel] = np.min(q[sel])
+    out[~nz] = np.max(out[nz]) if nz.any() else 1.0
+    return out
+
+
+def _chebyshev_line(t: np.ndarray, weight: np.ndarray) -> tuple[float, float, float]:
+    """``(t0, dt, r)`` minimising ``r = max_k |t_k - t0 - k dt| * weight_k`` (a small linear program)."""
+    from scipy.optimize import linprog
+    from scipy.sparse import csr_matrix, hstack, vstack
+
+    k = np.arange(t.size, dtype=float)
+    ones = np.ones(t.size)
+    base = csr_matrix(np.column_stack([ones, k]))
+    w = csr_matrix(1.0 / weight).T
+    # t0 + k dt - r/w <= t  and  -(t0 + k dt) - r/w <= -t
+    A = vstack([hstack([base, -w]), hstack([-base, -w])]).tocsr()
+    b = np.concatenate([t, -t])
+    res = linprog([0.0, 0.0, 1.0], A_ub=A, b_ub=b, bounds=[(None, None), (None, None), (0, None)], method="highs")
+    if not res.success:
+        return math.nan, math.nan, math.inf
+    t0, dt, r = res.x
+    return float(t0), float(dt), float(r)
+
+
+def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.ndarray, dict[str, Any]]:
+    """Recognise a uniform time grid printed with rounding and rebuild it.
+
+    Returns ``(t, sampling)``. When the steps are uniform within ``rtol`` the times are returned as
+    given. Otherwise each stamp's printed precision ``q_k`` (:func:`printed_quantum`) is found and a
+    line ``t0 + k dt`` is sought with every stamp within ``q_k / 2`` of it (weighted least squares,
+    then the minimax line if needed): if it exists, and at least 3 steps (and 0.1 % of them) differ from the
+    median, the stamps are a uniform grid rounded to their printed digits (or truncated) and the line
+    replaces them. Otherwise the sampling is non-uniform and the
+    times are returned as given. ``sampling`` holds ``rate_hz``, ``dt``, ``uniform`` (bool),
+    ``rebuilt`` (bool) and ``rule`` (a sentence).
+    """
+    t = np.asarray(t, dtype=float)
+    steps = np.diff(t)
+    dt_med = float(np.median(steps))
+    if np.all(np.abs(steps - dt_med) <= rtol * dt_med):
+        dt = float((t[-1] - t[0]) / (t.size - 1))
+        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": False,
+                   "rule": "uniform as given (steps equal within 1e-6 relative)"}
+    q = _grid_precision(t)
+    k = np.arange(t.size, dtype=float)
+    n_off = int(np.count_nonzero(np.abs(steps - dt_med) > rtol * dt_med))
+    # rounding must be evident: a rounded grid whose step is not a whole number of printed digits
+    # jumps often; one or two odd steps are more likely a glitch (a lost sample, a clock slip)
+    feasible = bool(np.max(q) < dt_med) and n_off >= max(3, 0.001 * steps.size)
+    if feasible:
+        dt, t0 = np.polyfit(k, t, 1, w=1.0 / q)
+        ratio = float(np.max(np.abs(t - t0 - k * dt) / q))
+        if ratio > 0.5:
+            t0, dt, ratio = _chebyshev_line(t, 1.0 / q)
+        feasible = ratio <= 0.5 * (1 + 1e-9)
+    if not feasible:
+        return t, {"rate_hz": 1.0 / dt_med, "dt": dt_med, "uniform": False, "rebuilt": False,
+                   "rule": "non-uniform: the steps vary by more than the printed digits explain "
+                           f"(from {steps.min():.6g} to {steps.max():.6g} s)"}
+    digits = sorted({f"{v:g}" for v in np.unique(q)})
+    rebuilt = t0 + k * dt
+    return rebuilt, {
+        "rate_hz": 1.0 / float(dt), "dt": float(dt), "uniform": True, "rebuilt": True,
+        "max_change_s": float(np.max(np.abs(rebuilt - t))),
+        "rule": (f"rebuilt: time stamps printed to {', '.join(digits)} s (steps from {steps.min():.6g} to "
+                 f"{steps.max():.6g} s) are all within half a printed digit of t0 + k*dt; t = {float(t0) + 0.0:.9g} + "
+                 f"k * {float(dt):.9g} s ({1.0 / float(dt):.8g} Hz)"),
+    }
+
+
+def _sampling(t: np.ndarray, previous: Mapping[str, Any] | None) -> tuple[np.ndarray, dict[str, Any]]:
+    """The record's time base and its ``sampling`` metadata (:func:`rebuild_rounded_grid`); a grid
+    rebuilt earlier (``previous``) keeps its rule when a slice or copy of it is validated again."""
+    if previous and previous.get("keep_stamps"):  # read_csv(..., sampling="as-given"): never rebuild
+        steps = np.diff(t)
+        dt = float(np.median(steps))
+        uniform = bool(np.all(np.abs(steps - dt) <= UNIFORM_RTOL * dt))
+        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": uniform, "rebuilt": False, "keep_stamps": True,
+                   "rule": "as given (sampling='as-given'): " + ("uniform" if uniform else
+                           f"non-uniform, steps from {steps.min():.6g} to {steps.max():.6g} s")}
+    t, info = rebuild_rounded_grid(t)
+    try:
+        same = (bool(previous["uniform"]) == info["uniform"] and not info["rebuilt"]
+                and abs(info["dt"] - float(previous["dt"])) <= 1e-9 * info["dt"] and isinstance(previous["rule"], str))
+    except (KeyError, TypeError, ValueError):
+        same = False
+    if same:
+        info = dict(previous)
+    return t, info
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +289,11 @@ class Record:
                 f"{where}: too few samples: {n} (need at least {MIN_SAMPLES}); record a longer test"
             )
         require_increasing(arrays["t"], f"{where}: time")
+        arrays["t"], sampling = _sampling(arrays["t"], self.metadata.get("sampling"))
+        object.__setattr__(self, "metadata", {**dict(self.metadata), "sampling": sampling})
+        for k in ("d", "y", "d_dot"):
+            if k in arrays:
+                _check_magnitude(k, arrays[k], where)
         for k in ("d", "y"):
             if np.ptp(arrays[k]) == 0:
                 raise DataError(

@@ -7,6 +7,15 @@ def _common(args):
     from duffsym._cli_common import CLIError, _mask_from_args, _parse_assignments, _read_record
     from duffsym.effects import CATALOGUE
 
+    from duffsym._io import check_output_dir
+
+    inputs = [args.data, getattr(args, "fit", None), None if args.mask in (None, "none", "auto") else args.mask]
+    if getattr(args, "out", None):
+        from duffsym._cli_common import _check_outputs
+
+        _check_outputs(args, inputs, options=("out",))
+    if args.report:
+        check_output_dir(args.report)
     record = _read_record(args, args.data)
     cands = None
     if args.candidates:
@@ -112,7 +121,9 @@ def cmd_ladder(args) -> int:
                      decimate=args.decimate_opt,
                      progress=_progress(args), engine=engine, discover=args.discover)
     if args.out:
-        lad.final_fit.save(args.out)
+        from duffsym._cli_common import _save_fit
+
+        _save_fit(lad.final_fit.with_sampling([record]), args.out, "ladder")
     from duffsym.diagnose.report import write_ladder_report
 
     _output(args, lad, record, write_ladder_report)

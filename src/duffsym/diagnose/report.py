@@ -1,9 +1,9 @@
 """Markdown reports (with PNG figures) of a diagnosis and of a ladder: ``--report DIR``."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
+from duffsym._io import write_json_atomic, write_text_atomic
 from duffsym.data.record import Record
 from duffsym.diagnose.search import _why_not
 
@@ -52,9 +52,8 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
     lines += ["", f"![candidates]({f2})", ""]
     if diag.sindy is not None:
         lines += ["## SINDy cross-check", "", f"{diag.sindy.get('verdict')}: {diag.sindy.get('message', '')}", ""]
-    (folder / "diagnosis.json").write_text(json.dumps(jsonable(diag.to_dict()), indent=2, allow_nan=False, default=str))
-    path = folder / "diagnosis.md"
-    path.write_text("\n".join(lines) + "\n")
+    write_json_atomic(folder / "diagnosis.json", jsonable(diag.to_dict()), default=str)
+    path = write_text_atomic(folder / "diagnosis.md", "\n".join(lines) + "\n")
     return path
 
 
@@ -82,7 +81,6 @@ def write_ladder_report(lad, record: Record, folder) -> Path:
               "|---|---|---|"]
     for k in final.free:
         lines.append(f"| {k} | {final.params[k]:.6g} | {final.stderr.get(k, float('nan')):.3g} |")
-    (folder / "ladder.json").write_text(json.dumps(jsonable(lad.to_dict()), indent=2, allow_nan=False, default=str))
-    path = folder / "ladder.md"
-    path.write_text("\n".join(lines) + "\n")
+    write_json_atomic(folder / "ladder.json", jsonable(lad.to_dict()), default=str)
+    path = write_text_atomic(folder / "ladder.md", "\n".join(lines) + "\n")
     return path

@@ -8,15 +8,19 @@ from duffsym._cli_common import (
     _emit_json,
     _err,
     _fit_model,
+    _check_outputs,
     _mask_from_args,
     _parse_assignments,
     _read_record,
+    _require_success,
+    _save_fit,
 )
 
 
 def cmd_fit(args) -> int:
     from duffsym.identify import Problem, fit
 
+    _check_outputs(args, [args.data, None if args.mask in (None, "none", "auto") else args.mask])
     record = _read_record(args, args.data)
     model = _fit_model(args)
     fixed = _parse_assignments(args.fix, "--fix")
@@ -30,11 +34,14 @@ def cmd_fit(args) -> int:
     if not args.quiet:
         _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
              f"({record.t.size} samples)")
-    result = fit(problem, n_starts=args.starts, rng=args.seed, progress=None if args.quiet else (lambda msg: _err(f"  {msg}")))
+    result = fit(problem, n_starts=args.starts, rng=args.seed,
+                 progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
+    if record.metadata.get("sampling", {}).get("rebuilt") and not args.quiet:
+        _err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
     if result.flags:
         _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
-        result.save(args.out)
+        _save_fit(result, args.out, "fit")
     if args.plot:
         _plot_fit(result, record, model, args.plot, transient=args.plot_transient)
     if args.json:
@@ -91,6 +98,7 @@ def cmd_validate(args) -> int:
     from duffsym.identify import load_result, validate
 
     result = load_result(args.fit)
+    _require_success(result, args)
     record = _read_record(args, args.data)
     val = validate(result, record)
     if args.json:
@@ -127,6 +135,7 @@ def register(sub) -> None:
     s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
     s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
     s.add_argument("data", help="CSV record to validate on")
+    s.add_argument("--force", action="store_true", help="use a fit marked success: false")
     _add_file_arguments(s)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_validate)

@@ -81,6 +81,7 @@ class IdentificationResult:
     group_params: dict = field(default_factory=dict)
     groups: tuple = ()
     flags: tuple = ()
+    sampling: tuple = ()
 
     def params_for(self, group: str | None = None) -> dict:
         """Every parameter by name for one group (``None`` for a fit without groups)."""
@@ -153,49 +154,170 @@ class IdentificationResult:
             "versions": dict(self.versions),
             "group_params": {g: {k: float(v) for k, v in p.items()} for g, p in self.group_params.items()},
             "groups": list(self.groups),
+            **({"sampling": jsonable(self.sampling[0] if len(self.sampling) == 1 else list(self.sampling))}
+               if self.sampling else {}),
         }
 
     def save(self, path) -> Path:
-        """Write the result as JSON (``docs/contract.md``)."""
-        path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=2, allow_nan=False))
-        return path
+        """Write the result as JSON (``docs/contract.md``), atomically (a temporary file renamed over ``path``)."""
+        from duffsym._io import write_json_atomic
+
+        return write_json_atomic(path, self.to_dict())
+
+    def with_sampling(self, records) -> "IdentificationResult":
+        """This result with each record's time-base description (``metadata["sampling"]``) attached."""
+        import dataclasses
+
+        return dataclasses.replace(self, sampling=tuple(dict(r.metadata.get("sampling", {})) for r in records))
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> "IdentificationResult":
-        """Rebuild a result from its JSON form (the masks come back; the sample arrays are not stored)."""
+        """Rebuild a result from its JSON form (the masks come back; the sample arrays are not stored).
+
+        Every field is checked: a tampered or truncated file gives a :class:`DataError` naming the
+        field, never a Python error from deep inside.
+        """
+        if not isinstance(data, Mapping):
+            raise DataError(f"{source}: expected a JSON object (a duffsym fit); produce it with duffsym fit --out")
         need = ("model", "params", "stderr", "nrmse", "status", "success")
         missing = [k for k in need if k not in data]
         if missing:
             raise DataError(f"{source}: not a duffsym fit: missing key(s) {missing}; produce it with duffsym fit --out")
-
-        def f(v):
-            return math.nan if v is None else float(v)
-
-        free = tuple(data.get("free", [k for k in data["stderr"]]))
-        cov = data.get("covariance")
-        cov = np.array([[f(v) for v in row] for row in cov]) if cov else np.full((len(free), len(free)), np.nan)
-        nrmse = f(data["nrmse"])
+        r = _Reader(data, source)
+        params = r.numbers("params")
+        stderr = r.numbers("stderr", allow_none=True)
+        free = tuple(r.strings("free", default=list(stderr)))
+        cov = r.matrix("covariance", len(free))
+        nrmse = r.number("nrmse", allow_none=True)
+        r2_default = 1 - nrmse**2 if math.isfinite(nrmse) and abs(nrmse) < 1e150 else None
         return cls(
-            model=str(data["model"]), params={k: float(v) for k, v in data["params"].items()}, free=free,
-            fixed={k: float(v) for k, v in data.get("fixed", {}).items()},
-            stderr={k: f(v) for k, v in data["stderr"].items()}, covariance=cov, cost=f(data.get("cost")),
-            nrmse=nrmse, r2=f(data.get("r2", 1 - nrmse**2 if math.isfinite(nrmse) else None)),
-            status=str(data["status"]), success=bool(data["success"]), message=str(data.get("message", "")),
-            n_iter=int(data.get("n_iter", 0)), timings=dict(data.get("timings", {})),
-            defaults_applied=dict(data.get("defaults_applied", {})), effects=tuple(data.get("effects", ())),
-            structural=dict(data.get("structural", {})),
-            nrmse_records=tuple(f(v) for v in data.get("nrmse_records", ())),
-            nrmse_objective=f(data.get("nrmse_objective")), x0=tuple(tuple(x) for x in data.get("x0", ())),
-            records=tuple(data.get("records", ())), mask_info=dict(data.get("mask_info", {})),
-            mask=tuple(mask_from_ranges(m, source=source) for m in data.get("mask", ())),
-            settings=dict(data.get("settings", {})), versions=dict(data.get("versions", {})),
-            n_samples=int(data.get("n_samples", 0)),
-            group_params={g: {k: float(v) for k, v in p.items()} for g, p in data.get("group_params", {}).items()},
-            groups=tuple(data.get("groups", ())),
+            model=r.string("model"), params=params, free=free, fixed=r.numbers("fixed", default={}),
+            stderr=stderr, covariance=cov, cost=r.number("cost", default=None, allow_none=True),
+            nrmse=nrmse, r2=r.number("r2", default=r2_default, allow_none=True),
+            status=r.string("status"), success=r.boolean("success"), message=r.string("message", default=""),
+            n_iter=r.integer("n_iter", default=0), timings=r.numbers("timings", default={}),
+            defaults_applied=r.mapping("defaults_applied"), effects=tuple(r.strings("effects", default=[])),
+            structural={k: r.bounded_int(f"structural.{k}", v, 1, 1000) for k, v in r.mapping("structural").items()},
+            nrmse_records=tuple(r.number_list("nrmse_records")), nrmse_objective=r.number(
+                "nrmse_objective", default=None, allow_none=True),
+            x0=tuple(tuple(r.number_list(f"x0[{i}]", x)) for i, x in enumerate(r.list("x0"))),
+            records=tuple(r.strings("records", default=[])), mask_info=r.mapping("mask_info"),
+            mask=tuple(mask_from_ranges(m, source=source) for m in r.list("mask")),
+            settings=r.mapping("settings"), versions=r.mapping("versions"),
+            n_samples=r.integer("n_samples", default=0),
+            group_params={str(g): r.numbers(f"group_params.{g}", p) for g, p in r.mapping("group_params").items()},
+            groups=tuple(r.strings("groups", default=[])),
+            sampling=_sampling_of(data.get("sampling")),
             flags=tuple(dict(f) for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
                         if isinstance(f, Mapping)),
         )
+
+
+def _sampling_of(value) -> tuple:
+    if isinstance(value, Mapping):
+        return (dict(value),)
+    if isinstance(value, list):
+        return tuple(dict(v) for v in value if isinstance(v, Mapping))
+    return ()
+
+
+class _Reader:
+    """Typed access to the fields of a FIT.json, with one-line errors naming the field."""
+
+    def __init__(self, data: Mapping[str, Any], source: str):
+        self.data, self.source = data, source
+
+    def fail(self, key: str, what: str, value) -> DataError:
+        text = json.dumps(value, default=str)[:60] if _shallow(value) else type(value).__name__
+        return DataError(f"{self.source}: field {key!r} must be {what}; got {text}; the file is damaged or edited: "
+                         "produce it again with duffsym fit --out")
+
+    def get(self, key, default=KeyError):
+        if key in self.data:
+            return self.data[key]
+        if default is KeyError:
+            raise DataError(f"{self.source}: missing field {key!r}; produce it with duffsym fit --out")
+        return default
+
+    def number(self, key, value=KeyError, *, default=KeyError, allow_none=False) -> float:
+        v = self.get(key, default) if value is KeyError else value
+        if v is None and allow_none:
+            return math.nan
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise self.fail(key, "a number", v)
+        try:
+            out = float(v)
+        except OverflowError:
+            out = math.inf
+        if not math.isfinite(out):
+            raise self.fail(key, "a finite number (JSON has no inf/NaN; duffsym writes null)", v)
+        return out
+
+    def integer(self, key, *, default=KeyError) -> int:
+        v = self.get(key, default)
+        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= 10**12:
+            raise self.fail(key, "a non-negative integer", v)
+        return int(v)
+
+    def bounded_int(self, key, v, lo, hi) -> int:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not float(v).is_integer() or not lo <= v <= hi:
+            raise self.fail(key, f"an integer in [{lo}, {hi}]", v)
+        return int(v)
+
+    def boolean(self, key) -> bool:
+        v = self.get(key)
+        if not isinstance(v, bool):
+            raise self.fail(key, "true or false", v)
+        return v
+
+    def string(self, key, *, default=KeyError) -> str:
+        v = self.get(key, default)
+        if not isinstance(v, str):
+            raise self.fail(key, "a string", v)
+        return v
+
+    def list(self, key, value=KeyError) -> list:
+        v = self.get(key, []) if value is KeyError else value
+        if not isinstance(v, list):
+            raise self.fail(key, "a list", v)
+        return v
+
+    def strings(self, key, *, default=KeyError) -> list[str]:
+        v = self.get(key, default)
+        if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+            raise self.fail(key, "a list of strings", v)
+        return list(v)
+
+    def mapping(self, key) -> dict:
+        v = self.get(key, {})
+        if not isinstance(v, Mapping):
+            raise self.fail(key, "an object", v)
+        return dict(v)
+
+    def numbers(self, key, value=KeyError, *, default=KeyError, allow_none=False) -> dict[str, float]:
+        v = self.get(key, default) if value is KeyError else value
+        if not isinstance(v, Mapping):
+            raise self.fail(key, "an object of name: number", v)
+        return {str(k): self.number(f"{key}.{k}", x, allow_none=allow_none) for k, x in v.items()}
+
+    def number_list(self, key, value=KeyError) -> list[float]:
+        return [self.number(f"{key}[{i}]", x, allow_none=True) for i, x in enumerate(self.list(key, value))]
+
+    def matrix(self, key, n: int) -> np.ndarray:
+        v = self.get(key, None)
+        if not v:
+            return np.full((n, n), np.nan)
+        rows = self.list(key, v)
+        if len(rows) != n or not all(isinstance(row, list) and len(row) == n for row in rows):
+            raise self.fail(key, f"a {n} x {n} matrix (one row and column per free parameter)", v)
+        return np.array([self.number_list(f"{key}[{i}]", row) for i, row in enumerate(rows)], dtype=float)
+
+
+def _shallow(value) -> bool:
+    """Whether ``value`` is a scalar or a flat container (safe and short to print)."""
+    if isinstance(value, (dict, list)):
+        return all(not isinstance(v, (dict, list)) for v in (value.values() if isinstance(value, dict) else value))
+    return True
 
 
 def mask_to_ranges(mask) -> dict:
@@ -210,7 +332,9 @@ def mask_from_ranges(data: Mapping[str, Any], *, source: str = "result") -> np.n
     try:
         n = int(data["n_times"])
         ranges = [(int(a), int(b)) for a, b in data["ranges"]]
-    except (KeyError, TypeError, ValueError):
+        if isinstance(data["n_times"], bool) or not 0 < n <= 10**8:
+            raise ValueError
+    except (KeyError, TypeError, ValueError, OverflowError):
         raise DataError(f"{source}: a stored mask must be {{'n_times': N, 'ranges': [[start, stop], ...]}}; "
                         f"got {str(data)[:80]}") from None
     m = np.zeros(n, dtype=bool)
@@ -223,13 +347,19 @@ def mask_from_ranges(data: Mapping[str, Any], *, source: str = "result") -> np.n
 
 def load_result(path) -> IdentificationResult:
     """Read a result saved by :meth:`IdentificationResult.save` (or ``duffsym fit --out``)."""
+    from duffsym._io import check_input_file
+
     path = Path(path)
+    if not path.exists():
+        raise DataError(f"{path}: no such file; give a fit saved with duffsym fit --out")
+    check_input_file(path, what="fit file", limit=256 * 1024**2)
     try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise DataError(f"{path}: no such file; give a fit saved with duffsym fit --out") from None
+        data = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: not valid JSON ({exc}); give a fit saved with duffsym fit --out") from None
+        raise DataError(f"{path}: not valid JSON ({str(exc)[:80]}); give a fit saved with duffsym fit --out") from None
+    except RecursionError:
+        raise DataError(f"{path}: JSON nested too deeply to be a duffsym fit; give a fit saved with duffsym fit "
+                        "--out") from None
     if not isinstance(data, dict):
         raise DataError(f"{path}: expected a JSON object (a duffsym fit)")
     return IdentificationResult.from_dict(data, source=str(path))

@@ -25,6 +25,10 @@ FORCE = InputChannel("F", 0)
 N_SYMBOL = sp.Symbol("n", integer=True, positive=True, odd=True)
 
 
+#: Largest structural power accepted (``fit --n 99999`` used to run for minutes before failing).
+MAX_POWER = 25
+
+
 def check_power(name: str, n, *, allow_even: bool = False) -> int | sp.Symbol:
     """Validate a structural power: an odd positive integer (or a SymPy symbol for derivations)."""
     if isinstance(n, sp.Symbol):
@@ -36,6 +40,9 @@ def check_power(name: str, n, *, allow_even: bool = False) -> int | sp.Symbol:
     n = int(n)
     if n < 1:
         raise ModelError(f"{name} must be a positive odd integer (Eq. 3 of the paper); got {n}")
+    if n > MAX_POWER:
+        raise ModelError(f"{name} = {n} is above the largest supported power {MAX_POWER} (x^n overflows double "
+                         f"precision beyond |x| = 2^(1024/n); the paper uses 3 and 5); choose n <= {MAX_POWER}")
     if n % 2 == 0 and not allow_even:
         raise ModelError(
             f"{name} must be odd (Eq. 3: x^n and x'^n must keep the sign of x and x'); got {n}; "

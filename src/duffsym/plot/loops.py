@@ -163,9 +163,14 @@ def save_figure(fig, path: str | os.PathLike, *, dpi: int = 150, metadata: dict 
     path = Path(path)
     if not path.suffix:
         raise DataError(f"save_figure: {str(path)!r} has no suffix; use .png, .pdf or .svg")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from duffsym._io import atomic_path
+
     if not isinstance(fig.canvas, FigureCanvasAgg):
         FigureCanvasAgg(fig)  # attaches itself to the figure
-    fig.savefig(path, dpi=dpi, **({"metadata": metadata} if metadata else {}))
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:  # an interrupt or a failed draw leaves no half-written figure
+            fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower(),
+                        **({"metadata": metadata} if metadata else {}))
+    finally:
+        plt.close(fig)
     return path

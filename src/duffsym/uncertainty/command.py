@@ -20,9 +20,16 @@ def cmd_sample(args) -> int:
             raise CLIError(f"{label} must be at least {least}; got {v}")
     if args.burn is not None and not 0 <= args.burn < args.steps - 1:
         raise CLIError(f"--burn must be in [0, --steps - 1) = [0, {args.steps - 1}); got {args.burn}")
+    if not (args.checkpoint_every > 0 and args.checkpoint_every < float("inf")):
+        raise CLIError(f"--checkpoint-every must be a positive number of seconds; got {args.checkpoint_every}")
     if args.thin is not None and args.thin < 1:
         raise CLIError(f"--thin must be >= 1; got {args.thin}")
+    from duffsym._cli_common import _check_outputs, _require_success
+
+    _check_outputs(args, [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
+                   options=("out", "chains", "corner", "bands"))
     result = load_result(args.fit)
+    _require_success(result, args)
     record = _read_record(args, args.data)
     mask = None
     if args.mask not in ("fit",):
@@ -40,13 +47,19 @@ def cmd_sample(args) -> int:
         from duffsym.engine import Engine  # emcee's pool: local worker processes or a Dask cluster
 
         pool = Engine(args.workers, scheduler=args.scheduler).start()
+    partial = _partial_path(args.chains) if args.chains else None
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConvergenceWarning)
             chains = sample(result, record, n_walkers=args.walkers, n_steps=args.steps, burn=args.burn, thin=args.thin,
                             noise="ar1" if args.ar1 else "gaussian", mask=mask, rng=args.seed, pool=pool,
                             progress=not args.quiet, on_short="raise" if args.strict else "warn",
-                            threads=args.threads, moves="stretch" if args.moves == "stretch" else None)
+                            threads=args.threads, moves="stretch" if args.moves == "stretch" else None,
+                            checkpoint=partial, checkpoint_every=args.checkpoint_every)
+    except KeyboardInterrupt:
+        if partial is not None and partial.exists():
+            _err(f"interrupted: the steps run so far are in {partial} (duffsym.uncertainty.load_partial_chain)")
+        raise
     except ChainTooShort as exc:
         if exc.chains is not None and args.chains:
             exc.chains.save(args.chains)
@@ -57,6 +70,7 @@ def cmd_sample(args) -> int:
     written = []
     if args.chains:
         written.append(str(chains.save(args.chains)))
+        partial.unlink(missing_ok=True)
     if args.corner:
         from duffsym.plot.loops import save_figure
         from duffsym.uncertainty.plots import plot_corner
@@ -82,11 +96,10 @@ def cmd_sample(args) -> int:
         out["identifiability"] = identifiability_report(result, record, chains=chains).to_dict()
     out["files"] = written
     if args.out:
-        import json
-
+        from duffsym._io import write_json_atomic
         from duffsym._json import jsonable
 
-        Path(args.out).write_text(json.dumps(jsonable(out), indent=2, allow_nan=False))
+        write_json_atomic(args.out, jsonable(out))
         written.append(args.out)
     if args.json:
         _emit_json(out)
@@ -100,6 +113,13 @@ def cmd_sample(args) -> int:
         if not args.quiet and str(w.message) not in chains.warnings:
             _err(f"warning: {w.message}")
     return 0
+
+
+def _partial_path(chains) -> Path:
+    """Where the chain so far is kept while sampling: ``NAME.partial.npz`` beside ``--chains``."""
+    p = Path(chains)
+    stem = p.name[:-4] if p.name.endswith(".npz") else p.name
+    return p.with_name(f"{stem}.partial.npz")
 
 
 def register(sub) -> None:
@@ -128,7 +148,11 @@ def register(sub) -> None:
     s.add_argument("--threads", type=int, default=1, help="numba threads of the batch call (default 1: on a busy "
                    "machine waking threads costs more than the work)")
     s.add_argument("--strict", action="store_true", help="fail (exit 2) when the chain is shorter than 50 tau")
-    s.add_argument("--chains", help="save the chains (.npz; reload with duffsym.uncertainty.load_chains)")
+    s.add_argument("--chains", help="save the chains (.npz; reload with duffsym.uncertainty.load_chains); while "
+                   "sampling, the steps so far are kept in NAME.partial.npz, which an interrupt leaves behind")
+    s.add_argument("--checkpoint-every", type=float, default=30.0, help="seconds between saves of the partial "
+                   "chain (with --chains; default 30)")
+    s.add_argument("--force", action="store_true", help="sample around a fit marked success: false")
     s.add_argument("--corner", help="corner plot file (PNG/PDF)")
     s.add_argument("--bands", help="posterior predictive bands on the loops and the time series (PNG/PDF)")
     s.add_argument("--identifiability", action="store_true", help="add the identifiability report (symmetry, "

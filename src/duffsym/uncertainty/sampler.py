@@ -234,10 +234,65 @@ class Chains:
                 "priors": [p if isinstance(p, dict) else p.to_dict() for p in self.priors], "counts": self.counts,
                 "recheck": self.recheck, "setup": self.setup, "warnings": list(self.warnings),
                 "settings": self.settings, "timings": self.timings, "fit": self.fit, "format": "duffsym-chains-1"}
-        np.savez_compressed(path, chain=self.chain, log_prob=self.log_prob, acceptance=self.acceptance, tau=self.tau,
-                            optimum=self.optimum, laplace_stderr=self.laplace_stderr, laplace_cov=self.laplace_cov,
-                            sigma=self.sigma, meta=np.array(json.dumps(jsonable(meta))))
+        from duffsym._io import atomic_path
+
+        with atomic_path(path) as tmp:
+            with open(tmp, "wb") as fh:  # a file object: np.savez would append ".npz" to the temporary name
+                np.savez_compressed(fh, chain=self.chain, log_prob=self.log_prob, acceptance=self.acceptance,
+                                    tau=self.tau, optimum=self.optimum, laplace_stderr=self.laplace_stderr,
+                                    laplace_cov=self.laplace_cov, sigma=self.sigma,
+                                    meta=np.array(json.dumps(jsonable(meta))))
         return path
+
+
+PARTIAL_FORMAT = "duffsym-chains-partial-1"
+
+
+def _run_with_checkpoints(sampler, p0, n_steps: int, progress, post, checkpoint, every: float, result) -> None:
+    """``sampler.run_mcmc`` that writes the chain so far to ``checkpoint`` periodically and on interrupt."""
+    if checkpoint is None:
+        sampler.run_mcmc(p0, n_steps, progress=progress)
+        return
+    last = time.perf_counter()
+    try:
+        for _ in sampler.sample(p0, iterations=n_steps, progress=progress):
+            if time.perf_counter() - last >= every:
+                save_partial_chain(checkpoint, sampler, post, n_steps, result)
+                last = time.perf_counter()
+    except KeyboardInterrupt:
+        if sampler.iteration:
+            save_partial_chain(checkpoint, sampler, post, n_steps, result)
+        raise
+
+
+def save_partial_chain(path, sampler, post, n_planned: int, result) -> Path:
+    """Write the steps an emcee sampler has run so far (natural parameters) to ``path`` atomically."""
+    from duffsym._io import atomic_path
+
+    path = Path(path)
+    z = sampler.get_chain()
+    chain = np.stack([post.natural(z[i]) for i in range(z.shape[0])])
+    meta = {"format": PARTIAL_FORMAT, "names": [p.name for p in post.priors], "steps_done": int(z.shape[0]),
+            "steps_planned": int(n_planned), "model": result.model, "effects": list(result.effects),
+            "free": list(result.free)}
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, chain=chain, log_prob=sampler.get_log_prob(), meta=np.array(json.dumps(meta)))
+    return path
+
+
+def load_partial_chain(path) -> dict:
+    """Read a chain saved by :func:`save_partial_chain`: ``{"chain": (steps, walkers, dim), "log_prob",
+    "names", "steps_done", "steps_planned", ...}``."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            meta = json.loads(str(f["meta"]))
+            if meta.get("format") != PARTIAL_FORMAT:
+                raise ValueError("not a partial chain")
+            return {**meta, "chain": f["chain"], "log_prob": f["log_prob"]}
+    except (OSError, ValueError, KeyError) as exc:
+        raise DataError(f"{path}: not a partial chain file ({exc})") from None
 
 
 def load_chains(path) -> Chains:
@@ -327,7 +382,7 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
            mask=None, rng=None, pool=None, vectorize: bool | None = None, progress: bool = False,
            init_spread: float = 1.0, h_rho: float = 1.0, hrho_max: float = 2.0, on_short: str = "warn",
            recheck_draws: int = 16, sigma_draws: int = 2000, moves=None, threads: int | None = 1,
-           sample_x0: bool = True) -> Chains:
+           sample_x0: bool = True, checkpoint=None, checkpoint_every: float = 30.0) -> Chains:
     r"""Sample the posterior of a fit's free parameters with emcee.
 
     Parameters
@@ -358,6 +413,10 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     sample_x0 : sample each record's initial state too (uniform around the fit's, half the state's range
         each way). The fit estimated it; holding it at the optimum penalises every other parameter set
         (on the synthetic Table 2 record: ~4 in chi^2 at the truth) and narrows the intervals.
+    checkpoint : a ``.npz`` path: the chain so far is written there (atomically) every
+        ``checkpoint_every`` seconds and when the run is interrupted (KeyboardInterrupt, which is then
+        re-raised), so an interrupt keeps what ran; see :func:`load_partial_chain`. The file is left
+        in place after a complete run (the caller removes it once the full chains are saved).
     threads : numba threads of the batch kernel (None: numba's default). One batch of 32 walkers is
         ~2 ms of work; on a shared machine waking a second thread can cost more than that (measured:
         2.2 ms with 1 thread, 8 ms with 2 at load 5 on 2 cores), hence the default 1.
@@ -397,6 +456,9 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     move_label = "de+snooker" if moves is None else ("stretch" if moves == "stretch" else str(moves))
     moves = default_moves() if moves is None else (None if moves == "stretch" else moves)
     sampler = emcee.EnsembleSampler(int(n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg, moves=moves)
+    if not getattr(sampler.log_prob_fn, "args", ()) and not getattr(sampler.log_prob_fn, "kwargs", {}):
+        # emcee's wrapper prints a traceback for any exception, Ctrl-C included; our function needs no wrapper
+        sampler.log_prob_fn = getattr(sampler.log_prob_fn, "f", sampler.log_prob_fn)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31 - 1))).get_state()
     import numba
 
@@ -406,7 +468,7 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     try:
         if threads is not None:
             numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-        sampler.run_mcmc(p0, int(n_steps), progress=progress)
+        _run_with_checkpoints(sampler, p0, int(n_steps), progress, post, checkpoint, checkpoint_every, result)
     finally:
         numba.set_num_threads(old_threads)
     t_run = time.perf_counter() - t0
@@ -416,7 +478,8 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     log_prob = sampler.get_log_prob()
     tau_full = autocorr_time(zchain)
     if burn is None:
-        burn = int(min(n_steps // 3, math.ceil(3 * float(np.max(tau_full)))))
+        tau_max = float(np.max(tau_full)) if np.all(np.isfinite(tau_full)) else math.inf  # too short to estimate
+        burn = int(min(n_steps // 3, math.ceil(3 * tau_max))) if math.isfinite(tau_max) else n_steps // 3
     if not 0 <= burn < n_steps - 1:
         raise ModelError(f"burn must be in [0, {n_steps - 1}); got {burn}")
     thin = 1 if thin is None else int(thin)
