@@ -13,16 +13,18 @@ The workflow of ``duffsym ladder`` (``duffsym.diagnose.ladder``), shown as a fig
    0 A 25 mm 0.25 Hz test, whose loops are asymmetric (s06), and the 1 A 10 mm 1 Hz test.
    Decimated to about 200 samples per period as in s06. The verdicts are reported as they come.
 
-Result (last full run, 109 s on 2 cores). Synthetic: the ladder adds force-offset, then
+Result (last full run, 231 s on a busy 2-core machine). Synthetic: the ladder adds force-offset, then
 coulomb-friction, and stops at the noise (held-out NRMSE 0.108 -> 0.045 -> 0.0103; friction
-19.78 ± 0.17 for 20, offset 0.199 ± 0.0004 for 0.2). Real, 1 A 10 mm 1 Hz: the ladder adds the
-rig's backlash (the joint play of the paper's Fig. 8) and the held-out NRMSE falls from 0.068 to
-0.047; what remains is concentrated at low velocity and before yield, and nothing else in the
-catalogue removes it. Real, 0 A 25 mm 0.25 Hz: no catalogued effect is needed (the best, cubic
-damping, lowers the held-out NRMSE only from 0.186 to 0.169); the misfit is the stroke asymmetry
-seen in s06, which the catalogue's odd-symmetric effects do not describe. The measurements were
-smoothed by their authors, so the noise level estimated from them is far below the model error
-("300-600x the noise") and only the held-out comparisons carry the verdicts.
+19.78 ± 0.17 for 20, offset 0.199 ± 0.0004 for 0.2). Real, 1 A 10 mm 1 Hz: the ladder adds a piston
+seal friction (``seal-friction``, F_c tanh(d'/eps) on the piston velocity) and the held-out NRMSE falls
+from 0.068 to 0.041 (before the catalogue had a piston-side friction it added the rig's backlash,
+0.068 -> 0.047; backlash is now screened out by the candidates' iteration budget); what remains is
+concentrated at low velocity, and nothing else in the catalogue removes it. Real, 0 A 25 mm 0.25 Hz:
+seal friction lowers the held-out NRMSE from 0.186 to 0.125; the stroke asymmetry seen in s06 stays,
+which the catalogue's odd-symmetric effects do not describe, and the base fit lies outside the
+stability certificate (said in the verdict). The measurements were smoothed by their authors, so the
+noise level estimated from them is far below the model error ("200-550x the noise") and only the
+held-out comparisons carry the verdicts.
 
 Files: ``data/derived/s07_hidden_effect.{npz,json}``; figures ``paper/figures/s07_<case>_where.png``
 (where the base model fails), ``..._candidates.png`` (held-out NRMSE with each effect added),
