@@ -164,14 +164,7 @@ def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
                             "another output path")
     if path.is_dir():
         raise DataError(f"{option} {path} is a folder; give a file name")
-    parent = path.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise DataError(f"{option} {path}: cannot create the folder {parent} ({exc.strerror or exc}); choose "
-                        "another output path") from None
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise DataError(f"{option} {path}: the folder {parent} is not writable; choose another output path")
+    _writable_folder(path.parent, f"{option} {path}", "another output path")
     if path.exists() and not os.access(path, os.W_OK):
         raise DataError(f"{option} {path}: the file exists and is not writable; choose another output path")
     return path
@@ -182,11 +175,15 @@ def check_output_dir(folder, *, option: str = "--report") -> Path:
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise DataError(f"{option} {folder} is a file, not a folder; give a folder")
+    _writable_folder(folder, f"{option} {folder}", "another folder")
+    return folder
+
+
+def _writable_folder(folder: Path, what: str, instead: str) -> None:
+    """Create ``folder`` if needed and check it is writable; ``what`` (option and path) starts the error."""
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise DataError(f"{option} {folder}: cannot create the folder ({exc.strerror or exc}); choose another "
-                        "folder") from None
+        raise DataError(f"{what}: cannot create the folder {folder} ({exc.strerror or exc}); choose {instead}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise DataError(f"{option} {folder}: the folder is not writable; choose another folder")
-    return folder
+        raise DataError(f"{what}: the folder {folder} is not writable; choose {instead}")
