@@ -122,6 +122,20 @@ def test_validate_refuses_a_failed_fit_unless_forced(record_csv, tmp_path, capsy
     assert code == 0 and json.loads(out)["nrmse"] < 1e-3  # Table 2 itself: the record's truth
 
 
+@pytest.mark.parametrize("command", ["diagnose", "sindy"])
+def test_diagnose_and_sindy_refuse_a_failed_fit(record_csv, tmp_path, capsys, command):
+    bad = _fit_json(tmp_path / "bad.json", success=False)
+    code, out, err = run([command, str(record_csv), "--fit", str(bad), "--json"], capsys)
+    one_line_error(code, err, "failed fit")
+    assert "--force" in err and out == ""
+
+
+def test_sindy_uses_a_failed_fit_when_forced(record_csv, tmp_path, capsys):
+    bad = _fit_json(tmp_path / "bad.json", success=False)
+    code, out, err = run(["sindy", str(record_csv), "--fit", str(bad), "--force", "--json"], capsys)
+    assert code == 0 and "failed fit" in err and "verdict" in json.loads(out)
+
+
 def test_sample_refuses_a_failed_fit(record_csv, tmp_path, capsys):
     bad = _fit_json(tmp_path / "bad.json", success=False)
     code, _, err = run(["sample", str(record_csv), "--fit", str(bad), "--steps", "10", "--quiet"], capsys)

@@ -80,7 +80,10 @@ def cmd_diagnose(args) -> int:
     if args.fit:
         from duffsym.identify import load_result, model_from_result
 
+        from duffsym._cli_common import _require_success
+
         fit_result = load_result(args.fit)
+        _require_success(fit_result, args)
         model = model_from_result(fit_result)
     else:
         model = _fit_model(args)
@@ -164,6 +167,7 @@ def register(sub) -> None:
     s = sub.add_parser("diagnose", help="where the model fails on a record, and which catalogued effect is missing")
     _shared(s)
     s.add_argument("--fit", help="FIT.json of the model to diagnose (its effects included); default: fit it here")
+    s.add_argument("--force", action="store_true", help="diagnose around a fit marked success: false")
     s.set_defaults(func=cmd_diagnose)
 
     s = sub.add_parser("ladder", help="base fit, then add the best supported effect and refit, while the evidence "

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 
 def cmd_sindy(args) -> int:
-    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record
+    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record, _require_success
     from duffsym.sindy import crosscheck
 
     fit = None
@@ -12,6 +12,7 @@ def cmd_sindy(args) -> int:
         from duffsym.identify import load_result
 
         fit = load_result(args.fit)
+        _require_success(fit, args)
         if args.model is not None or args.n is not None:
             raise CLIError("--fit gives the model; drop --model/--n")
     else:
@@ -47,6 +48,7 @@ def register(sub) -> None:
                     "bootstrap, or the coefficients depend on the sampling.")
     s.add_argument("data", nargs="+", help="CSV record(s); several are pooled (one integration constant each)")
     s.add_argument("--fit", help="FIT.json (from `duffsym fit --out`): model, A_f and the coefficients to compare with")
+    s.add_argument("--force", action="store_true", help="compare with a fit marked success: false")
     s.add_argument("--model", default=None, help="model whose terms are checked when no --fit is given (default mr-damper)")
     s.add_argument("--n", type=int, default=None, help="power n of the model (default 5)")
     s.add_argument("--method", choices=("weak", "smoothed"), default="weak",
