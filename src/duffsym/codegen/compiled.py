@@ -6,7 +6,6 @@ second process pays neither code generation nor compilation.
 """
 from __future__ import annotations
 
-import contextlib
 import os
 import stat
 import sys
@@ -20,6 +19,7 @@ from types import ModuleType
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
+from duffsym._io import atomic_write
 from duffsym.codegen._printing import check_numeric_structure, state_jacobian
 from duffsym.model.core import SymbolicModel
 
@@ -227,15 +227,8 @@ def load_generated(key: str, source: str) -> ModuleType:
         path = cache_dir() / f"{key}.py"
         if not path.is_file() or path.is_symlink() or _read(path) != source:
             # atomic replace, so that concurrent processes never see a half-written file
-            fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{key}.", suffix=".tmp")
-            try:
-                with os.fdopen(fd, "w") as fh:
-                    fh.write(source)
-                os.replace(tmp, path)
-            except BaseException:
-                with contextlib.suppress(OSError):
-                    os.unlink(tmp)
-                raise
+            with atomic_write(path) as fh:
+                fh.write(source)
         module = ModuleType(key)
         module.__file__ = str(path)
         code = compile(source, str(path), "exec", dont_inherit=True)

@@ -15,8 +15,6 @@ Examples of files it reads (both ship in ``data/``):
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Mapping
 
@@ -175,23 +173,8 @@ def read_table(path, *, fmt: str | None = None, columns: Mapping[str, str], dt: 
                   metadata={"format": fmt, "columns": {r: i + 1 for r, i in index.items()}})
 
 
-def write_csv_atomic(record: Record, out) -> Path:
-    """:func:`~duffsym.data.write_csv` through a temporary file and a rename (no half-written file)."""
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent)
-    os.close(fd)
-    try:
-        write_csv(record, tmp)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return out
-
-
 def convert(path, out, **options) -> Record:
     """Read ``path`` with :func:`read_table` (``options``) and write it to ``out`` in the contract's CSV."""
     record = read_table(path, **options)
-    write_csv_atomic(record, out)
+    write_csv(record, out)  # atomic: temporary file and rename
     return record
