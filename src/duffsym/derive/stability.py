@@ -22,6 +22,7 @@ direct method, radial unboundedness, LaSalle's invariance principle).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Mapping
 
 import numpy as np
@@ -279,8 +280,12 @@ class StabilityConditions:
         return out
 
 
+@lru_cache(maxsize=64)
 def stability_conditions(model: SymbolicModel) -> StabilityConditions:
-    """Derive the stability conditions of ``model`` from its Lyapunov function (see module docs)."""
+    """Derive the stability conditions of ``model`` from its Lyapunov function (see module docs).
+
+    Cached per model (like :func:`~duffsym.derive._mechanics.mechanics`): the fit's quality flags, the
+    diagnosis's certificate of every candidate and ``derive`` share one derivation (~0.4 s) per model."""
     lya = lyapunov_analysis(model)
     mech = mechanics(model)
     structural = mech.structural_symbols
