@@ -36,6 +36,18 @@ def test_json_that_cannot_be_serialised_leaves_the_file(tmp_path):
     assert p.read_text() == '{"ok": 1}'
 
 
+def test_a_file_being_written_never_looks_finished(tmp_path):
+    """While ``atomic_write`` writes ``r.json`` its temporary file ends in ``.tmp``, so a reader that
+    lists finished results (``*.json``, as a resumed batch does) never counts it; ``atomic_path`` keeps
+    the suffix for writers that take the format from it (``savefig``)."""
+    with atomic_write(tmp_path / "r.json") as fh:
+        fh.write("{}")
+        assert list(tmp_path.glob("*.json")) == [] and len(list(tmp_path.glob(".r.json.*.tmp"))) == 1
+    assert [p.name for p in tmp_path.glob("*.json")] == ["r.json"]
+    with atomic_path(tmp_path / "f.png") as tmp:
+        assert tmp.suffix == ".png"
+
+
 def test_atomic_path_renames_on_success(tmp_path):
     p = tmp_path / "sub" / "fig.png"
     with atomic_path(p) as tmp:

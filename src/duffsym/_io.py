@@ -54,7 +54,7 @@ def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newli
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_write: mode must be 'w' or 'wb'; got {mode!r}")
     kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}
-    with atomic_path(path) as tmp, open(tmp, mode, **kwargs) as fh:
+    with atomic_path(path, keep_suffix=False) as tmp, open(tmp, mode, **kwargs) as fh:
         yield fh
         fh.flush()
         os.fsync(fh.fileno())
@@ -71,12 +71,16 @@ def _keep_mode(path: Path, tmp: str) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path) -> Iterator[Path]:
-    """A temporary path beside ``path`` (same suffix) for writers that want a file name (``savefig``,
-    ``np.savez``); renamed over ``path`` on success, removed on failure."""
+def atomic_path(path, *, keep_suffix: bool = True) -> Iterator[Path]:
+    """A temporary path beside ``path`` for writers that want a file name (``savefig``, ``np.savez``:
+    ``keep_suffix``, the default, keeps ``path``'s suffix, from which they take the format); renamed
+    over ``path`` on success, removed on failure. Without ``keep_suffix`` the name ends in ``.tmp``,
+    so that a temporary file never matches the pattern of finished ones (e.g. ``*.json``)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=f"{TMP_SUFFIX}{path.suffix}")
+    prefix, suffix = ((f".{path.stem}.", f"{TMP_SUFFIX}{path.suffix}") if keep_suffix
+                      else (f".{path.name}.", TMP_SUFFIX))
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
     os.close(fd)
     try:
         yield Path(tmp)
