@@ -91,6 +91,10 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     the effects' output terms removed, and each added state from its effect's guess
     (:func:`duffsym.effects.initial_states_with_effects`). Other models start from zeros.
     """
+    if getattr(model, "composition", ()):
+        from duffsym.identify.structure import structure_initial_states
+
+        return structure_initial_states(model, record, params)
     if model.effects:
         from duffsym.effects import initial_states_with_effects
 

@@ -45,6 +45,10 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
     from duffsym.identify.collocation import _input_matrix, initial_states
 
     fixed = dict(fixed or {})
+    if getattr(model, "composition", ()):
+        from duffsym.identify.structure import structure_initial_guess
+
+        return structure_initial_guess(record, model, fixed)
     values = {**model.defaults(), **fixed}
     steps = TUNING_STEPS.get(model.name)
     if steps is None:

@@ -26,6 +26,8 @@ REASON_AF = ("fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leave
              "and the gains are not identifiable together (the paper sets A_f to the force peak)")
 REASON_K3 = ("fixed at 0: under a single-amplitude sine k3 trades against k1 and k2 along a ridge of equal fit "
              "(Table 2 has k3 = 0); free it (free=[..., 'k3']) with records at several amplitudes")
+REASON_AF_ELEMENT = ("fixed at {value:.6g}: the element's scaling symmetry x -> s*x leaves its force, hence the "
+                     "structure's output, unchanged, so A_f and the element's gains are not identifiable together")
 REASON_HELD = "not listed in free; held at the model default {value:.6g}"
 
 
@@ -233,7 +235,11 @@ class Problem:
         defaults: dict[str, str] = {}
         requested = set(free or ()) | set(fixed_vals)
         group_fixed: dict[tuple[str, str], float] = {}
-        if "A_f" in names and "A_f" not in requested:
+        af_inside = "A_f" in names and bool(getattr(model, "composition", ()))
+        if af_inside and "A_f" not in requested:  # an element's gain inside a composed model
+            fixed_vals["A_f"] = model.param("A_f").default
+            defaults["A_f"] = REASON_AF_ELEMENT.format(value=fixed_vals["A_f"])
+        elif "A_f" in names and "A_f" not in requested:
             peak = max(float(np.max(np.abs(r.y))) for r in recs)
             fixed_vals["A_f"] = peak
             defaults["A_f"] = REASON_AF.format(value=peak)

@@ -53,6 +53,7 @@ class SymbolicModel:
     position, velocity : the mechanical state pair (x, x') used by the Lyapunov derivations.
     equation : the defining second-order equation in ``x, x_dot, x_ddot`` (for display), if any.
     effects : names of the effects applied to the base model, in order.
+    composition : the parts of a composed model (:func:`duffsym.model.structure.structure`), else empty.
     """
 
     name: str
@@ -68,6 +69,7 @@ class SymbolicModel:
     equation: sp.Eq | None = None
     effects: tuple[str, ...] = ()
     description: str = ""
+    composition: tuple = ()  # (key, value) pairs of a composed model (duffsym.model.structure), else ()
     _key: str = field(init=False, repr=False, compare=False, default="")
 
     def __hash__(self) -> int:  # the equations' hash, cheap: generated code is cached per model

@@ -213,12 +213,21 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
     )
 
 
+def structure_with_damper(n: int | sp.Symbol = 3, **kwargs) -> SymbolicModel:
+    """``structure``: a mass, damper and spring (m q'' + c q' + k q + H = F) whose restoring force H is
+    the MR-damper element (Eq. 12, power n) driven by the mass's motion (:mod:`duffsym.model.structure`)."""
+    from duffsym.model.structure import structure
+
+    return structure(mr_damper(n), **kwargs)
+
+
 #: Constructors by CLI name; each takes the power ``n`` where it has one.
 MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "mr-damper": mr_damper,
     "duffing-like": duffing_like,
     "duffing": duffing,
     "duffing-gain": duffing_gain,
+    "structure": structure_with_damper,
 }
 
 

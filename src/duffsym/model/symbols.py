@@ -115,4 +115,10 @@ LATEX_NAMES: dict[str, str] = {
     "m": "m",
     "A_f": "A_{f}",
     "y": "y",
+    "q1": "q_{1}",
+    "q2": "q_{2}",
+    "q": "q",
+    "q_dot": r"\dot{q}",
+    "q_ddot": r"\ddot{q}",
+    "H": "H",
 }

@@ -1,0 +1,89 @@
+"""An independent simulator of a mass with a restoring hysteresis element: Bouc–Wen or Duffing-like.
+
+Written from the equations, *not* from duffsym: this module imports numpy only, so the structure model's
+identification (``duffsym.model.structure``) can be tested on records its own code did not make.
+
+The Bouc–Wen oscillator of the hysteretic benchmark (Noël & Schoukens 2016; the constants of
+``../shared/data/external/bouc_wen_benchmark/SOURCE.md``)::
+
+    m y'' + c y' + k y + z = u,
+    z' = alpha y' - beta (gamma |y'| |z|^(nu-1) z + delta y' |z|^nu)
+
+and a mass carrying the paper's Duffing-like element (Eq. 12, driven by the mass's own motion,
+force A_f x' on the mass)::
+
+    m y'' + c y' + k y + A_f x' = u,
+    x'' + (c1 + c2) x' + (k1 + k2) x + k3 x^n + c3 x'^n = k1 y + c1 y'
+
+Integration: classical RK4 with ``substeps`` steps per sample; the force u is the sampled input held
+linearly between samples (as the benchmark's upsampled multisine), evaluated at every stage.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+#: The benchmark's constants (SI units).
+BOUC_WEN = dict(m=2.0, c=10.0, k=5e4, alpha=5e4, beta=1e3, gamma=0.8, delta=-1.1, nu=1.0)
+
+
+def multisine(n: int, fs: float, *, f_lo: float = 5.0, f_hi: float = 150.0, rms: float = 50.0,
+              seed: int = 0) -> np.ndarray:
+    """One period of a random-phase multisine of ``n`` samples, flat amplitude on ``[f_lo, f_hi]``, scaled to ``rms``."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(n // 2 + 1)
+    f = k * fs / n
+    U = np.zeros(k.size, dtype=complex)
+    band = (f >= f_lo) & (f <= f_hi)
+    U[band] = np.exp(2j * math.pi * rng.uniform(size=int(band.sum())))
+    u = np.fft.irfft(U, n)
+    return u * rms / np.sqrt(np.mean(u**2))
+
+
+def _bw_rhs(s, u, p):
+    y, v, z = s
+    m, c, k = p["m"], p["c"], p["k"]
+    a, b, g, dl, nu = p["alpha"], p["beta"], p["gamma"], p["delta"], p["nu"]
+    az = abs(z)
+    zdot = a * v - b * (g * abs(v) * az ** (nu - 1) * z + dl * v * az**nu)
+    return np.array([v, (u - c * v - k * y - z) / m, zdot])
+
+
+def _dl_rhs(s, u, p):
+    y, v, x, w = s
+    n = p["n"]
+    force = p["A_f"] * w
+    acc = (u - p["c"] * v - p["k"] * y - force) / p["m"]
+    xacc = (p["k1"] * y + p["c1"] * v - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x
+            - p["k3"] * x**n - p["c3"] * w**n)
+    return np.array([v, acc, w, xacc])
+
+
+def _rk4(rhs, s0, u, p, dt, substeps):
+    s = np.array(s0, dtype=float)
+    out = np.empty((u.size, s.size))
+    out[0] = s
+    h = dt / substeps
+    for i in range(u.size - 1):
+        u0, u1 = u[i], u[i + 1]
+        for j in range(substeps):
+            a0 = j / substeps
+            ua, um, ub = (u0 + (u1 - u0) * (a0 + f / substeps) for f in (0.0, 0.5, 1.0))
+            k1 = rhs(s, ua, p)
+            k2 = rhs(s + 0.5 * h * k1, um, p)
+            k3 = rhs(s + 0.5 * h * k2, um, p)
+            k4 = rhs(s + h * k3, ub, p)
+            s = s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out[i + 1] = s
+    return out
+
+
+def simulate_bouc_wen(u, fs: float = 750.0, params: dict | None = None, *, substeps: int = 20, s0=(0, 0, 0)):
+    """States ``(n, 3)``: displacement y [m], velocity y' [m/s], hysteretic force z [N]."""
+    return _rk4(_bw_rhs, s0, np.asarray(u, dtype=float), {**BOUC_WEN, **(params or {})}, 1.0 / fs, substeps)
+
+
+def simulate_duffing_like_structure(u, fs: float, params: dict, *, substeps: int = 20, s0=(0, 0, 0, 0)):
+    """States ``(n, 4)``: y, y', the element's x, x' (force on the mass ``A_f x'``)."""
+    return _rk4(_dl_rhs, s0, np.asarray(u, dtype=float), params, 1.0 / fs, substeps)
