@@ -212,6 +212,11 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     Models extended by effects are analysed on their mechanical pair (position, velocity); the
     extra terms appear in dV/dt with their sign.
     """
+    if getattr(model, "composition", ()):
+        from duffsym.derive.coupled import coupled_report_items
+
+        return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
+                                items=tuple(coupled_report_items(model)))
     pr = _Printer(model)
     base = model.name if model.name in _EQUATIONS else ""
     eq_main, eq_ss = _EQUATIONS.get(base, ("", ""))

@@ -89,7 +89,12 @@ def _conditions(model) -> tuple:
 
     out = []
     try:
-        named = stability_conditions(model).named()
+        if getattr(model, "composition", ()):  # a structure with an element: the coupled linearization's Hurwitz test
+            from duffsym.derive.coupled import coupled_analysis
+
+            named = {f"Hurwitz {i + 1}": h > 0 for i, h in enumerate(coupled_analysis(model).hurwitz)}
+        else:
+            named = stability_conditions(model).named()
         for name, cond in named.items():
             if cond in (sp.true, sp.false):  # structural (e.g. an extended model this V does not cover)
                 continue

@@ -33,6 +33,8 @@ Q, Q_DOT, Q_DDOT = state_symbol("q"), state_symbol("q_dot"), state_symbol("q_ddo
 Q1, Q2 = state_symbol("q1"), state_symbol("q2")
 #: The element's force in the structure's equation (replaced by the element's output).
 H = sp.Symbol("H", real=True)
+#: The structure's input force F.
+FORCE_SYMBOL = FORCE.symbol
 
 
 def _sp(name, latex, default, lower, upper, description, unit) -> ParamSpec:
