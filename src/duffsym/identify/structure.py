@@ -69,6 +69,27 @@ def structure_initial_states(model, record, params: np.ndarray) -> np.ndarray:
     return X
 
 
+def structure_columns(model, q, v, a) -> tuple[list[str], np.ndarray]:
+    """The structure's parameters that enter its equation linearly, and their regressor columns
+    :math:`\partial(\mathrm{lhs}-\mathrm{rhs})/\partial p` evaluated on the data (q, q', q'')."""
+    import sympy as sp
+
+    from duffsym.model.structure import FORCE_SYMBOL, H, Q, Q_DDOT, Q_DOT
+
+    comp = composition(model)
+    eq = comp["equation"]
+    expr = sp.expand(eq.lhs - eq.rhs)
+    names, cols = [], []
+    for spec in model.params[: comp["n_structure_params"]]:
+        col = sp.diff(expr, spec.symbol)
+        if col.free_symbols & ({H, FORCE_SYMBOL} | set(model.param_symbols)) or col == 0:
+            continue  # not linear in this parameter (or not in the equation): left at its default
+        fn = sp.lambdify((Q, Q_DOT, Q_DDOT), col, "numpy")
+        names.append(spec.name)
+        cols.append(np.broadcast_to(np.asarray(fn(q, v, a), dtype=float), np.shape(q)))
+    return names, np.column_stack(cols)
+
+
 def structure_initial_guess(record, model, fixed: Mapping[str, float] | None = None, *, skip: int = 20) -> dict:
     """Start values: m, c, k of the default structure by least squares on the equation error
     :math:`m\\ddot q + c\\dot q + k q \\approx F` (edges of ``skip`` samples left out); the element's
@@ -77,9 +98,9 @@ def structure_initial_guess(record, model, fixed: Mapping[str, float] | None = N
     values = {**model.defaults(), **fixed}
     v, a = _rates(record)
     sl = slice(skip, record.n_times - skip)
-    A = np.column_stack([a[sl], v[sl], np.asarray(record.y)[sl]])
-    coef, *_ = np.linalg.lstsq(A, np.asarray(record.d)[sl], rcond=None)
-    for name, value in zip(("m", "c", "k"), coef):
+    names, A = structure_columns(model, np.asarray(record.y), v, a)
+    coef, *_ = np.linalg.lstsq(A[sl], np.asarray(record.d)[sl], rcond=None)
+    for name, value in zip(names, coef):
         if name in model.param_names and name not in fixed and np.isfinite(value):
             spec = model.param(name)
             values[name] = float(np.clip(value, spec.lower, spec.upper))
@@ -95,3 +116,70 @@ def scaled_to(model, values: Mapping[str, float]):
         scale = abs(v) if v != 0 else p.typical_scale
         params.append(replace(p, default=v, scale=scale))
     return replace(model, params=tuple(params))
+
+
+def equation_error_start(record, model, *, free_element=None, starts=None, skip: int = 100, max_nfev: int = 200,
+                         rng=0, n_random: int = 8, lowpass: float = 0.08) -> dict:
+    r"""Start values of every parameter of a composed model from the equation error (teacher forcing).
+
+    The element is driven by the *measured* motion, so its force :math:`H(t;\theta_e)` is simulated from
+    the data alone; the structure's m, c, k enter :math:`F - H = m\ddot q + c\dot q + k q` linearly and
+    are eliminated by least squares for every :math:`\theta_e` (variable projection). The element's
+    free parameters minimise the remaining equation error (scipy ``least_squares`` from the defaults
+    and ``n_random`` log-uniform random starts within a factor 10; the best is kept). ``A_f`` and
+    ``k3`` stay at their fixed values. Cheap: each evaluation simulates the two-state element once.
+    Both sides are low-passed (zero-phase Butterworth, order 4, cutoff ``lowpass`` times the sampling
+    rate): the second derivative of sampled data is only trustworthy well below Nyquist (on the
+    Bouc-Wen benchmark's data the unfiltered equation error with the true hysteretic force is 45 %
+    of the force, low-passed at 0.08 fs 1.4 %, with m, c, k within 1 % of the truth).
+    Returns every parameter by name, plus ``"_equation_nrmse"``: the relative equation error left.
+    """
+    from scipy.optimize import least_squares
+    from scipy.signal import butter, filtfilt
+
+    from duffsym.simulate import simulate
+
+    b_lp, a_lp = butter(4, 2 * lowpass)
+    lp = lambda s: filtfilt(b_lp, a_lp, s)  # noqa: E731
+    comp = composition(model)
+    el = comp["element_model"]
+    L = comp["length_unit"]
+    v, a = _rates(record)
+    q, F, t = np.asarray(record.y), np.asarray(record.d), np.asarray(record.t)
+    chans = {"d": q / L, "d_dot": v / L}
+    chans = {ch.name: chans[ch.name] for ch in el.inputs}
+    free = list(free_element or [n for n in el.param_names if n not in ("A_f", "k3")])
+    base = {**model.defaults()}
+    sl = slice(skip, record.n_times - skip)
+    s_names, A = structure_columns(model, q, v, a)
+    A = np.column_stack([lp(col) for col in A.T])[sl]
+    F_lp = lp(F)
+    scale = np.array([max(abs(base[n]), 1e-3) for n in free])
+
+    def residual(z):
+        pe = {n: base[n] for n in el.param_names}
+        pe.update(dict(zip(free, z * scale)))
+        tr = simulate(el, pe, t, chans, on_failure="return", max_substeps=200)
+        if not tr.success or not np.all(np.isfinite(tr.y)):
+            return np.full(A.shape[0], 1e3 * np.std(F))
+        rhs = F_lp[sl] - lp(tr.y)[sl]
+        coef, *_ = np.linalg.lstsq(A, rhs, rcond=None)
+        return (rhs - A @ coef) / np.std(F_lp)
+
+    gen = np.random.default_rng(rng)
+    inits = [np.ones(len(free))] + [np.exp(gen.uniform(-np.log(10), np.log(10), len(free))) for _ in range(n_random)]
+    if starts is not None:
+        inits = [np.array([s[n] for n in free]) / scale for s in starts] + inits
+    best = None
+    for z0 in inits:
+        sol = least_squares(residual, z0, max_nfev=max_nfev, x_scale="jac")
+        if best is None or sol.cost < best.cost:
+            best = sol
+    out = dict(base)
+    out.update(dict(zip(free, best.x * scale)))
+    pe = {n: out[n] for n in el.param_names}
+    H_ = simulate(el, pe, t, chans, on_failure="return", max_substeps=200).y
+    coef, *_ = np.linalg.lstsq(A, F_lp[sl] - lp(H_)[sl], rcond=None)
+    out.update(dict(zip(s_names, map(float, coef))))
+    out["_equation_nrmse"] = float(np.sqrt(2 * best.cost / A.shape[0]))
+    return out
