@@ -33,6 +33,7 @@ LAYERS = (
     "sindy",
     "uncertainty",
     "diagnose",
+    "benchmark",  # public benchmarks scored by their own protocol (identify, diagnose below)
     "engine", "campaign",  # run commands over many records (they drive everything below)
     "cli",
 )

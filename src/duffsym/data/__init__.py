@@ -8,6 +8,7 @@ from duffsym.data.loaders import (
     SILVERBOX_PARTS,
     UTFSM_VALIDATION_CURRENTS,
     external_data_dir,
+    load_bouc_wen,
     load_mr_damper_utfsm,
     load_silverbox,
     parse_utfsm_name,
@@ -21,5 +22,5 @@ from duffsym.data.synthetic import apply_backlash, synthetic_record
 __all__ = [
     "Record", "read_csv", "write_csv", "load_mr_damper_utfsm", "load_silverbox", "external_data_dir",
     "utfsm_sine_files", "parse_utfsm_name", "synthetic_record", "apply_backlash", "savgol_derivative",
-    "zero_crossings", "MIN_SAMPLES", "SILVERBOX_PARTS", "UTFSM_VALIDATION_CURRENTS",
+    "zero_crossings", "MIN_SAMPLES", "SILVERBOX_PARTS", "UTFSM_VALIDATION_CURRENTS", "load_bouc_wen",
 ]

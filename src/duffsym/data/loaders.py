@@ -516,3 +516,52 @@ def load_silverbox(path, *, part: str | None = None) -> Record:
         metadata={"dataset": "silverbox", "part": part, "fs": SILVERBOX_FS, "first_row": int(k[0])},
         source=str(path), name=f"{path.stem}" + (f"[{part}]" if part else ""),
     )
+
+
+# ---------------------------------------------------------------------------- Bouc-Wen
+BOUC_WEN_FS = 750.0
+#: (file, group) of each part of the Bouc-Wen hysteretic benchmark (HDF5 files of forgi86/dynonet).
+BOUC_WEN_PARTS: dict[str, tuple[str, str]] = {
+    "train": ("train.h5", "multisine"),
+    "multisine": ("test.h5", "multisine"),
+    "sinesweep": ("test.h5", "sinesweep"),
+}
+
+
+def load_bouc_wen(folder=None, *, part: str = "multisine", unit: str = "m") -> Record:
+    """A part of the Bouc-Wen hysteretic benchmark: input force u [N] -> ``d``, output displacement -> ``y``.
+
+    Parameters
+    ----------
+    folder : the folder holding ``train.h5`` and ``test.h5`` (default ``external_data_dir()/bouc_wen_benchmark``).
+    part : ``"train"`` (the generated 5-period training multisine), ``"multisine"`` or ``"sinesweep"``
+        (the official validation signals).
+    unit : the output's unit, ``"m"`` (as stored) or ``"mm"`` (scaled by 1e3: O(1) numbers for the fit).
+    Needs ``h5py``.
+    """
+    if part not in BOUC_WEN_PARTS:
+        raise DataError(f"part must be one of {{{', '.join(BOUC_WEN_PARTS)}}}; got {part!r}")
+    if unit not in ("m", "mm"):
+        raise DataError(f"unit must be 'm' or 'mm'; got {unit!r}")
+    folder = Path(folder) if folder is not None else external_data_dir() / "bouc_wen_benchmark"
+    name, group = BOUC_WEN_PARTS[part]
+    path = folder / name
+    from duffsym._io import check_input_file
+
+    check_input_file(path, what="Bouc-Wen HDF5 file")
+    try:
+        import h5py
+    except ImportError:  # pragma: no cover - h5py is a dependency
+        raise DataError(f"{path}: reading HDF5 needs h5py; pip install h5py") from None
+    try:
+        with h5py.File(path, "r") as h:
+            u = np.asarray(h[group]["u"], dtype=float).reshape(-1)
+            y = np.asarray(h[group]["y"], dtype=float).reshape(-1)
+    except (OSError, KeyError) as exc:
+        raise DataError(f"{path}: not a Bouc-Wen benchmark file with group {group!r} ({exc}); get it as its "
+                        "SOURCE.md says") from None
+    scale = 1e3 if unit == "mm" else 1.0
+    k = np.arange(u.size)
+    return Record(t=k / BOUC_WEN_FS, d=u, y=y * scale, units={"t": "s", "d": "N", "y": unit},
+                  metadata={"dataset": "bouc_wen", "part": part, "fs": BOUC_WEN_FS},
+                  source=str(path), name=f"bouc_wen[{part}]")

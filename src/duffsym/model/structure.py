@@ -42,15 +42,18 @@ def _sp(name, latex, default, lower, upper, description, unit) -> ParamSpec:
                      description=description)
 
 
-def mass_spring_damper() -> tuple[sp.Eq, tuple[ParamSpec, ...]]:
-    """The default structure: :math:`m\\ddot q + c\\dot q + k q + H = F` and its three parameters."""
+def mass_spring_damper(powers: tuple[int, ...] = ()) -> tuple[sp.Eq, tuple[ParamSpec, ...]]:
+    """The default structure: :math:`m\ddot q + c\dot q + k q + \sum_p k_{q,p} q^p + H = F` and its parameters
+    (``powers`` adds a polynomial stiffness ``k_q<p> q^p`` for each p, e.g. ``(3,)`` a cubic spring)."""
     params = (
         _sp("m", "m", 1.0, 1e-12, 1e12, "mass of the structure", "force/(length/s^2)"),
         _sp("c", "c", 1.0, -1e12, 1e12, "viscous damping of the structure", "force/(length/s)"),
         _sp("k", "k", 1.0, -1e12, 1e12, "stiffness of the structure", "force/length"),
-    )
-    m, c, k = (p.symbol for p in params)
-    return sp.Eq(m * Q_DDOT + c * Q_DOT + k * Q + H, FORCE.symbol), params
+    ) + tuple(_sp(f"k_q{p}", f"k_{{q{p}}}", 0.0, -1e12, 1e12, f"stiffness of the structure in q^{p}",
+                  f"force/length^{p}") for p in powers)
+    m, c, k = (p.symbol for p in params[:3])
+    poly = sum((spec.symbol * Q**p for spec, p in zip(params[3:], powers)), sp.Integer(0))
+    return sp.Eq(m * Q_DDOT + c * Q_DOT + k * Q + poly + H, FORCE.symbol), params
 
 
 def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = None,

@@ -1,0 +1,42 @@
+"""``duffsym benchmark silverbox|bouc-wen``: estimate on the benchmark's estimation data, score its test sets."""
+from __future__ import annotations
+
+import sys
+
+from duffsym._cli_common import _emit_json
+
+
+def cmd_benchmark(args) -> int:
+    from duffsym._io import check_output_path, write_json_atomic
+    from duffsym._json import jsonable
+    from duffsym.benchmark import BoucWenOptions, SilverboxOptions, run_bouc_wen, run_silverbox
+    from duffsym.data.loaders import external_data_dir
+
+    if args.out:
+        check_output_path(args.out)
+    folder = external_data_dir() / ("silverbox" if args.name == "silverbox" else "bouc_wen_benchmark")
+    say = (lambda m: print(m, file=sys.stderr, flush=True)) if not args.quiet else None
+    if args.name == "silverbox":
+        opts = SilverboxOptions.smoke() if args.smoke else SilverboxOptions()
+        res = run_silverbox(folder, opts, progress=say)
+    else:
+        opts = BoucWenOptions.smoke() if args.smoke else BoucWenOptions()
+        res = run_bouc_wen(folder, opts, progress=say)
+    if args.out:
+        write_json_atomic(args.out, jsonable(res.to_dict()))
+    if args.json:
+        _emit_json(res.to_dict())
+    else:
+        print(res.summary())
+    return 0
+
+
+def register(sub) -> None:
+    s = sub.add_parser("benchmark", help="score a public benchmark by its own protocol (silverbox, bouc-wen) beside "
+                       "the published figures")
+    s.add_argument("name", choices=("silverbox", "bouc-wen"), help="the benchmark")
+    s.add_argument("--smoke", action="store_true", help="small settings (seconds; scores not comparable)")
+    s.add_argument("--out", help="also write the result JSON to this file")
+    s.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.set_defaults(func=cmd_benchmark)
