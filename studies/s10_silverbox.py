@@ -147,19 +147,6 @@ def spectral_noise(y, *, n: int = 8192, fs: float, f_lo: float = 250.0) -> float
     return float(np.sqrt(np.mean(np.abs(Y[m]) ** 2) / y.size))
 
 
-def bandlimited_derivative(u, dt: float, half: int = 15) -> np.ndarray:
-    """Derivative of a band-limited sampled signal: the ideal differentiator ``(-1)^n / (n dt)``
-    truncated to ``2 half + 1`` taps with a Blackman window (gain within 0.1 % of the exact
-    derivative up to 0.8 of the Nyquist frequency; the ends use zero padding)."""
-    n = np.arange(-half, half + 1)
-    h = np.zeros(n.size)
-    nz = n != 0
-    h[nz] = (-1.0) ** n[nz] / n[nz]
-    h *= np.blackman(n.size + 2)[1:-1]
-    h /= np.sum(-n * h)  # unit slope at low frequency
-    return np.convolve(np.asarray(u, dtype=float), h, mode="same") / dt
-
-
 def with_derivative(rec, how: str):
     """``rec`` with the input rate ``d_dot`` set by ``how``: "bandlimited" or "savgol" (the record default)."""
     if how == "savgol":
@@ -169,61 +156,9 @@ def with_derivative(rec, how: str):
     return rec.replace(d_dot=bandlimited_derivative(rec.d, rec.dt))
 
 
-def build(effects):
-    """``duffing-gain`` with the catalogued effects in order."""
-    from duffsym.effects import CATALOGUE, apply_effects
-    from duffsym.model.library import get_model
-
-    return apply_effects(get_model("duffing-gain"), [CATALOGUE[e] for e in effects])
-
-
-def initial_state(model, params: dict, rec, n_init: int = N_SKIP) -> np.ndarray:
-    """Initial state for a free run of ``rec``: the data-based guess, with the position and velocity
-    fitted by least squares to the first ``n_init`` output samples."""
-    from scipy.optimize import least_squares
-
-    from duffsym.identify.collocation import initial_states
-    from duffsym.simulate import input_matrix, simulate
-
-    p = model.param_vector(params)
-    x0 = np.array(initial_states(model, rec, p)[0], dtype=float)
-    head = rec.slice(0, n_init)
-    U = input_matrix(model, np.asarray(head.t), head.inputs_for(model))
-    ip, iv = model.states.index(model.position), model.states.index(model.velocity)
-
-    def res(z):
-        x = x0.copy()
-        x[ip], x[iv] = z
-        tr = simulate(model, p, np.asarray(head.t), U, x0=x, on_failure="return")
-        return (np.asarray(tr.y) - head.y) if tr.success else np.full(head.n_times, 1.0)
-
-    sol = least_squares(res, [x0[ip], x0[iv]], x_scale=[max(abs(x0[ip]), 1e-3), max(abs(x0[iv]), 1e-1)])
-    x0[ip], x0[iv] = sol.x
-    return x0
-
-
-def free_run(model, params: dict, rec, *, substeps="auto", info: dict | None = None) -> np.ndarray:
-    """Free-run output of ``model`` on ``rec`` (NaN where it fails); ``info`` receives the substeps used."""
-    from duffsym.simulate import input_matrix, simulate
-
-    U = input_matrix(model, np.asarray(rec.t), rec.inputs_for(model))
-    tr = simulate(model, model.param_vector(params), np.asarray(rec.t), U, x0=initial_state(model, params, rec),
-                  substeps=substeps, on_failure="return")
-    y = np.asarray(tr.y, dtype=float)
-    if info is not None:
-        sub = np.asarray(tr.substeps)
-        info.update(success=bool(tr.success), max_substeps=int(sub.max()) if sub.size else None)
-    if not tr.success:
-        y = np.where(np.isfinite(y), y, np.nan)
-    return y
-
-
-def scores(y, yhat) -> tuple[float, float]:
-    """Benchmark RMSE in mV on the full arrow and on its no-extrapolation part (first 50 samples skipped)."""
-    e = (np.asarray(y) - np.asarray(yhat))[N_SKIP:]
-    full = float(1e3 * np.sqrt(np.mean(e**2)))
-    part = float(1e3 * np.sqrt(np.mean(e[: N_NO_EXTRAPOLATION - N_SKIP] ** 2)))
-    return full, part
+# the Silverbox helpers are shared with ``duffsym benchmark silverbox`` (one copy, in the package)
+from duffsym.benchmark.silverbox import build, free_run, initial_state, scores  # noqa: E402,F401
+from duffsym.identify.structure import bandlimited_derivative  # noqa: E402,F401
 
 
 def compute(cfg: Config) -> dict:
