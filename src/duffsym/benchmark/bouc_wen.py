@@ -44,6 +44,7 @@ class BoucWenOptions:
 
     n: int = 3                      # power of the element (Eq. 12)
     powers: tuple = (3,)            # polynomial stiffness terms of the structure
+    n_elements: int = 1             # elements in parallel (the second one's parameters end in _2)
     estimation_start: int = 8192    # first training sample used (period 1 is the start-up transient)
     ee_samples: int = 8192          # samples of the equation-error start
     ee_random_starts: int = 6       # random starts of the equation-error start (besides the defaults)
@@ -61,12 +62,13 @@ def bouc_wen_model(options: BoucWenOptions = BoucWenOptions()):
     from duffsym.model.structure import mass_spring_damper, structure
 
     eq, params = mass_spring_damper(tuple(options.powers))
-    return structure(mr_damper(options.n), equation=eq, params=params, name="structure")
+    extra = tuple(mr_damper(options.n) for _ in range(options.n_elements - 1))
+    return structure(mr_damper(options.n), equation=eq, params=params, name="structure", extra_elements=extra)
 
 
 def _free_element(model, options) -> list[str]:
     n_s = dict(model.composition)["n_structure_params"]
-    return [p for p in model.param_names[n_s:] if p not in ("A_f", "k3")]
+    return [p for p in model.param_names[n_s:] if not p.startswith(("A_f", "k3"))]
 
 
 def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -> tuple[object, dict, dict]:
@@ -90,7 +92,7 @@ def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -
         say(f"output-error collocation fit on {rec.n_times} samples")
         t1 = time.perf_counter()
         scaled = scaled_to(model, start)
-        r = fit(Problem(scaled, rec, free=[p for p in model.param_names if p not in ("A_f", "k3")]), start,
+        r = fit(Problem(scaled, rec, free=[p for p in model.param_names if not p.startswith(("A_f", "k3"))]), start,
                 max_iter=options.max_iter, compute_stderr=False, progress=progress)
         details.update(oe_status=r.status, oe_success=bool(r.success), oe_nrmse=float(r.nrmse),
                        oe_seconds=time.perf_counter() - t1, oe_flags=[f.get("flag") for f in r.flags])
@@ -139,4 +141,4 @@ def run_bouc_wen(folder=None, options: BoucWenOptions = BoucWenOptions(), progre
     return BenchmarkResult(benchmark="bouc-wen", unit="m", scores=scores, model=model.name, effects=tuple(model.effects),
                            n_params=model.n_params, seconds=time.perf_counter() - t0, protocol=protocol,
                            params={k: float(v) for k, v in params.items()}, published=PUBLISHED, notes=tuple(notes),
-                           details={**details, "n_free": model.n_params - 2})
+                           details={**details, "n_free": len([p for p in model.param_names if not p.startswith(("A_f", "k3"))])})

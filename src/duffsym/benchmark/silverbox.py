@@ -156,6 +156,22 @@ def estimate(train, options: SilverboxOptions = SilverboxOptions(), progress=Non
     return model, params, details
 
 
+def score_silverbox(path, model, params, *, substeps=16, predictions: dict | None = None) -> dict:
+    """The three official scores [mV] of ``model`` with ``params`` (``path``: SNLS80mV.csv); ``predictions``
+    receives each test set's free run (volts)."""
+    from duffsym.data.loaders import load_silverbox
+
+    out = {}
+    for part in ("multisine_test", "arrow_full", "arrow_no_extrapolation"):
+        test = with_bandlimited_rate(load_silverbox(path, part=part))
+        y_hat = free_run(model, params, test, substeps=substeps)
+        key = part.replace("multisine_test", "multisine")
+        out[key] = rmse_mv(test.y, y_hat)
+        if predictions is not None:
+            predictions[key] = (np.asarray(test.y), y_hat)
+    return out
+
+
 def run_silverbox(folder=None, options: SilverboxOptions = SilverboxOptions(), progress=None) -> BenchmarkResult:
     """Estimate on ``multisine_train`` and score the three official test sets (module docstring)."""
     from duffsym.data.loaders import external_data_dir, load_silverbox
@@ -165,12 +181,7 @@ def run_silverbox(folder=None, options: SilverboxOptions = SilverboxOptions(), p
     path = path / "SNLS80mV.csv"
     train = with_bandlimited_rate(load_silverbox(path, part="multisine_train"))
     model, params, details = estimate(train, options, progress)
-    out = {}
-    for part in ("multisine_test", "arrow_full", "arrow_no_extrapolation"):
-        test = with_bandlimited_rate(load_silverbox(path, part=part))
-        info: dict = {}
-        y_hat = free_run(model, params, test, substeps=options.substeps, info=info)
-        out[part.replace("multisine_test", "multisine")] = rmse_mv(test.y, y_hat)
+    out = score_silverbox(path, model, params, substeps=options.substeps)
     notes = []
     for p in PUBLISHED[:1]:
         worse = [k for k, v in p.scores.items() if not out[k] < v]

@@ -236,9 +236,11 @@ class Problem:
         requested = set(free or ()) | set(fixed_vals)
         group_fixed: dict[tuple[str, str], float] = {}
         af_inside = "A_f" in names and bool(getattr(model, "composition", ()))
-        if af_inside and "A_f" not in requested:  # an element's gain inside a composed model
-            fixed_vals["A_f"] = model.param("A_f").default
-            defaults["A_f"] = REASON_AF_ELEMENT.format(value=fixed_vals["A_f"])
+        if af_inside:  # each element's gain inside a composed model (A_f, A_f_2, ...)
+            for name in (n for n in names if n == "A_f" or n.startswith("A_f_")):
+                if name not in requested:
+                    fixed_vals[name] = model.param(name).default
+                    defaults[name] = REASON_AF_ELEMENT.format(value=fixed_vals[name])
         elif "A_f" in names and "A_f" not in requested:
             peak = max(float(np.max(np.abs(r.y))) for r in recs)
             fixed_vals["A_f"] = peak

@@ -55,17 +55,19 @@ def structure_initial_states(model, record, params: np.ndarray) -> np.ndarray:
     from duffsym.simulate import simulate
 
     comp = composition(model)
-    el = comp["element_model"]
     L = comp["length_unit"]
     v, _ = _rates(record)
     X = np.zeros((record.n_times, model.n_states))
     X[:, 0], X[:, 1] = record.y, v
     pd = dict(zip(model.param_names, map(float, params)))
-    chans = {"d": np.asarray(record.y) / L, "d_dot": v / L}
-    chans = {c.name: chans[c.name] for c in el.inputs}
-    tr = simulate(el, {n: pd[n] for n in el.param_names}, np.asarray(record.t), chans, on_failure="return")
-    if tr.success:
-        X[:, 2:4] = tr.x
+    j = 2
+    for el in comp.get("elements", (comp["element_model"],)):
+        chans = {"d": np.asarray(record.y) / L, "d_dot": v / L}
+        chans = {c.name: chans[c.name] for c in el.inputs}
+        tr = simulate(el, {n: pd[n] for n in el.param_names}, np.asarray(record.t), chans, on_failure="return")
+        if tr.success:
+            X[:, j:j + el.n_states] = tr.x
+        j += el.n_states
     return X
 
 
@@ -125,7 +127,7 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     The element is driven by the *measured* motion, so its force :math:`H(t;\theta_e)` is simulated from
     the data alone; the structure's m, c, k enter :math:`F - H = m\ddot q + c\dot q + k q` linearly and
     are eliminated by least squares for every :math:`\theta_e` (variable projection). The element's
-    free parameters minimise the remaining equation error (scipy ``least_squares`` from the defaults
+    free parameters minimise the remaining equation error within their bounds (scipy ``least_squares`` from the defaults
     and ``n_random`` log-uniform random starts within a factor 10; the best is kept). ``A_f`` and
     ``k3`` stay at their fixed values. Cheap: each evaluation simulates the two-state element once.
     Both sides are low-passed (zero-phase Butterworth, order 4, cutoff ``lowpass`` times the sampling
@@ -142,13 +144,13 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     b_lp, a_lp = butter(4, 2 * lowpass)
     lp = lambda s: filtfilt(b_lp, a_lp, s)  # noqa: E731
     comp = composition(model)
-    el = comp["element_model"]
+    elements = comp.get("elements", (comp["element_model"],))
     L = comp["length_unit"]
     v, a = _rates(record)
     q, F, t = np.asarray(record.y), np.asarray(record.d), np.asarray(record.t)
-    chans = {"d": q / L, "d_dot": v / L}
-    chans = {ch.name: chans[ch.name] for ch in el.inputs}
-    free = list(free_element or [n for n in el.param_names if n not in ("A_f", "k3")])
+    sig = {"d": q / L, "d_dot": v / L}
+    free = list(free_element or [n for el in elements for n in el.param_names
+                                 if not n.startswith(("A_f", "k3"))])
     base = {**model.defaults()}
     sl = slice(skip, record.n_times - skip)
     s_names, A = structure_columns(model, q, v, a)
@@ -156,13 +158,21 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     F_lp = lp(F)
     scale = np.array([max(abs(base[n]), 1e-3) for n in free])
 
+    def force(values):
+        total = np.zeros(t.size)
+        for el in elements:
+            tr = simulate(el, {n: values[n] for n in el.param_names}, t,
+                          {ch.name: sig[ch.name] for ch in el.inputs}, on_failure="return", max_substeps=200)
+            if not tr.success or not np.all(np.isfinite(tr.y)):
+                return None
+            total += tr.y
+        return total
+
     def residual(z):
-        pe = {n: base[n] for n in el.param_names}
-        pe.update(dict(zip(free, z * scale)))
-        tr = simulate(el, pe, t, chans, on_failure="return", max_substeps=200)
-        if not tr.success or not np.all(np.isfinite(tr.y)):
+        H_ = force({**base, **dict(zip(free, z * scale))})
+        if H_ is None:
             return np.full(A.shape[0], 1e3 * np.std(F))
-        rhs = F_lp[sl] - lp(tr.y)[sl]
+        rhs = F_lp[sl] - lp(H_)[sl]
         coef, *_ = np.linalg.lstsq(A, rhs, rcond=None)
         return (rhs - A @ coef) / np.std(F_lp)
 
@@ -170,15 +180,17 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     inits = [np.ones(len(free))] + [np.exp(gen.uniform(-np.log(10), np.log(10), len(free))) for _ in range(n_random)]
     if starts is not None:
         inits = [np.array([s[n] for n in free]) / scale for s in starts] + inits
+    lo = np.array([model.param(n).lower for n in free]) / scale
+    hi = np.array([model.param(n).upper for n in free]) / scale
     best = None
     for z0 in inits:
-        sol = least_squares(residual, z0, max_nfev=max_nfev, x_scale="jac")
+        z0 = np.clip(z0, lo + 1e-9 * np.abs(lo) + 1e-12, hi - 1e-9 * np.abs(hi) - 1e-12)
+        sol = least_squares(residual, z0, max_nfev=max_nfev, x_scale="jac", bounds=(lo, hi))
         if best is None or sol.cost < best.cost:
             best = sol
     out = dict(base)
     out.update(dict(zip(free, best.x * scale)))
-    pe = {n: out[n] for n in el.param_names}
-    H_ = simulate(el, pe, t, chans, on_failure="return", max_substeps=200).y
+    H_ = force(out)
     coef, *_ = np.linalg.lstsq(A, F_lp[sl] - lp(H_)[sl], rcond=None)
     out.update(dict(zip(s_names, map(float, coef))))
     out["_equation_nrmse"] = float(np.sqrt(2 * best.cost / A.shape[0]))

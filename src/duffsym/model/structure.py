@@ -58,7 +58,7 @@ def mass_spring_damper(powers: tuple[int, ...] = ()) -> tuple[sp.Eq, tuple[Param
 
 def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = None,
               params: tuple[ParamSpec, ...] | None = None, length_unit: float = 1.0,
-              name: str = "structure") -> SymbolicModel:
+              name: str = "structure", extra_elements: tuple = ()) -> SymbolicModel:
     """Compose a structure (``equation`` in q, q', q'', the element force ``H`` and the input F) with
     a two-state hysteresis ``element`` driven by the structure's own motion.
 
@@ -70,6 +70,8 @@ def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = 
         :func:`mass_spring_damper`); the equation must contain ``H`` and be linear in q''.
     length_unit : the element sees :math:`d = q / L` (a fixed unit change, not identified), so an
         element written for O(1) strokes can drive a structure moving 1e-4 m.
+    extra_elements : further elements in parallel (H is the sum of their forces); their states and
+        parameters get the suffix ``_2``, ``_3``, ... (:func:`renamed`).
     """
     element = mr_damper(3) if element is None else element
     if equation is None:
@@ -77,7 +79,11 @@ def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = 
     if params is None:
         raise ModelError("structure: give the parameters of a custom equation (params=...)")
     _check_element(element)
-    clash = sorted({p.name for p in params} & set(element.param_names))
+    extras = tuple(renamed(e, f"_{i + 2}") for i, e in enumerate(extra_elements))
+    for e in extras:
+        _check_element(e)
+    all_names = [p.name for p in params] + [n for e in (element,) + extras for n in e.param_names]
+    clash = sorted({n for n in all_names if all_names.count(n) > 1})
     if clash:
         raise ModelError(f"structure: parameter name(s) {clash} used by both the structure and the element; rename")
     expr = equation.lhs - equation.rhs
@@ -87,24 +93,40 @@ def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = 
     drive = {}
     for ch in element.inputs:
         drive[ch.symbol] = (Q1, Q2)[ch.order] / L
-    force = element.output.xreplace(drive)
+    force = sum((e.output.xreplace(drive) for e in (element,) + extras), sp.Integer(0))
     coeff = sp.expand(expr).coeff(Q_DDOT)
     if coeff == 0 or Q_DDOT in coeff.free_symbols:
         raise ModelError("structure: the equation must be linear in q'' with a non-zero coefficient")
     rest = sp.expand(expr - coeff * Q_DDOT)
     acc = (-rest / coeff).xreplace({Q: Q1, Q_DOT: Q2, H: force})
-    el_rhs = tuple(e.xreplace(drive) for e in element.rhs)
+    el_rhs = tuple(e.xreplace(drive) for el in (element,) + extras for e in el.rhs)
     comp = (("element", element.name), ("element_model", element), ("element_effects", element.effects),
+            ("elements", (element,) + extras),
             ("element_states", element.states), ("structure_states", (Q1, Q2)), ("force", force),
             ("length_unit", float(length_unit)), ("equation", equation), ("n_structure_params", len(params)))
     model = SymbolicModel(
-        name=name, states=(Q1, Q2) + element.states, inputs=(FORCE,), params=tuple(params) + element.params,
+        name=name, states=(Q1, Q2) + sum((e.states for e in (element,) + extras), ()), inputs=(FORCE,),
+        params=tuple(params) + sum((e.params for e in (element,) + extras), ()),
         rhs=(Q2, acc) + el_rhs, output=Q1, output_name="q", structural=element.structural,
         position=Q1, velocity=Q2, equation=None,
         description=f"structure m q'' + c q' + k q + H = F with H the force of the {element.name} element "
                     f"driven by (q, q'){'' if L == 1 else f' / {length_unit:g}'}",
     )
     return replace(model, composition=comp)
+
+
+def renamed(model: SymbolicModel, suffix: str) -> SymbolicModel:
+    """A copy of a two-state element whose states and parameters carry ``suffix`` (a second element in parallel)."""
+    from duffsym.model.symbols import param_symbol
+
+    specs = tuple(replace(p, name=p.name + suffix, latex=p.latex + suffix.replace("_", r"\,")) for p in model.params)
+    sub = {p.symbol: q.symbol for p, q in zip(model.params, specs)}
+    new_states = tuple(state_symbol(str(s) + suffix) for s in model.states)
+    sub.update(dict(zip(model.states, new_states)))
+    del param_symbol
+    return replace(model, states=new_states, params=specs, rhs=tuple(e.xreplace(sub) for e in model.rhs),
+                   output=model.output.xreplace(sub), position=sub.get(model.position),
+                   velocity=sub.get(model.velocity), name=model.name + suffix)
 
 
 def _check_element(element: SymbolicModel) -> None:
