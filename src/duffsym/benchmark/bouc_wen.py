@@ -47,7 +47,8 @@ class BoucWenOptions:
     n_elements: int = 1             # elements in parallel (the second one's parameters end in _2)
     estimation_start: int = 8192    # first training sample used (period 1 is the start-up transient)
     ee_samples: int = 8192          # samples of the equation-error start
-    ee_random_starts: int = 6       # random starts of the equation-error start (besides the defaults)
+    ee_random_starts: int = 32      # random starts of the equation-error start (besides the defaults)
+    ee_spread: float = 1000.0       # ... log-uniform within this factor of the element's defaults
     oe_samples: int = 3000          # samples of the output-error collocation fit (0: none)
     max_iter: int = 300             # IPOPT iterations of that fit
     transient_periods: int = 2      # multisine periods run before the scored one
@@ -82,7 +83,7 @@ def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -
     seg = train.slice(a, a + options.ee_samples)
     say(f"equation-error start on {seg.n_times} samples ({options.ee_random_starts} random starts)")
     t0 = time.perf_counter()
-    start = equation_error_start(seg, model, n_random=options.ee_random_starts,
+    start = equation_error_start(seg, model, n_random=options.ee_random_starts, spread=options.ee_spread,
                                  free_element=_free_element(model, options))
     details = {"equation_error_nrmse": start.pop("_equation_nrmse"), "ee_seconds": time.perf_counter() - t0,
                "start": dict(start)}

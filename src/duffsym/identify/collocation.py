@@ -250,6 +250,10 @@ def fit(
                                         derivatives=derivatives, degree=degree, max_iter=max_iter, tol=tol)
     say = progress or _silent
     start = parameter_start(problem, x0)
+    if getattr(problem.model, "composition", ()):  # a structure with an element: O(1) variables whatever the units
+        from duffsym.identify.structure import rescaled_problem
+
+        problem = rescaled_problem(problem, start)
     say(f"building the collocation NLP ({sum(r.n_times for r in problem.records)} samples, "
         f"{len(problem.slot_names)} free parameters)")
     nlp = CollocationNLP(problem, start, degree=degree, derivatives=derivatives, expand=expand,

@@ -46,9 +46,11 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
 
     fixed = dict(fixed or {})
     if getattr(model, "composition", ()):
-        from duffsym.identify.structure import structure_initial_guess
+        from duffsym.identify.structure import equation_error_start
 
-        return structure_initial_guess(record, model, fixed)
+        start = equation_error_start(record, model, fixed=fixed)
+        start.pop("_equation_nrmse")
+        return start
     values = {**model.defaults(), **fixed}
     steps = TUNING_STEPS.get(model.name)
     if steps is None:
