@@ -43,7 +43,7 @@ def _sp(name, latex, default, lower, upper, description, unit) -> ParamSpec:
 
 
 def mass_spring_damper(powers: tuple[int, ...] = ()) -> tuple[sp.Eq, tuple[ParamSpec, ...]]:
-    """The default structure: :math:`m\ddot q + c\dot q + k q + \sum_p k_{q,p} q^p + H = F` and its parameters
+    r"""The default structure: :math:`m\ddot q + c\dot q + k q + \sum_p k_{q,p} q^p + H = F` and its parameters
     (``powers`` adds a polynomial stiffness ``k_q<p> q^p`` for each p, e.g. ``(3,)`` a cubic spring)."""
     params = (
         _sp("m", "m", 1.0, 1e-12, 1e12, "mass of the structure", "force/(length/s^2)"),
