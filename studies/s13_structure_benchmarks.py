@@ -140,7 +140,7 @@ def plot() -> list:
             axes[0].set_title(f"Bouc-Wen multisine test: RMSE {bw['scores']['multisine']:.3g} m "
                               f"(dynoNet 4.52e-05 m), {bw['n_params']} parameters", fontsize=8)
             out.append(C.save(fig, STUDY, "bouc_wen"))
-        fig, axes = plt.subplots(1, 2, figsize=(6.4, 3.0))
+        fig, axes = plt.subplots(1, 2, figsize=(6.4, 3.6))
         for ax, key, unit in ((axes[0], "bouc_wen", "m"), (axes[1], "silverbox", "mV")):
             res = meta.get(key)
             if not res:
@@ -151,13 +151,15 @@ def plot() -> list:
             ax.bar(x - 0.2, [res["scores"][n] for n in names], 0.4, color="C0", label="duffsym")
             for j, p in enumerate(res["published"][:2]):
                 vals = [p["scores"].get(n, np.nan) for n in names]
-                ax.plot(x + 0.2 * (j + 1) - 0.1, vals, "_", ms=14, mew=2, color=f"C{j + 1}", label=p["name"][:24])
+                ax.plot(x + 0.2 * (j + 1) - 0.1, vals, "_", ms=14, mew=2, color=f"C{j + 1}", label=p["name"][:40])
             ax.set_yscale("log")
             ax.set_xticks(x)
             ax.set_xticklabels([n.replace("_", "\n") for n in names], fontsize=6)
             ax.set_ylabel(f"test RMSE [{unit}]")
             ax.set_title(key.replace("_", "-") + " (bars: duffsym; dashes: published)", fontsize=7)
-            ax.legend(fontsize=5, loc="lower left")
+            allv = [v for v in res["scores"].values()] + [v for p in res["published"][:2] for v in p["scores"].values()]
+            ax.set_ylim(0.5 * min(allv), 1.6 * max(allv))
+            ax.legend(fontsize=5, loc="upper center", bbox_to_anchor=(0.5, -0.32))
         out.append(C.save(fig, STUDY, "scores"))
     return out
 
