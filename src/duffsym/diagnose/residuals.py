@@ -197,6 +197,7 @@ class ResidualAnalysis:
     map_mean: np.ndarray
     phase: np.ndarray = field(default_factory=lambda: np.zeros(0))
     phase_mean: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    noise_kind: str = "measured"  # "floor": ``noise`` is the lowest held-out RMS of any fitted model
 
     # ------------------------------------------------------------------
     @property
@@ -213,11 +214,14 @@ class ResidualAnalysis:
     def findings(self) -> list[str]:
         """Where the model fails, as short statements with their numbers (largest effects first)."""
         out: list[tuple[float, str]] = []
+        floor = self.noise_kind == "floor"
+        ref = "the lowest held-out RMS of any fitted model (the noise is not measurable here)" if floor else \
+            "the measurement noise"
         if self.at_noise_level:
-            return [f"the residual is at the noise level (RMS {self.rmse:.3g} vs noise {self.noise:.3g}) and white "
+            level = "as small as the best fitted model's held-out residual" if floor else "at the noise level"
+            return [f"the residual is {level} (RMS {self.rmse:.3g} vs {self.noise:.3g}) and white "
                     f"({100 * self.acf_outside:.0f} % of lags outside the 95 % bound)"]
-        out.append((self.excess, f"residual RMS is {self.excess:.1f}x the measurement noise ({self.rmse:.3g} vs "
-                    f"{self.noise:.3g})"))
+        out.append((self.excess, f"residual RMS is {self.excess:.1f}x {ref} ({self.rmse:.3g} vs {self.noise:.3g})"))
         if abs(self.mean_z) > 5 and abs(self.mean) > 0.2 * self.rmse:
             out.append((abs(self.mean) / self.rmse * 10,
                         f"the residual has a mean of {self.mean:.3g} ({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
@@ -247,7 +251,8 @@ class ResidualAnalysis:
 
     def to_dict(self) -> dict:
         return dict(
-            nrmse=self.nrmse, rmse=self.rmse, noise=self.noise, excess=self.excess, mean=self.mean,
+            nrmse=self.nrmse, rmse=self.rmse, noise=self.noise, noise_kind=self.noise_kind, excess=self.excess,
+            mean=self.mean,
             mean_z=self.mean_z, at_noise_level=self.at_noise_level,
             bins=[b.to_dict() for b in self.bins],
             whiteness=dict(acf=self.acf.tolist(), bound=self.acf_bound, fraction_outside=self.acf_outside,
@@ -348,7 +353,8 @@ def _phase_map(t, r, period, n_bins: int = 36):
 
 
 def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_lag: int = MAX_LAG,
-                      periodic: bool | None = None) -> ResidualAnalysis:
+                      periodic: bool | None = None, noise_kind: str = "measured",
+                      smoothing: int = 1) -> ResidualAnalysis:
     """The residual structure of a model's free-run output ``y_hat`` against ``record``.
 
     Parameters
@@ -359,6 +365,12 @@ def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_
     noise : the measurement-noise standard deviation if known; else :func:`noise_level` of ``y``.
     periodic : whether to compute the phase map; default: when the input has at least 3 cycles
         of a dominant period.
+    noise_kind : "measured" (default), or "floor" when ``noise`` is the lowest held-out RMS of any
+        fitted model because the record's noise cannot be measured: the findings then say so.
+    smoothing : the width of a moving average the measured force went through (1: none). Its noise is
+        then correlated over lags 1..w-1 by the average itself: whiteness is judged on lags >= w, and the
+        cross-correlation bounds widen by sqrt(w) (the variance of a sample correlation of w-correlated
+        noise with a smooth input).
     """
     y = np.asarray(record.y, dtype=float)
     y_hat = np.asarray(y_hat, dtype=float).reshape(-1)
@@ -380,13 +392,14 @@ def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_
     lag = int(min(max_lag, n // 5))
     acf = autocorrelation(r, lag)
     bound = Z95 / math.sqrt(n)
-    outside = float(np.mean(np.abs(acf[1:]) > bound)) if lag else 0.0
+    w = max(1, int(smoothing))
+    outside = float(np.mean(np.abs(acf[w:]) > bound)) if lag >= w else 0.0
     _, p_lb = ljung_box(acf, n)
     xc = {}
     for name, u in (("d", d), ("d_dot", v)):
         c = cross_correlation(r, u, lag)
         k = int(np.argmax(np.abs(c)))
-        xc[name] = {"max": float(abs(c[k])), "lag": int(k - lag), "bound": bound}
+        xc[name] = {"max": float(abs(c[k])), "lag": int(k - lag), "bound": bound * math.sqrt(w)}
     # the mean's standard error allows for correlated residuals (effective sample size)
     rho1 = float(acf[1]) if acf.size > 1 else 0.0
     n_eff = n * (1 - rho1) / (1 + rho1) if abs(rho1) < 1 else 1.0
@@ -400,5 +413,5 @@ def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_
         nrmse=_nrmse(y, y_hat), rmse=rmse, noise=sigma, excess=excess, mean=mean, mean_z=mean / se_mean,
         bins=_bins(r, v, y, record.dt, period), acf=acf, acf_bound=bound, acf_outside=outside,
         ljung_box_p=p_lb, xcorr=xc, trend=_trend(r), cycle_energy=_cycle_energy(d, y, y_hat),
-        map_d=md, map_v=mv, map_mean=mm, phase=ph, phase_mean=pm,
+        map_d=md, map_v=mv, map_mean=mm, phase=ph, phase_mean=pm, noise_kind=noise_kind,
     )

@@ -33,8 +33,8 @@ import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
-from duffsym.diagnose.residuals import (ResidualAnalysis, analyse_residuals, has_noise_floor, noise_level,
-                                       rising_crossings)
+from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore
+from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.errors import DataError, ModelError
 
 BIC_THRESHOLD = -10.0
@@ -128,6 +128,7 @@ class Diagnosis:
     noise_method: str = "given"
     base_check: dict = field(default_factory=dict)
     prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
+    noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
 
     @property
     def best(self) -> Candidate | None:
@@ -142,6 +143,7 @@ class Diagnosis:
             residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
             sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
             prepare=self.prepare.to_dict() if self.prepare is not None else None,
+            noise_estimate=self.noise_estimate.to_dict() if self.noise_estimate is not None else None,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
@@ -388,22 +390,27 @@ def diagnose(
     rec_fit = _part(record, k)
     held = slice(k, record.n_times)
     y = np.asarray(record.y, dtype=float)
-    floor_noise = False
-    if noise is not None:
-        sigma, noise_method = float(noise), "given"
-    else:
-        sigma, noise_method = noise_level(y), "third differences of the measured force"
-        floor_noise = not has_noise_floor(y, record.dt)
+    est = NoiseEstimate(float(noise), "given") if noise is not None else estimate_noise(y, record.dt)
+    sigma, noise_method, floor_noise, w = est.sigma, est.method, not est.measurable, est.smoothing
+    # a detected moving average: the models are fitted to the force restored by its regularised inverse
+    # (``work``) and every free run is judged through the same average against the measured force
+    work = record if w <= 1 else record.replace(y=restore(y, w))
+    rec_fit = _part(work, k)
+
+    def through(yy):
+        return yy if w <= 1 or yy is None else moving_average(yy, w)
+
     fixed = with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
-    prep, rec_fit, mask_fit = _prepare_fit(record, rec_fit, mask_fit, decimate)
+    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, decimate)
     q = prep.factor
 
     say(f"base fit of {model.name} on {k} of {record.n_times} samples" + (f" (decimated by {q})" if q > 1 else ""))
     if start is None and fit_result is not None:
         start = dict(fit_result.params)
-    base, y_base, base_check = _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=k,
-                                         rec_plain=_prepare_fit(record, record, mask, decimate)[1:] if q > 1 else None)
+    base, y_work, base_check = _base_fit(model, work, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=k,
+                                         rec_plain=_prepare_fit(work, work, mask, decimate)[1:] if q > 1 else None)
+    y_base = through(y_work)
     r_base = y - y_base
     mse_held = float(np.mean(r_base[held] ** 2))
     ss_fit = float(np.sum(r_base[:k] ** 2))
@@ -412,20 +419,23 @@ def diagnose(
     from duffsym.identify.result import nrmse as _nrmse
 
     y_cands = {}
-    runs = _candidate_runs(names, model, rec_fit, record, base, y_base[:k], fixed, mask_fit, candidate_max_iter,
+    runs = _candidate_runs(names, model, rec_fit, work, base, y_work[:k], fixed, mask_fit, candidate_max_iter,
                            candidate_cpu_time, screen, say, second_start, engine, q=q)
     failed = [r for r in runs if isinstance(r, Candidate)]
     runs = [r for r in runs if not isinstance(r, Candidate)]
+    for r in runs:
+        if r[4] is not None:
+            r[5] = through(r[5])
     if floor_noise:
         # no white-noise floor near Nyquist (pre-filtered or noise-free force): the third-difference
         # estimate measures smoothness; the lowest held-out error of any fitted model bounds the noise
         held_rms = [math.sqrt(mse_held)] + [math.sqrt(float(np.mean((y[held] - r[5][held]) ** 2)))
                                             for r in runs if r[4] is not None and r[4].success and r[5] is not None]
         noise_method = (f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; the "
-                        f"force has no white-noise floor near the Nyquist frequency (pre-filtered or noise-free), "
-                        f"so the third-difference estimate ({sigma:.3g}) measures its smoothness")
+                        f"noise is {noise_method}")
         sigma = min(held_rms)
-    res = analyse_residuals(record, y_base, noise=sigma)
+    res = analyse_residuals(record, y_base, noise=sigma, noise_kind="floor" if floor_noise else "measured",
+                            smoothing=w)
     shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
     out: list[Candidate] = list(failed)
     exts = {}
@@ -464,14 +474,15 @@ def diagnose(
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
     evidence = _sindy_evidence(record, base, model, say) if sindy else None
-    verdict = (_verdict(res, out, base_held, noise_method, shifted) + _sindy_sentence(evidence, out)
-               + _base_sentence(base_check))
+    verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
+               + _sindy_sentence(evidence, out) + _base_sentence(base_check))
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
         y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
         y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
+        noise_estimate=est,
     )
 
 
@@ -684,6 +695,14 @@ def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate
                      diverged=diverged)
 
 
+def _smoothing_sentence(w: int) -> str:
+    if w <= 1:
+        return ""
+    return (f" The force is smoothed by a {w}-sample moving average (detected in its spectrum): the models were "
+            "fitted to the force restored by its regularised inverse and judged through the same average against "
+            "the measured force.")
+
+
 def _base_sentence(check: Mapping) -> str:
     s = ""
     if check and not check.get("as_good", True):
@@ -702,15 +721,16 @@ def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float
     best = ok[0] if ok else None
     where = res.findings()
     floor = noise_method.startswith("held-out residual floor")
-    noise_said = f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})"
+    noise_said = (f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})" if not floor else
+                  f" (the noise is not measurable on this record; the reference {res.noise:.3g} is the lowest held-out "
+                  "RMS of any fitted model, an upper bound of the noise)")
     if base_held < EXACT_FIT and not any(c.needed for c in ok):
         return (f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
                 "data?); nothing is left to explain and no effect is needed.")
     if res.at_noise_level and not any(c.needed for c in ok):
         if floor:
             return ("The model fits as well as any candidate: no catalogued effect lowers the held-out error "
-                    f"convincingly (held-out NRMSE {base_held:.3g}); the noise level is not measurable on this record"
-                    f"{noise_said}.")
+                    f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}.")
         return (f"The model fits to the noise: the residual is white and at the noise level "
                 f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
                 f"catalogued effect improves the held-out error convincingly.")
