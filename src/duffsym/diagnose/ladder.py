@@ -5,6 +5,13 @@ effect the evidence supports, diagnoses the extended model, and repeats while an
 needed. Each step reports the free-run error on the fitting part and on the held-out tail, the
 BIC, and the parameters with their standard errors. The last model is finally refitted on the
 whole record (``final_fit``), which is what ``duffsym ladder --out`` saves for ``validate``.
+
+Greedy steps can take a richer effect for a simpler one that a later step makes enough: on an offset +
+load-cell-lag record the first step takes ``gas-accumulator`` (the offset's term plus a stiffness that
+mimics part of the lag on a sine), the second adds the lag, and the stiffness is then idle. After the
+last step every added effect that has a *nested* simpler entry in the catalogue (its parameters a
+subset, e.g. ``force-offset`` in ``gas-accumulator``) is tried in its place; the simpler model is kept
+when it predicts the held-out tail as well (within ``TIE``) and its BIC is lower, and the step says so.
 """
 from __future__ import annotations
 
@@ -16,7 +23,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.diagnose.search import Diagnosis, _fit, diagnose, with_default_af
+from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, with_default_af
 
 
 @dataclass(frozen=True)
@@ -32,6 +39,7 @@ class Step:
     stderr: dict
     diagnosis: Diagnosis
     discovered: dict | None = None  # the discovered term this step added (see diagnose.discover)
+    simplified: str = ""  # "a -> b" when this step replaced an effect by a nested simpler one
 
     def to_dict(self) -> dict:
         out = dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
@@ -40,6 +48,8 @@ class Step:
                    candidates=[c.to_dict() for c in self.diagnosis.candidates])
         if self.discovered is not None:
             out.update(term=self.discovered["term"], latex=self.discovered["latex"], discovered=self.discovered)
+        if self.simplified:
+            out["simplified"] = self.simplified
         return out
 
 
@@ -70,6 +80,8 @@ class Ladder:
                          f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
         lines += [f"  step {i} adds a term outside the catalogue (no catalogued effect was needed; it passes the "
                   f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
+        lines += [f"  step {i} replaces {s.simplified} (nested: as good on the held-out tail, lower BIC)"
+                  for i, s in enumerate(self.steps) if s.simplified]
         lines.append(f"stopped: {self.stopped}")
         lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
         if self.prepare is not None:
@@ -107,6 +119,7 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
 
         model = mr_damper()
     y = np.asarray(record.y, dtype=float)
+    base_model = model
     steps: list[Step] = []
     start = None
     stopped = ""
@@ -140,6 +153,8 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         best = next(c for c in dg.candidates if c.effect == chosen)
         model = apply_effects(model, [CATALOGUE[best.effect]])
         start = dict(best.all_params)
+    kw = dict(fixed=fixed, holdout=holdout, noise=noise, mask=mask, progress=progress, **rules)
+    model = _simplify(record, base_model, model, steps, say, kw)
     say("final fit on the whole record")
     last = steps[-1]
     from duffsym.diagnose.prepare import prepare_record
@@ -148,6 +163,46 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
     final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params)
     return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0},
                   prepare=prep)
+
+
+def _nested(name: str, present) -> list[str]:
+    """Catalogue entries whose parameters are a proper subset of ``name``'s (e.g. force-offset in
+    gas-accumulator), not already in the model."""
+    from duffsym.effects import CATALOGUE
+
+    if name not in CATALOGUE:
+        return []
+    own = {p.name for p in CATALOGUE[name].parameters()}
+    return [s for s, e in CATALOGUE.items() if s not in present and s != name
+            and 0 < len({p.name for p in e.parameters()}) and {p.name for p in e.parameters()} < own]
+
+
+def _simplify(record, base_model, model, steps: list, say, kw) -> object:
+    """After the last step: each added effect with a nested simpler catalogue entry is replaced by it when
+    the simpler model predicts the held-out tail as well (within ``TIE``) and has the lower BIC (see the
+    module docstring); the replacement is appended as a step. Returns the model of the last step."""
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.identify.result import nrmse as _nrmse
+
+    y = np.asarray(record.y, dtype=float)
+    for name in list(model.effects):
+        for simpler in _nested(name, model.effects):
+            last = steps[-1]
+            effects = [simpler if e == name else e for e in model.effects]
+            if any(e not in CATALOGUE for e in effects):
+                return model
+            trial = apply_effects(base_model, [CATALOGUE[e] for e in effects])
+            say(f"simplify: {name} -> {simpler}")
+            dg = diagnose(record, trial, candidates=[], start=dict(last.params), **{**kw, "sindy": False})
+            if dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
+                k = dg.split["n_fit"]
+                steps.append(Step(
+                    effects=tuple(trial.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
+                    nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
+                    stderr=dict(dg.base_fit.stderr), diagnosis=dg, simplified=f"{name} -> {simpler}"))
+                model = trial
+                break
+    return model
 
 
 def _discovered(record, model, dg, fixed, mask, progress, rules):

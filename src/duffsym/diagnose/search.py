@@ -349,7 +349,8 @@ def diagnose(
         verdict does not rest on it (use None for a reproducible run on a loaded machine).
     screen : with screening (an int), every candidate is first fitted on a budget of
         ``SCREEN_ITER`` IPOPT iterations; those not converged by then continue to the full budget
-        only if their free-run error on the fitting part ranks among the best ``screen``; the
+        only if their free-run error on the fitting part ranks among the best ``screen`` of the
+        candidates not converged by then (converged ones are not in that ranking: they are done); the
         others are reported as screened out (default 4). None: every candidate gets the full budget. ``bench_diagnose.py`` measures what
         this costs in correct verdicts against refitting all.
     sindy : also run the SINDy cross-check (:func:`duffsym.sindy.sindy_evidence`) on the record
@@ -583,16 +584,18 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
                 fr2.settings["candidate_start"] = 2
                 run[0], run[4], run[5] = ss2, fr2, y2
     if screen is not None:
+        # only the candidates still being fitted compete for continuation: a fit stopped half-way is not
+        # ranked against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the
+        # ladder lost it on an offset + lag record; it converges to the true lag when continued)
         runs.sort(key=lambda item: item[0])
+        open_runs = [r for r in runs if not r[4].success
+                     and r[4].status in ("Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded")]
         go_on = []
-        for rank, run in enumerate(runs):
-            ss, name, effect, ext, fr, y_ext, secs = run
-            if fr.success or fr.status not in ("Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded"):
-                continue
+        for rank, run in enumerate(open_runs):
             if rank >= screen:
                 run[4] = None
                 run[5] = (f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
-                          f"{rank + 1} of {len(runs)} (screen={screen})")
+                          f"{rank + 1} of the {len(open_runs)} candidates not converged by then (screen={screen})")
                 continue
             go_on.append(run)
         for run, got in zip(go_on, _map(engine, job, [(r[1], r[3], candidate_max_iter, r[4].params) for r in go_on],
@@ -734,6 +737,11 @@ def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float
         return (f"The model fits to the noise: the residual is white and at the noise level "
                 f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
                 f"catalogued effect improves the held-out error convincingly.")
+    if res.excess < 1.5 and not floor and not any(c.needed for c in ok):
+        return (f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
+                f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
+                "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
+                "effect lowers convincingly; no effect is needed.")
     unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
     tail = ""
     if unstable:
