@@ -175,16 +175,16 @@ def estimate_noise(y, dt: float) -> NoiseEstimate:
     """The noise estimate a diagnosis uses for the measured force ``y`` (see the module docstring)."""
     y = np.asarray(y, dtype=float)
     third = noise_level(y)
-    if not has_noise_floor(y, dt):
-        return NoiseEstimate(third, "not measurable: the force has no white-noise floor near the Nyquist frequency "
-                             f"(low-pass filtered or noise-free), so the third-difference estimate ({third:.3g}) "
-                             "measures its smoothness", measurable=False)
     steps = stepped_share(y)
     if steps >= STEPPED:
         return NoiseEstimate(third, f"not measurable: {100 * steps:.0f} % of the force's consecutive increments are "
                              "equal (a quantised force, then smoothed), so the third-difference estimate "
                              f"({third:.3g}) measures the quantisation, not the noise", measurable=False,
                              stepped=steps)
+    if not has_noise_floor(y, dt):
+        return NoiseEstimate(third, "not measurable: the force has no white-noise floor near the Nyquist frequency "
+                             f"(low-pass filtered or noise-free), so the third-difference estimate ({third:.3g}) "
+                             "measures its smoothness", measurable=False)
     w = detect_moving_average(y)
     if w > 1:
         return NoiseEstimate(smoothed_noise_level(y, w), f"third differences of the measured force, corrected for "
