@@ -698,6 +698,20 @@ def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate
                      diverged=diverged)
 
 
+def _share(c: Candidate, floor: bool) -> str:
+    """The share of the excess error a candidate removes, in words; with the held-out floor as the noise
+    reference the best candidate removes all of it by construction, so no share is quoted."""
+    if floor:
+        return "how much error is left above the noise cannot be said: the noise is not measurable"
+    return f"{100 * c.explained:.0f} % of the excess error"
+
+
+def _not_needed_why(c: Candidate) -> str:
+    if c.stable is False:
+        return "its fitted set is outside the derived stability certificate (energy-producing)"
+    return f"removes only {100 * c.explained:.0f} % of the excess error"
+
+
 def _smoothing_sentence(w: int) -> str:
     if w <= 1:
         return ""
@@ -750,7 +764,7 @@ def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float
     if best is not None and best.needed:
         s = (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
              f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
-             f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {100 * best.explained:.0f} % of the excess error).")
+             f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {_share(best, floor)}).")
         if best.effect == "force-offset" and shifted and best.explained < 0.5:
             s += " It is taken because the loop is shifted (residual mean a large share of its RMS)."
         ties = [c for c in ok[1:] if c.needed and c.nrmse_after <= best.nrmse_after * (1 + TIE)]
@@ -762,14 +776,12 @@ def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float
     if needed is not None:
         return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
                 f"Adding {needed.effect} ({needed.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} "
-                f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {100 * needed.explained:.0f} % of the "
-                f"excess error).") + tail
+                f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {_share(needed, floor)}).") + tail
     if best is not None and best.supported:
         return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
                 f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
-                f"{best.delta_bic:.0f}) but removes only {100 * best.explained:.0f} % of the excess error, so it is not "
-                f"the missing effect with confidence. What remains: {'; '.join(where[:2]) if where else 'unclear'}."
-                ) + tail
+                f"{best.delta_bic:.0f}) but {_not_needed_why(best)}, so it is not the missing effect with confidence. "
+                f"What remains: {'; '.join(where[:2]) if where else 'unclear'}.") + tail
     return ("No catalogued effect explains what the model misses: "
             + ("; ".join(where[:3]) if where else "the residual is structured") + noise_said
             + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
