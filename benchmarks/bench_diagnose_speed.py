@@ -23,6 +23,8 @@ Cases (``--cases``):
   by plain subsampling of the authors' smoothed data).
 
 Kinds (``--kinds``): ``diagnose`` (full catalogue, default options) and ``ladder`` (default options).
+``--opts '{"workers": 2}'`` fits a diagnosis's candidates on ``duffsym.engine``'s local workers (the
+engine's start and stop are inside the timed wall and CPU seconds).
 
     nice -n 10 python benchmarks/bench_diagnose_speed.py --prev /tmp/prev/src --cases synth1600 real1A
     python benchmarks/bench_diagnose_speed.py --table        # print the table of results/diagnose_speed.json
@@ -97,9 +99,15 @@ def worker(case: str, kind: str) -> dict:
 
     rec, fixed = _record(case)
     opts = json.loads(os.environ.get("BENCH_DIAGNOSE_OPTS") or "{}")
+    workers = int(opts.pop("workers", 0) or 0)  # candidates on duffsym.engine's local workers (diagnose only)
     t0 = time.perf_counter()
+    if kind == "diagnose" and workers:
+        from duffsym.engine import Engine
+
+        with Engine(workers) as engine:
+            dg = diagnose(rec, fixed=fixed, engine=engine, **opts)
     if kind == "diagnose":
-        dg = diagnose(rec, fixed=fixed, **opts)
+        dg = dg if workers else diagnose(rec, fixed=fixed, **opts)
         out = dict(verdict=dg.verdict, needed=list(dg.needed), nrmse_heldout=dg.nrmse_heldout,
                    best=dg.best.effect if dg.best else None, candidates=_cands(dg), noise=dg.noise,
                    timings=dg.timings, base_params=dict(dg.base_fit.params), base_n_iter=dg.base_fit.n_iter,

@@ -245,3 +245,14 @@ def test_flags_survive_the_json_round_trip_and_bad_flags_are_ignored(tmp_path):
     data = res.to_dict()
     for bad in ("explains-little", 3, None, {"flag": "x"}):
         assert IdentificationResult.from_dict({**data, "flags": bad}).flags == ()
+
+
+def test_flags_can_be_left_to_the_caller(tmp_path):
+    """``fit(..., flags=False)`` (a diagnosis's candidates, judged by the diagnosis itself) leaves ``flags`` empty
+    and changes nothing else."""
+    t, d, v = _sine_columns()
+    rec = read_csv(_write(tmp_path / "n.csv", t, d, v, np.random.default_rng(3).normal(size=t.size)))
+    a = fit(Problem(mr_damper(), rec), compute_stderr=False)
+    b = fit(Problem(mr_damper(), rec), compute_stderr=False, flags=False)
+    assert b.flags == () or list(b.flags) == []
+    assert a.params == b.params and a.success == b.success and (not a.success or a.flags)

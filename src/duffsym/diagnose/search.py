@@ -225,7 +225,7 @@ def _n_estimated(result, model) -> int:
 
 def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
          n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None,
-         bound_restart: bool = False):
+         bound_restart: bool = False, flags: bool = True):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in fixed.items() if k in model.param_names}
@@ -241,7 +241,7 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
     # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
     # by design); the base fit restarts as a plain ``fit`` does
     return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
-               ipopt_options=options, bound_restart=bound_restart)
+               ipopt_options=options, bound_restart=bound_restart, flags=flags)
 
 
 class _CandidateFit:
@@ -266,8 +266,9 @@ class _CandidateFit:
             if start is None:
                 start = extended_start(ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit,
                                        fixed=self.fixed)
+            # no fit-level flags: the diagnosis judges its candidates itself, stability included (_mark_stability)
             fr = _fit(ext, self.rec_fit, self.fixed, start, mask=self.mask_fit, max_iter=budget,
-                      max_cpu_time=self.cpu_time)
+                      max_cpu_time=self.cpu_time, flags=False)
         except (ModelError, DataError) as exc:
             return str(exc), time.perf_counter() - t0
         y_ext = _free_run(ext, fr.params, self.record, fr.x0[0])

@@ -174,6 +174,7 @@ def fit(
     param_stride: int = PARAM_STRIDE,
     bound_restart: bool = True,
     progress: Callable[[str], None] | None = None,
+    flags: bool = True,
 ) -> IdentificationResult:
     r"""Identify the free parameters of ``problem`` by direct collocation and IPOPT.
 
@@ -208,6 +209,9 @@ def fit(
     param_stride : the NLP carries one copy of the free parameters per ``param_stride`` samples,
         chained by equality constraints (the same solution for any value; it only changes the
         sparsity of the KKT system: 8 needs ~30 % less time than 1 on long records).
+    flags : compute the result's ``flags`` (default); False leaves them empty, for callers that judge
+        the fit themselves (a diagnosis's candidates: the first fit of each extended model would derive
+        its stability conditions, ~0.5 s each, for flags nobody reads).
     bound_restart : (single-start fits; with ``n_starts > 1`` the other starts do this job) when the
         run ends with a free parameter on a bound it did not start on,
         run IPOPT once more from its end parameters with those back at their start values (the
@@ -287,7 +291,8 @@ def fit(
                 "n_starts": n_starts, "starts_converged": n_ok, "constraints": nlp.constraints,
                 "bound_restart": bound_note,
                 "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs], "y_norm": nlp.y_norm}
-    return _result(problem, nlp, best, fitted, slot_values, x0s, settings, {"build": build, "solve": solve})
+    return _result(problem, nlp, best, fitted, slot_values, x0s, settings, {"build": build, "solve": solve},
+                   flags=flags)
 
 
 def _silent(msg: str) -> None:
@@ -426,7 +431,8 @@ def _evaluate(problem: Problem, nlp: CollocationNLP, slot_values, x0s, compute_s
             "covariance": cov, "t_free": t_free, "t_se": t_se}
 
 
-def _result(problem, nlp, best: Run, fitted: dict, slot_values, x0s, settings, timings) -> IdentificationResult:
+def _result(problem, nlp, best: Run, fitted: dict, slot_values, x0s, settings, timings,
+            flags: bool = True) -> IdentificationResult:
     """The :class:`IdentificationResult`: the run, judged usable or not (:func:`usability`), with its flags."""
     import casadi
 
@@ -449,7 +455,7 @@ def _result(problem, nlp, best: Run, fitted: dict, slot_values, x0s, settings, t
               for j, n in enumerate(nlp.slot_names)}
     params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
     t_flags = time.perf_counter()
-    flags = fit_flags(problem, nlp, best.w, fitted["rec_params"], r2) if fitted["ok"] else ()
+    flags = fit_flags(problem, nlp, best.w, fitted["rec_params"], r2) if fitted["ok"] and flags else ()
     t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions (~0.4 s)
     return IdentificationResult(
         model=model.name, params=params, free=tuple(nlp.slot_names), fixed=dict(problem.fixed), stderr=stderr,
