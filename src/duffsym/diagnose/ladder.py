@@ -10,8 +10,10 @@ Greedy steps can take a richer effect for a simpler one that a later step makes 
 load-cell-lag record the first step takes ``gas-accumulator`` (the offset's term plus a stiffness that
 mimics part of the lag on a sine), the second adds the lag, and the stiffness is then idle. After the
 last step every added effect that has a *nested* simpler entry in the catalogue (its parameters a
-subset, e.g. ``force-offset`` in ``gas-accumulator``) is tried in its place; the simpler model is kept
-when it predicts the held-out tail as well (within ``TIE``) and its BIC is lower, and the step says so.
+subset, e.g. ``force-offset`` in ``gas-accumulator``) is tried in its place, and every added effect is
+tried without (an effect taken early can become idle once a later one is in: on the same record an input
+delay taken for part of the lag); the simpler model is kept when it predicts the held-out tail as well
+(within ``TIE``) and its BIC is lower, and the step says so (backward elimination after the forward steps).
 """
 from __future__ import annotations
 
@@ -80,7 +82,7 @@ class Ladder:
                          f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
         lines += [f"  step {i} adds a term outside the catalogue (no catalogued effect was needed; it passes the "
                   f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
-        lines += [f"  step {i} replaces {s.simplified} (nested: as good on the held-out tail, lower BIC)"
+        lines += [f"  step {i}: {s.simplified} (as good on the held-out tail, lower BIC)"
                   for i, s in enumerate(self.steps) if s.simplified]
         lines.append(f"stopped: {self.stopped}")
         lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
@@ -178,28 +180,32 @@ def _nested(name: str, present) -> list[str]:
 
 
 def _simplify(record, base_model, model, steps: list, say, kw) -> object:
-    """After the last step: each added effect with a nested simpler catalogue entry is replaced by it when
-    the simpler model predicts the held-out tail as well (within ``TIE``) and has the lower BIC (see the
-    module docstring); the replacement is appended as a step. Returns the model of the last step."""
+    """After the last step, backward: each added effect is replaced by a nested simpler catalogue entry, or
+    dropped, when the simpler model predicts the held-out tail as well (within ``TIE``) and has the lower
+    BIC (see the module docstring); each change is appended as a step. Returns the model of the last step."""
     from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.identify.result import nrmse as _nrmse
 
     y = np.asarray(record.y, dtype=float)
-    for name in list(model.effects):
-        for simpler in _nested(name, model.effects):
+    if any(e not in CATALOGUE for e in model.effects):  # a discovered term: left as the ladder built it
+        return model
+    for name in [e for e in model.effects if e not in base_model.effects]:  # only what the ladder added
+        for simpler in _nested(name, model.effects) + [None]:
+            if name not in model.effects:
+                break
             last = steps[-1]
-            effects = [simpler if e == name else e for e in model.effects]
-            if any(e not in CATALOGUE for e in effects):
-                return model
-            trial = apply_effects(base_model, [CATALOGUE[e] for e in effects])
-            say(f"simplify: {name} -> {simpler}")
+            added = [e for e in model.effects if e not in base_model.effects]
+            effects = [e for e in (simpler if e == name else e for e in added) if e is not None]
+            trial = apply_effects(base_model, [CATALOGUE[e] for e in effects]) if effects else base_model
+            say(f"simplify: {name} -> {simpler or 'nothing'}")
             dg = diagnose(record, trial, candidates=[], start=dict(last.params), **{**kw, "sindy": False})
             if dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
                 k = dg.split["n_fit"]
                 steps.append(Step(
                     effects=tuple(trial.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
                     nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
-                    stderr=dict(dg.base_fit.stderr), diagnosis=dg, simplified=f"{name} -> {simpler}"))
+                    stderr=dict(dg.base_fit.stderr), diagnosis=dg,
+                    simplified=f"{name} -> {simpler}" if simpler else f"{name} dropped"))
                 model = trial
                 break
     return model
