@@ -25,6 +25,7 @@ from typing import Iterable, Mapping
 import numpy as np
 
 from duffsym.data.record import Record
+from duffsym.errors import DataError, ModelError
 from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, with_default_af
 
 
@@ -198,7 +199,11 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
             effects = [e for e in (simpler if e == name else e for e in added) if e is not None]
             trial = apply_effects(base_model, [CATALOGUE[e] for e in effects]) if effects else base_model
             say(f"simplify: {name} -> {simpler or 'nothing'}")
-            dg = diagnose(record, trial, candidates=[], start=dict(last.params), **{**kw, "sindy": False})
+            try:
+                dg = diagnose(record, trial, candidates=[], start=dict(last.params), **{**kw, "sindy": False})
+            except (ModelError, DataError) as exc:  # the simpler model cannot even be fitted: keep the richer one
+                say(f"  not simpler: {exc}")
+                continue
             if dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
                 k = dg.split["n_fit"]
                 steps.append(Step(
