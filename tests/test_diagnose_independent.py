@@ -111,3 +111,16 @@ def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
     dg = diagnose(rec, model, sindy=False)
     assert dg.needed == ("output-lag",)
     assert dg.best.params["lag_tau"] == pytest.approx(g.truth["physics"]["lag"], rel=0.1)  # measured 0.0093 / 0.0093
+
+
+@pytest.mark.slow
+def test_ladder_finds_offset_and_lag_by_their_names():
+    # measured before (3 seeds): the ladder ended with gas-accumulator (+ output-lag) in 3/3, the lag screened
+    # out in 1/3; now seed 1 ends with exactly force-offset + output-lag at the noise (end / noise 1.0)
+    from duffsym.diagnose import ladder
+
+    rec, g = record(("force-offset", "output-lag"), 1)
+    lad = ladder(rec, sindy=False)
+    assert set(lad.effects) == {"force-offset", "output-lag"}
+    k = lad.steps[-1].diagnosis.split["n_fit"]
+    assert lad.steps[-1].nrmse_heldout < 1.5 * g.noise_std / np.std(rec.y[k:])
