@@ -13,6 +13,15 @@ catalogue, 30 % held out; the SINDy cross-check off, it never decides). Two-effe
     python benchmarks/bench_diagnose.py --seeds 3 --pairs --workers 2         # two-effect ladders
     python benchmarks/bench_diagnose.py --source scenarios --seeds 10         # the old, secondary table
 
+Cost: one record is one full-catalogue diagnosis (13 candidates, a screening fit each, second starts and
+continuations; ~5 s CPU on an idle core for the 801-sample records). The records run on
+``duffsym.engine`` (``--workers 2``: a dask LocalCluster, one record per worker), seed by seed, and every
+finished record is saved at once, so a run cut short still holds whole seeds; run it niced
+(``nice -n 10``) on a shared machine. ``--first-seed``/``--seeds`` split a long run into parts that
+``--summarize`` of a merged file reports together. On an idle 2-core machine 26 records took 119 s
+with 2 workers; the 10-seed table (130 records) took about 90 minutes on the shared machine at a load
+average of 15-23 (benchmarks/README.md).
+
 The old source (``--source scenarios``, issue 4) is kept only as a secondary table: its records are
 made by ``duffsym.effects`` itself, the code under test, so it cannot see an effect placed elsewhere.
 
