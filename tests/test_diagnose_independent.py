@@ -43,7 +43,8 @@ def test_noise_estimate_on_raw_and_prefiltered_force():
     assert noise_level(filt.y) < 0.1 * gf.noise_std  # the third differences see a smooth signal, not the noise
     dg = diagnose(filt, candidates=["force-offset", "inertia"], sindy=False)
     assert dg.noise_method.startswith("held-out residual floor")
-    assert "held-out residual floor" in dg.verdict
+    assert "not measurable" in dg.verdict and "lowest held-out RMS of any fitted model" in dg.verdict
+    assert "the measurement noise" not in dg.verdict
     # an upper bound of the noise left in the record, and no claim of a residual thousands of times the noise
     assert gf.noise_std <= dg.noise and dg.residuals.excess < 5
 
