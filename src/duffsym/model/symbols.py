@@ -121,4 +121,7 @@ LATEX_NAMES: dict[str, str] = {
     "q_dot": r"\dot{q}",
     "q_ddot": r"\ddot{q}",
     "H": "H",
+    "command": "i",
+    "u_field": "u",
+    "eta": r"\eta",
 }
