@@ -13,6 +13,9 @@ TUNING_STEPS: dict[str, tuple[tuple[str, ...], ...]] = {
     "mr-damper": (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),          # Fig. 4b
     "mr-damper-physical": (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),
     "duffing-like": (("A_f",), ("k1", "c1"), ("gamma", "delta"), ("alpha", "beta")),  # Fig. 4a
+    # the command-driven models: the constant parts as for mr-damper (the field terms start at 0)
+    **{name: (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3"))
+       for name in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic")},
 }
 COARSE = (0.1, 0.3, 1.0, 3.0, 10.0)
 FINE = (0.5, 0.7, 1.0, 1.4, 2.0)
