@@ -148,7 +148,8 @@ def decimate_record(record: Record, q: int) -> Record:
     meta["decimated"] = {"factor": q,
                          "filter": f"zero-phase FIR, {taps.size} taps, Hamming, cut-off at the new Nyquist"}
     return record.replace(t=np.asarray(record.t)[keep], d=_lowpass(d, taps)[keep], y=_lowpass(y, taps)[keep],
-                          d_dot=_lowpass(v, taps)[keep], metadata=meta)
+                          d_dot=_lowpass(v, taps)[keep], metadata=meta,
+                          command=None if record.command is None else _lowpass(np.asarray(record.command), taps)[keep])
 
 
 def decimate_mask(mask, q: int, n_out: int):

@@ -194,7 +194,8 @@ def split_record(record: Record, holdout: float) -> int:
 
 def _part(record: Record, stop: int) -> Record:
     v = np.asarray(record.velocity())
-    return record.replace(t=record.t[:stop], d=record.d[:stop], y=record.y[:stop], d_dot=v[:stop])
+    return record.replace(t=record.t[:stop], d=record.d[:stop], y=record.y[:stop], d_dot=v[:stop],
+                          command=None if record.command is None else record.command[:stop])
 
 
 # ---------------------------------------------------------------------------------------------- fits

@@ -742,7 +742,8 @@ def _sampling_change(records, model, lib, method, width, stride, gain, relevant,
         half = []
         for r in records:
             v = np.asarray(r.velocity())
-            half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2]))
+            half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2],
+                                       command=None if r.command is None else r.command[::2]))
         parts = [reconstruct_states(r, model, gain, params) for r in half]
         G2, b2, C2 = _system(parts, lib, method, width // 2, stride // 2)
     except DataError:
