@@ -305,7 +305,7 @@ def test_blow_up_returned_with_nan_after_failure(table2_setup):
 
 def test_too_stiff_reported(table2_setup):
     model, t, exc = table2_setup
-    traj = simulate(model, table2_params(0.4), t, exc, max_substeps=3, on_failure="return")
+    traj = simulate(model, table2_params(0.4), t, exc, method="rk4", max_substeps=3, on_failure="return")
     assert traj.status == "too stiff" and traj.failed_at == 1
     assert "raise max_substeps" in traj.message and "t=0.005 s" in traj.message
     assert np.all(np.isnan(traj.y[2:])) and np.isfinite(traj.y[1])
