@@ -123,12 +123,21 @@ def test_unsorted_time_from_csv(tmp_path):
         read_csv(_write(tmp_path, text))
 
 
-def test_varying_current_rejected(tmp_path):
+def test_varying_current_is_the_command_history(tmp_path):
+    """A varying current column is the record's command history (for command-driven models); a model without
+    a command input refuses it instead of averaging the levels."""
+    from duffsym.identify.problem import check_command
+    from duffsym.model import get_model
+
     t, d, v, y = _rows()
     text = "time,displacement,force,current\n" + "\n".join(
         f"{a},{b},{c},{0.5 if i < 50 else 1.0}" for i, (a, b, c) in enumerate(zip(t, d, y)))
-    with pytest.raises(DataError, match=r"column 'current' \(current\) varies"):
-        read_csv(_write(tmp_path, text))
+    rec = read_csv(_write(tmp_path, text))
+    assert rec.current is None and rec.command_name == "current" and rec.command_varies
+    np.testing.assert_array_equal(rec.command_signal(), np.where(np.arange(rec.n_times) < 50, 0.5, 1.0))
+    with pytest.raises(DataError, match=r"current varies \(0.5 to 1\) but model mr-damper has no command input"):
+        check_command(get_model("mr-damper"), [rec])
+    check_command(get_model("mr-damper-current"), [rec], free=("c1_u",))
 
 
 def test_no_such_file(tmp_path):

@@ -201,19 +201,7 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
     arr = np.array(data, dtype=float)
     roles = list(index)
     sig = {r: arr[:, i] for i, r in enumerate(roles)}
-    scalars = {}
-    for r in ("current", "voltage"):
-        if r in sig:
-            v = sig[r][np.isfinite(sig[r])]
-            if v.size == 0:
-                scalars[r] = None
-            elif np.ptp(v) > 1e-9 * max(1.0, np.max(np.abs(v))):
-                raise DataError(
-                    f"{path}: column {header[index[r]]!r} ({r}) varies between {v.min():g} and {v.max():g}; "
-                    "a record is one test at a constant coil setting: split the file by its value"
-                )
-            else:
-                scalars[r] = float(v[0])
+    scalars, command = _command_columns(path, sig, header, index, nan_policy)
     unit_map = {}
     for key, u in (units or {}).items():
         role = ROLE_KEYS.get(str(key).strip().lower())
@@ -223,11 +211,42 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
     rec = Record(
         t=sig["time"], d=sig["input"], y=sig["output"], d_dot=sig.get("velocity"),
         current=scalars.get("current"), voltage=scalars.get("voltage"), units=unit_map,
+        command=command[1] if command else None, command_name=command[0] if command else "",
         metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv",
                   **({"sampling": {"keep_stamps": True}} if sampling == "as-given" else {})},
         source=str(path), nan_policy=nan_policy,
     )
     return _apply_sampling(rec, sampling, path)
+
+
+def _command_columns(path: Path, sig: dict, header: list[str], index: dict[str, int], nan_policy: str):
+    """The constant current/voltage values and the varying command history ``(name, values)`` or None.
+
+    A constant column is the record's ``current``/``voltage`` label; a varying one is its command history.
+    NaN/inf in a command column is an error unless ``nan_policy="omit"`` (then those rows are dropped).
+    """
+    scalars: dict[str, float | None] = {}
+    command = None
+    present = [r for r in ("current", "voltage") if r in sig]
+    if len(present) == 2:
+        raise DataError(f"{path}: both a current column {header[index['current']]!r} and a voltage column "
+                        f"{header[index['voltage']]!r}; a damper has one command: drop or rename one of them")
+    for r in present:
+        col = sig[r]
+        bad = np.flatnonzero(~np.isfinite(col))
+        if bad.size and nan_policy != "omit":
+            raise DataError(
+                f"{path}: row {int(bad[0]) + 2}, column {header[index[r]]!r} ({r}): {bad.size} missing or non-finite "
+                f"command value(s); fill them or drop those rows (--nan-policy omit)"
+            )
+        v = col[np.isfinite(col)]
+        if v.size == 0:
+            raise DataError(f"{path}: column {header[index[r]]!r} ({r}) holds no number; fill it or remove the column")
+        if bad.size or np.ptp(v) > 1e-9 * max(1.0, float(np.max(np.abs(v)))):
+            command = (r, col)
+        else:
+            scalars[r] = float(v[0])
+    return scalars, command
 
 
 def _read_table(path: Path, columns, delimiter: str) -> tuple[list[str], dict[str, int], list[list[float]]]:
@@ -346,7 +365,7 @@ def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
     info = {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": True, "resampled": True,
             "rule": f"resampled (--sampling resample): {info['rule']}; signals interpolated linearly onto "
                     f"t = {t[0]:.9g} + k * {dt:.9g} s ({1.0 / dt:.8g} Hz), {n} samples"}
-    return rec.replace(t=grid, d=on(rec.d), y=on(rec.y), d_dot=on(rec.d_dot),
+    return rec.replace(t=grid, d=on(rec.d), y=on(rec.y), d_dot=on(rec.d_dot), command=on(rec.command),
                        metadata={**rec.metadata, "sampling": info})
 
 
@@ -361,6 +380,8 @@ def write_csv(record: Record, path) -> Path:
         cols["current"] = np.full(record.n_times, record.current)
     if record.voltage is not None:
         cols["voltage"] = np.full(record.n_times, record.voltage)
+    if record.command is not None:
+        cols[record.command_name] = record.command
     mat = np.column_stack(list(cols.values()))
     from duffsym._io import atomic_write
 

@@ -31,6 +31,8 @@ from duffsym.errors import DataError
 
 #: Fewest samples a record may hold.
 MIN_SAMPLES = 20
+#: Names a command history may carry (the CSV columns of ``docs/contract.md``).
+COMMAND_NAMES = ("current", "voltage")
 NAN_POLICIES = ("raise", "omit")
 #: Relative spread of the sampling step tolerated as "uniform".
 UNIFORM_RTOL = 1e-6
@@ -225,11 +227,15 @@ class Record:
     d : (n_times,) input (piston displacement for the MR damper; force for ``duffing``).
     y : (n_times,) output (damper force; displacement for ``duffing``).
     d_dot : (n_times,) input velocity, or None to derive it from ``d`` (:meth:`velocity`).
-    current, voltage : coil current (A) / voltage (V) of the test, if known.
+    current, voltage : coil current (A) / voltage (V) of the test, if known and constant.
     units : unit of each signal by name (``{"t": "s", "d": "mm", "y": "N"}``); free text.
     metadata : anything else (source file, truth of a synthetic record, ...); stored read-only.
     source : where the record came from (a path or a description), used in messages.
     name : a short label (defaults to the source's last part).
+    command : (n_times,) the command history (coil current or voltage) when it varies in time, else
+        None; ``command_name`` says which (``"current"`` or ``"voltage"``). Models driven by the
+        command (``mr-damper-current``) read it through :meth:`command_signal`, which falls back to
+        the constant ``current``/``voltage``.
     nan_policy : ``"raise"`` (default) or ``"omit"``: drop every sample where any signal is
         NaN/inf, with a warning giving the count.
 
@@ -251,6 +257,8 @@ class Record:
     metadata: Mapping[str, Any] = field(default_factory=dict)
     source: str = ""
     name: str = ""
+    command: Float1D | None = None
+    command_name: str = ""
     nan_policy: InitVar[str] = "raise"
 
     def __post_init__(self, nan_policy: str) -> None:
@@ -260,6 +268,11 @@ class Record:
         cols = {"t": self.t, "d": self.d, "y": self.y}
         if self.d_dot is not None:
             cols["d_dot"] = self.d_dot
+        if self.command is not None:
+            if self.command_name not in COMMAND_NAMES:
+                raise DataError(f"{where}: command_name must be one of {COMMAND_NAMES} for a command history; "
+                                f"got {self.command_name!r}")
+            cols["command"] = self.command
         arrays = {k: _as_vector(k, v, where) for k, v in cols.items()}
         sizes = {k: a.size for k, a in arrays.items()}
         if len(set(sizes.values())) > 1:
@@ -291,7 +304,7 @@ class Record:
         require_increasing(arrays["t"], f"{where}: time")
         arrays["t"], sampling = _sampling(arrays["t"], self.metadata.get("sampling"))
         object.__setattr__(self, "metadata", {**dict(self.metadata), "sampling": sampling})
-        for k in ("d", "y", "d_dot"):
+        for k in ("d", "y", "d_dot", "command"):
             if k in arrays:
                 _check_magnitude(k, arrays[k], where)
         for k in ("d", "y"):
@@ -447,7 +460,12 @@ class Record:
         """The model's input channels by name (order 0: ``d``; 1: the velocity; 2: the acceleration)."""
         out = {}
         for ch in model.inputs:
-            if ch.order == 0:
+            if ch.signal == "command":
+                if ch.order != 0:
+                    raise DataError(f"model {model.name} needs the derivative {ch.name} of the command; a record "
+                                    "provides the command itself only")
+                out[ch.name] = self.command_signal(model.name)
+            elif ch.order == 0:
                 out[ch.name] = np.asarray(self.d)
             elif ch.order == 1:
                 out[ch.name] = np.asarray(self.velocity())
@@ -460,10 +478,36 @@ class Record:
                 )
         return out
 
+    def command_signal(self, model_name: str = "") -> np.ndarray:
+        """The command history ``(n_times,)``: :attr:`command`, else the constant current, else the voltage.
+
+        Raises
+        ------
+        DataError
+            If the record has no command (no ``current``/``voltage`` column or value).
+        """
+        if self.command is not None:
+            return np.asarray(self.command)
+        for v in (self.current, self.voltage):
+            if v is not None:
+                return np.full(self.n_times, float(v))
+        who = f"model {model_name}" if model_name else "a command-driven model"
+        raise DataError(
+            f"record {self.name or '(unnamed)'}: no current or voltage column; {who} is driven by the damper's "
+            "command: add a 'current' (A) or 'voltage' (V) column, or map one (--columns current=NAME)"
+        )
+
+    @property
+    def command_varies(self) -> bool:
+        """Whether the record's command changes over time (False for a constant or missing command)."""
+        c = self.command
+        return c is not None and bool(np.ptp(c) > 1e-9 * max(1.0, float(np.max(np.abs(c)))))
+
     def replace(self, **changes) -> "Record":
         """A new (re-validated) record with some fields changed."""
         fields = dict(t=self.t, d=self.d, y=self.y, d_dot=self.d_dot, current=self.current, voltage=self.voltage,
-                      units=dict(self.units), metadata=dict(self.metadata), source=self.source, name=self.name)
+                      units=dict(self.units), metadata=dict(self.metadata), source=self.source, name=self.name,
+                      command=self.command, command_name=self.command_name)
         fields.update(changes)
         return Record(**fields)
 
@@ -471,7 +515,8 @@ class Record:
         """A record of samples ``start:stop`` (re-validated)."""
         s = slice(start, stop)
         return self.replace(t=self.t[s], d=self.d[s], y=self.y[s],
-                            d_dot=None if self.d_dot is None else self.d_dot[s])
+                            d_dot=None if self.d_dot is None else self.d_dot[s],
+                            command=None if self.command is None else self.command[s])
 
     def summary(self) -> str:
         u = dict(self.units)
@@ -480,6 +525,9 @@ class Record:
             extra.append(f"current {self.current:g} A")
         if self.voltage is not None:
             extra.append(f"voltage {self.voltage:g} V")
+        if self.command is not None:
+            c = np.asarray(self.command)
+            extra.append(f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {'A' if self.command_name == 'current' else 'V'}")
         vel = "given" if self.d_dot is not None else "derived (Savitzky-Golay)"
         return (
             f"record {self.name or '(unnamed)'}: {self.n_times} samples over {self.duration:g} {u.get('t', 's')}, "

@@ -98,6 +98,9 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         if X is not None:
             return X
     X = np.zeros((record.n_times, model.n_states))
+    driven = driven_states(model, record, params)
+    for j, traj in driven.items():
+        X[:, j] = traj
     info = _output_gain(model)
     if info is None:
         return X
@@ -107,7 +110,7 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         return X
     xi = np.asarray(record.y) / gain
     X[:, i] = xi
-    if model.n_states == 2 and model.position is not None and model.velocity is not None:
+    if model.n_states - len(driven) == 2 and model.position is not None and model.velocity is not None:
         ip = model.states.index(model.position)
         iv = model.states.index(model.velocity)
         t = np.asarray(record.t)
@@ -116,6 +119,41 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         elif i == ip:
             X[:, iv] = np.gradient(xi, t)
     return X
+
+
+def driven_states(model, record, params: np.ndarray) -> dict[int, np.ndarray]:
+    """Trajectories of the states driven by the inputs alone (e.g. the field of ``mr-damper-current``).
+
+    A state whose equation is ``a * s + b`` with ``a``, ``b`` free of the other states (functions of the
+    inputs and parameters) is integrated exactly over each sample (``a``, ``b`` held), from its
+    equilibrium ``-b/a`` at the first sample. Returns ``{state index: (n_times,) trajectory}``.
+    """
+    out: dict[int, np.ndarray] = {}
+    t = np.asarray(record.t, dtype=float)
+    chans = None
+    for j, (s, rhs) in enumerate(zip(model.states, model.rhs)):
+        if s in (model.position, model.velocity) or (rhs.free_symbols & set(model.states)) != {s}:
+            continue
+        a_expr = sp.diff(rhs, s)
+        if s in a_expr.free_symbols:
+            continue
+        b_expr = sp.expand(rhs - a_expr * s)
+        if chans is None:
+            chans = record.inputs_for(model)
+        args = [*model.input_symbols, *model.param_symbols]
+        vals = [np.asarray(chans[c.name], dtype=float) for c in model.inputs] + [float(v) for v in params]
+        a = np.broadcast_to(np.asarray(sp.lambdify(args, a_expr, "numpy")(*vals), dtype=float), t.shape)
+        b = np.broadcast_to(np.asarray(sp.lambdify(args, b_expr, "numpy")(*vals), dtype=float), t.shape)
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))) or np.any(a >= 0):
+            continue
+        x = np.empty_like(t)
+        x[0] = -b[0] / a[0]
+        decay = np.exp(a[:-1] * np.diff(t))
+        target = -b[:-1] / a[:-1]
+        for k in range(t.size - 1):
+            x[k + 1] = target[k] + (x[k] - target[k]) * decay[k]
+        out[j] = x
+    return out
 
 
 def _remove_drift(x: np.ndarray, t: np.ndarray, record) -> np.ndarray:

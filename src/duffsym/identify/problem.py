@@ -41,6 +41,53 @@ def _as_records(records) -> tuple[Record, ...]:
     return out
 
 
+def _command_text(record: Record) -> str:
+    c = np.asarray(record.command_signal())
+    unit = "A" if (record.command_name or ("current" if record.current is not None else "voltage")) == "current" else "V"
+    return f"{c.min():g} {unit}" if np.ptp(c) == 0 else f"{c.min():g} to {c.max():g} {unit}"
+
+
+def check_command(model, records, free: Sequence[str] = ()) -> None:
+    """The records carry what ``model`` needs of the damper's command.
+
+    A model driven by the command (an input channel ``command``) needs a current or voltage in every
+    record; to identify how the coefficients depend on it (``free`` holds a field parameter, ``*_u``,
+    ``*_uu``, ``u_sat``, ``eta``) the command must vary, within a record or across records. A model
+    without a command input refuses a record whose command varies (it would average the levels).
+
+    Raises
+    ------
+    DataError
+        One line naming the record, the problem and what to do.
+    """
+    recs = _as_records(records)
+    if "command" not in model.signals:
+        for r in recs:
+            if r.command_varies:
+                c = np.asarray(r.command)
+                raise DataError(
+                    f"record {r.name or '(unnamed)'}: its {r.command_name} varies ({c.min():g} to {c.max():g}) but "
+                    f"model {model.name} has no command input (it would average the levels); use a command-driven "
+                    "model (--model mr-damper-current, see `duffsym models`)"
+                )
+        return
+    values = []
+    for r in recs:
+        c = r.command_signal(model.name)
+        values.append(c)
+    field = [n for n in free if n.endswith(("_u", "_uu")) or n in ("u_sat", "eta")]
+    if not field:
+        return
+    allc = np.concatenate(values)
+    if np.ptp(allc) <= 1e-9 * max(1.0, float(np.max(np.abs(allc)))):
+        where = recs[0].name or "(unnamed)" if len(recs) == 1 else f"all {len(recs)} records"
+        raise DataError(
+            f"{'record ' if len(recs) == 1 else ''}{where}: the command is constant ({_command_text(recs[0])}), "
+            f"so model {model.name} cannot tell how the coefficients depend on it ({', '.join(field[:3])}, ...); "
+            "fit records at several currents together, give a record whose command varies, or use --model mr-damper"
+        )
+
+
 def _group_labels(groups, records: tuple[Record, ...]) -> tuple[str, ...]:
     if groups is None:
         return ("",) * len(records)
@@ -257,6 +304,7 @@ class Problem:
                     defaults[n] = REASON_HELD.format(value=fixed_vals[n])
         if not free_t:
             raise ModelError(f"no free parameter left for model {model.name}; list some in free=")
+        check_command(model, recs, free_t)
         per_group = (per_group,) if isinstance(per_group, str) else tuple(per_group)
         if per_group and groups is None:
             raise ModelError("per_group needs groups= ('current', 'voltage' or one label per record)")

@@ -89,7 +89,10 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     """
     from duffsym.identify.collocation import _input_matrix, free_run_trajectory, initial_states
 
+    from duffsym.identify.problem import check_command
+
     model = model if model is not None else model_from_result(result)
+    check_command(model, [record])
     if result.group_params and group is None:
         for value, unit in ((record.current, "A"), (record.voltage, "V")):
             if value is not None and f"{value:g}{unit}" in result.group_params:

@@ -10,14 +10,15 @@ def cmd_models(args) -> int:
     rows = []
     for name in MODELS:
         m = get_model(name)
-        rows.append({"model": name, "description": m.description, "params": list(m.param_names),
+        rows.append({"model": name, "name": name, "description": m.description, "params": list(m.param_names),
                      "inputs": [c.name for c in m.inputs], "output": m.output_name})
     if args.json:
         _emit_json({"models": rows})
     else:
+        w = max(14, *(len(r["model"]) for r in rows))
         for r in rows:
-            print(f"{r['model']:<14} {r['description']}")
-            print(f"{'':<14} inputs {', '.join(r['inputs'])} -> output {r['output']}; params {', '.join(r['params'])}")
+            print(f"{r['model']:<{w}} {r['description']}")
+            print(f"{'':<{w}} inputs {', '.join(r['inputs'])} -> output {r['output']}; params {', '.join(r['params'])}")
     return 0
 
 

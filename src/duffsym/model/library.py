@@ -213,9 +213,96 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
     )
 
 
+#: The command input (coil current or voltage, the CSV column ``current`` or ``voltage``).
+COMMAND = InputChannel("command", 0)
+#: The magnetic field variable driven by the command (first-order dynamics, Spencer et al. 1997).
+FIELD = state_symbol("u_field")
+#: Coefficients of Eq. 11 that depend on the field; A_f stays constant (it breaks the scaling symmetry,
+#: fixed to max|y| as in the paper) and k3 stays constant (0 by default).
+FIELD_COEFFICIENTS = ("c1", "c2", "c3", "k1", "k2")
+#: Field dependences of the coefficients: theta(u) = theta + theta_u * g(u) (+ theta_uu * u^2).
+FIELD_FORMS = ("linear", "quadratic", "saturating")
+
+
+def _field_params(form: str) -> tuple[list[ParamSpec], dict[str, sp.Expr]]:
+    """The field parameters and each coefficient's expression in the field ``u_field``."""
+    base = {p.name: p for p in mr_damper().params}
+    extra: list[ParamSpec] = []
+    u = FIELD
+    g = u
+    if form == "saturating":
+        us = _p("u_sat", "u_{sat}", 1.0, 1e-3, 1e3, "saturation scale of the field (command units); "
+                "theta(u) = theta + theta_u u_sat tanh(u/u_sat), linear as u_sat -> infinity", unit="command unit",
+                scale=1.0)
+        extra.append(us)
+        g = us.symbol * sp.tanh(u / us.symbol)
+    exprs = {}
+    for name in FIELD_COEFFICIENTS:
+        spec = base[name]
+        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6,
+                   f"change of {name} per unit field (command units)", scale=spec.typical_scale)
+        extra.append(slope)
+        e = spec.symbol + slope.symbol * g
+        if form == "quadratic":
+            curv = _p(f"{name}_uu", spec.latex + "^{(uu)}", 0.0, -1e6, 1e6,
+                      f"curvature of {name} in the field", scale=spec.typical_scale)
+            extra.append(curv)
+            e = e + curv.symbol * u**2
+        exprs[name] = e
+    return extra, exprs
+
+
+def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int | sp.Symbol | None = None,
+                      n_v: int | sp.Symbol | None = None, allow_even: bool = False) -> SymbolicModel:
+    r"""The MR damper model, Eq. 12, driven by its command (coil current or voltage).
+
+    .. math:: \ddot x + c_2(u)\dot x + k_2(u) x + k_3 x^{n} + c_3(u)\dot x^{n}
+              = k_1(u)(d - x) + c_1(u)(\dot d - \dot x), \qquad \dot u = -\eta\,(u - i),
+              \qquad y = A_f \dot x
+
+    The field variable u follows the command i (the ``current`` or ``voltage`` column) through
+    first-order dynamics (Spencer et al.'s phenomenological model). Each of c1, c2, c3, k1, k2 is
+    ``theta + theta_u * g(u)``: ``field="linear"`` g = u; ``"quadratic"`` adds ``theta_uu * u**2``;
+    ``"saturating"`` g = u_sat tanh(u / u_sat). A_f and k3 are constants. At constant command the
+    model is Eq. 12 with the coefficients at u = i.
+    """
+    if field not in FIELD_FORMS:
+        raise ModelError(f"field must be one of {FIELD_FORMS}; got {field!r}")
+    n_x = check_power("n" if n_x is None else "n_x", n if n_x is None else n_x, allow_even=allow_even)
+    n_v = check_power("n" if n_v is None else "n_v", n if n_v is None else n_v, allow_even=allow_even)
+    base = mr_damper(n_x=n_x, n_v=n_v)
+    extra, exprs = _field_params(field)
+    eta = _p("eta", r"\eta", 100.0, 0.1, 1e4, "rate of the field's first-order lag behind the command",
+             unit="1/s", scale=100.0)
+    subs = {base.param(k).symbol: e for k, e in exprs.items()}
+    acc = base.rhs[1].xreplace(subs)
+    name = "mr-damper-current" + ("" if field == "linear" else f"-{field}")
+    eq = mr_damper_equation(n_x, n_v).xreplace(subs)
+    return SymbolicModel(
+        name=name, states=(X1, X2, FIELD), inputs=(D, D_DOT, COMMAND), params=base.params + tuple(extra) + (eta,),
+        rhs=(X2, acc, -eta.symbol * (FIELD - COMMAND.symbol)), output=base.output, output_name="y",
+        structural=tuple({"n_x": n_x, "n_v": n_v}.items()), position=X1, velocity=X2, equation=eq,
+        description=f"MR damper, Eq. 12 driven by its command (current/voltage): coefficients {field} in a "
+                    "field u with u' = -eta (u - command)",
+    )
+
+
+def mr_damper_current_quadratic(n: int | sp.Symbol = 5, **kwargs) -> SymbolicModel:
+    """:func:`mr_damper_current` with ``field="quadratic"``."""
+    return mr_damper_current(n, field="quadratic", **kwargs)
+
+
+def mr_damper_current_saturating(n: int | sp.Symbol = 5, **kwargs) -> SymbolicModel:
+    """:func:`mr_damper_current` with ``field="saturating"``."""
+    return mr_damper_current(n, field="saturating", **kwargs)
+
+
 #: Constructors by CLI name; each takes the power ``n`` where it has one.
 MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "mr-damper": mr_damper,
+    "mr-damper-current": mr_damper_current,
+    "mr-damper-current-quadratic": mr_damper_current_quadratic,
+    "mr-damper-current-saturating": mr_damper_current_saturating,
     "duffing-like": duffing_like,
     "duffing": duffing,
     "duffing-gain": duffing_gain,

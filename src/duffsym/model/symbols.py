@@ -115,4 +115,7 @@ LATEX_NAMES: dict[str, str] = {
     "m": "m",
     "A_f": "A_{f}",
     "y": "y",
+    "command": "i",
+    "u_field": "u",
+    "eta": r"\eta",
 }
