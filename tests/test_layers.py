@@ -33,6 +33,7 @@ LAYERS = (
     "sindy",
     "uncertainty",
     "diagnose",
+    "control",  # the inverse for control (a fitted model's command for a desired force)
     "engine", "campaign",  # run commands over many records (they drive everything below)
     "cli",
 )

@@ -42,6 +42,7 @@ COMMAND_MODULES = (
     "duffsym.sindy.command",        # sindy
     "duffsym.data.command",         # convert
     "duffsym.campaign.command",     # batch
+    "duffsym.control.command",      # invert
 )
 
 
