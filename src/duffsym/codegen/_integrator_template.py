@@ -110,10 +110,10 @@ def integrate(t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y,
             # so iterate to a consistent count, without slack
             if dt * rho / m <= h_lambda:
                 break
-            # at most 8x more substeps per retry: the end state of an under-resolved trial can be
-            # far off (an overshoot to |x'| 10x too large asks for 10^4x the substeps), and
-            # trusting it declared false "too stiff" failures (Dyke record, off-equilibrium start)
-            m = max(m + 1, min(8 * m, int(math.ceil(dt * rho / h_lambda))))
+            # (the end state of an under-resolved trial can be far off and ask for more than
+            # max_substeps: a false "too stiff", e.g. the Dyke record's off-equilibrium start;
+            # simulate(method="auto") then reruns the trajectory with the implicit ROS2 below)
+            m = max(m + 1, int(math.ceil(dt * rho / h_lambda)))
         if not finite:
             for kk in range(k + 1, t.shape[0]):
                 Y[kk] = np.nan
