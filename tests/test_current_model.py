@@ -162,3 +162,24 @@ def test_varying_command_refused_by_a_model_without_it(tmp_path, capsys):
     path = _csv(tmp_path / "vary.csv", _record(SWITCH, duration=3.0))
     code = main(["fit", str(path), "--quiet"])
     _one_line(code, capsys.readouterr().err, "current varies", "mr-damper-current")
+
+
+def test_derive_gives_the_stability_conditions_as_functions_of_the_current():
+    """At a held command i the field settles at u = i: the dissipation condition of Eq. 12 becomes one on the
+    coefficients at that current, c1(i) + c2(i) >= 0 and c3(i) >= 0 (derived, not typed in)."""
+    from duffsym.derive.stability import stability_conditions
+    from duffsym.model.library import at_constant_command
+
+    m = get_model("mr-damper-current")
+    frozen = at_constant_command(m)
+    sc = stability_conditions(frozen)
+    i = frozen.param("i").symbol
+    P = {n: m.param(n).symbol for n in ("c1", "c2", "c3", "c1_u", "c2_u", "c3_u")}
+    c12 = P["c1"] + P["c2"] + (P["c1_u"] + P["c2_u"]) * i
+    c3 = P["c3"] + P["c3_u"] * i
+    expected = sp.And(c12 >= 0, c3 >= 0)
+    got = sc.named()["dV/dt negative semi-definite"]
+    vals = [{P["c1"]: 1, P["c2"]: 1, P["c3"]: 1, P["c1_u"]: a, P["c2_u"]: 0, P["c3_u"]: b, i: c}
+            for a in (-5, 0, 5) for b in (-5, 0, 5) for c in (0, 0.5, 1)]
+    assert all(bool(got.subs(v)) == bool(expected.subs(v)) for v in vals)
+    assert at_constant_command(get_model("mr-damper")) is None

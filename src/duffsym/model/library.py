@@ -291,6 +291,24 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
     )
 
 
+def at_constant_command(model: SymbolicModel) -> SymbolicModel | None:
+    """The mechanical model of a command-driven model at a constant command: the field at its equilibrium
+    ``u_field = i``, with the level ``i`` a parameter (for the derivations: how the stability conditions
+    depend on the current). None if ``model`` has no field state driven by the command."""
+    if FIELD not in model.states or COMMAND not in model.inputs or model.n_states != 3:
+        return None
+    level = _p("i", "i", 0.5, -1e3, 1e3, "constant command level (current or voltage); the field equals it",
+               unit="command unit")
+    subs = {FIELD: level.symbol}
+    return SymbolicModel(
+        name=f"{model.name} at a constant command i", states=(X1, X2),
+        inputs=tuple(c for c in model.inputs if c != COMMAND), params=model.params + (level,),
+        rhs=tuple(e.xreplace(subs) for e in model.rhs[:2]), output=model.output.xreplace(subs),
+        output_name=model.output_name, structural=model.structural, position=X1, velocity=X2,
+        description=f"{model.name} with the field at its equilibrium u = i (constant command)",
+    )
+
+
 def mr_damper_current_quadratic(n: int | sp.Symbol = 5, **kwargs) -> SymbolicModel:
     """:func:`mr_damper_current` with ``field="quadratic"``."""
     return mr_damper_current(n, field="quadratic", **kwargs)
