@@ -5,9 +5,9 @@ Written from the equations, *not* from duffsym: numpy only, so the current-drive
 
     x'' + (c1(u) + c2(u)) x' + (k1(u) + k2(u)) x + k3 x^n + c3(u) x'^n = k1(u) d + c1(u) d'
     u'  = -eta (u - i(t))                      (the field lags the coil command i, Spencer et al. 1997)
-    y   = A_f x'  (+ white noise)
+    y   = A_f (1 + A_f_u u) x'  (+ white noise)
 
-with each coefficient theta(u) = theta + theta_u u (the linear field dependence). The displacement
+with each coefficient theta(u) = theta + theta_u u (the linear field dependence; relative for A_f). The displacement
 d(t) is a sum of sines and the command i(t) a smooth random switching signal (tanh of sines), both
 analytic and evaluated at every RK4 stage; ``substeps`` RK4 steps per sample. The command may also
 be constant (one test at one current).
@@ -21,7 +21,7 @@ import numpy as np
 
 #: A device in the spirit of Table 2 of the paper (coefficients fall as the field grows; per ampere).
 TRUTH = dict(c1=10.0, c2=30.0, c3=330.0, k1=45.0, k2=600.0, k3=0.0, A_f=1.5,
-             c1_u=-4.0, c2_u=-20.0, c3_u=-80.0, k1_u=-15.0, k2_u=-200.0, eta=60.0)
+             c1_u=-4.0, c2_u=-20.0, c3_u=-80.0, k1_u=-15.0, k2_u=-200.0, A_f_u=0.8, eta=60.0)
 FIELD = ("c1", "c2", "c3", "k1", "k2")
 
 
@@ -96,7 +96,7 @@ def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: floa
             s = s + h / 6 * (q1 + 2 * q2 + 2 * q3 + q4)
         out[k + 1] = s
     keep = slice(n_settle, None)
-    y_clean = p["A_f"] * out[keep, 1]
+    y_clean = p["A_f"] * (1 + p["A_f_u"] * out[keep, 2]) * out[keep, 1]
     rng = np.random.default_rng(seed)
     y = y_clean + noise * float(np.sqrt(np.mean(y_clean**2))) * rng.standard_normal(y_clean.size)
     tk = t[keep] - t[n_settle]

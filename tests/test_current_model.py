@@ -36,7 +36,8 @@ def _z_scores(res) -> dict[str, float]:
 
 
 def test_at_constant_command_the_model_is_eq12_with_the_coefficients_at_that_current():
-    """Analytic: with u_field = i held, the acceleration equals Eq. 12's with c1 -> c1 + c1_u i, etc."""
+    """Analytic: with u_field = i held, the acceleration equals Eq. 12's with c1 -> c1 + c1_u i, etc., and the
+    output is A_f (1 + A_f_u u) x'."""
     m = get_model("mr-damper-current")
     base = mr_damper()
     i = sp.Symbol("i", real=True)
@@ -45,7 +46,9 @@ def test_at_constant_command_the_model_is_eq12_with_the_coefficients_at_that_cur
     subs = {base.param(k).symbol: base.param(k).symbol + m.param(k + "_u").symbol * i for k in gen.FIELD}
     assert sp.expand(got - base.rhs[1].xreplace(subs)) == 0
     assert sp.expand(m.rhs[2] - (-m.param("eta").symbol * (u - cmd))) == 0
-    assert m.inputs[2].name == "command" and m.output == base.output
+    assert m.inputs[2].name == "command"
+    af, afu = m.param("A_f").symbol, m.param("A_f_u").symbol
+    assert sp.expand(m.output - af * (1 + afu * u) * m.states[1]) == 0
 
 
 def test_field_forms_nest_the_linear_one():
@@ -54,8 +57,10 @@ def test_field_forms_nest_the_linear_one():
                                              "mr-damper-current-quadratic"))
     us = sat.param("u_sat").symbol
     assert sp.expand(sp.limit(sat.rhs[1], us, sp.oo) - lin.rhs[1]) == 0
-    zero = {quad.param(k + "_uu").symbol: 0 for k in gen.FIELD}
+    zero = {quad.param(k + "_uu").symbol: 0 for k in (*gen.FIELD, "A_f")}
     assert sp.expand(quad.rhs[1].xreplace(zero) - lin.rhs[1]) == 0
+    assert sp.expand(quad.output.xreplace(zero) - lin.output) == 0
+    assert sp.expand(sp.limit(sat.output, us, sp.oo) - lin.output) == 0
 
 
 def test_recovers_the_parameters_from_a_record_with_a_time_varying_command():
@@ -157,3 +162,24 @@ def test_varying_command_refused_by_a_model_without_it(tmp_path, capsys):
     path = _csv(tmp_path / "vary.csv", _record(SWITCH, duration=3.0))
     code = main(["fit", str(path), "--quiet"])
     _one_line(code, capsys.readouterr().err, "current varies", "mr-damper-current")
+
+
+def test_derive_gives_the_stability_conditions_as_functions_of_the_current():
+    """At a held command i the field settles at u = i: the dissipation condition of Eq. 12 becomes one on the
+    coefficients at that current, c1(i) + c2(i) >= 0 and c3(i) >= 0 (derived, not typed in)."""
+    from duffsym.derive.stability import stability_conditions
+    from duffsym.model.library import at_constant_command
+
+    m = get_model("mr-damper-current")
+    frozen = at_constant_command(m)
+    sc = stability_conditions(frozen)
+    i = frozen.param("i").symbol
+    P = {n: m.param(n).symbol for n in ("c1", "c2", "c3", "c1_u", "c2_u", "c3_u")}
+    c12 = P["c1"] + P["c2"] + (P["c1_u"] + P["c2_u"]) * i
+    c3 = P["c3"] + P["c3_u"] * i
+    expected = sp.And(c12 >= 0, c3 >= 0)
+    got = sc.named()["dV/dt negative semi-definite"]
+    vals = [{P["c1"]: 1, P["c2"]: 1, P["c3"]: 1, P["c1_u"]: a, P["c2_u"]: 0, P["c3_u"]: b, i: c}
+            for a in (-5, 0, 5) for b in (-5, 0, 5) for c in (0, 0.5, 1)]
+    assert all(bool(got.subs(v)) == bool(expected.subs(v)) for v in vals)
+    assert at_constant_command(get_model("mr-damper")) is None

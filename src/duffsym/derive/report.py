@@ -221,7 +221,8 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     lya = lyapunov_analysis(model)
     items = [*_equation_items(model, pr, eq_main), *_state_space_items(model, pr, eq_ss),
              *_normalization_items(model, pr), *_lyapunov_items(model, pr, mech, signals, lya),
-             *_stability_items(model, pr, signals, lya), *_symmetry_items(model, pr), *_energy_items(model, pr),
+             *_stability_items(model, pr, signals, lya), *_command_items(model, pr), *_symmetry_items(model, pr),
+             *_energy_items(model, pr),
              *_certificate_items(model)]
     return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
                             items=tuple(items))
@@ -375,6 +376,27 @@ def _stability_items(model, pr, signals, lya) -> list[ReportItem]:
         {"conditions": {k: sp.sstr(v) for k, v in conds.items()},
          "exact": {k: bool(sc.exact.get(k)) for k in conds}, "globally_stable_if": sp.sstr(sc.globally_stable)}))
     return items
+
+
+def _command_items(model, pr) -> list[ReportItem]:
+    """For a command-driven model: the stability conditions at a constant command i (field u = i)."""
+    from duffsym.model.library import at_constant_command
+
+    frozen = at_constant_command(model)
+    if frozen is None:
+        return []
+    sc = stability_conditions(frozen)
+    conds = sc.named()
+    lines = [f"{name}: {'iff' if sc.exact.get(name) else 'if (sufficient)'} {condition_text(c)}"
+             for name, c in conds.items()]
+    return [ReportItem(
+        "stability_at_constant_command", "Stability conditions at a constant command i (field u = i)", "Eq. 6-10",
+        "\n".join(lines), " \\\\ ".join(f"{_COND_LATEX.get(n, n)}: {pr.latex(c)}" for n, c in conds.items()),
+        "the field settles to the command (u' = -eta (u - i), eta > 0), so at a held command the mechanics is "
+        "Eq. 12 with every coefficient at u = i: each condition is one on the coefficients at that current; "
+        "check it over the command range the damper is driven in",
+        {"conditions": {k: sp.sstr(v) for k, v in conds.items()},
+         "globally_stable_if": sp.sstr(sc.globally_stable)})]
 
 
 def _symmetry_items(model, pr) -> list[ReportItem]:

@@ -68,17 +68,19 @@ def collocation_coefficients(degree: int = 3, scheme: str = "legendre"):
     return tau, C, D
 
 
-def _output_gain(model):
-    """If the output is ``g(theta) * x_i`` for one state i: ``(i, g as a function of params)``; else None."""
+def _output_gain(model, driven=()):
+    """If the output is ``g * x_i`` for one state i, with ``g`` a function of the parameters and of the
+    ``driven`` states (those the inputs alone determine): ``(i, g as a function of (params, driven))``; else None."""
     out = model.output
-    states = [s for s in model.states if s in out.free_symbols]
+    driven = tuple(driven)
+    states = [s for s in model.states if s in out.free_symbols and s not in driven]
     if len(states) != 1 or any(c.symbol in out.free_symbols for c in model.inputs):
         return None
     s = states[0]
     g = sp.simplify(out / s)
     if s in g.free_symbols:
         return None
-    fn = sp.lambdify(model.param_symbols, g, "math")
+    fn = sp.lambdify([*model.param_symbols, *driven], g, "numpy")
     return model.states.index(s), fn
 
 
@@ -101,12 +103,12 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     driven = driven_states(model, record, params)
     for j, traj in driven.items():
         X[:, j] = traj
-    info = _output_gain(model)
+    info = _output_gain(model, [model.states[j] for j in driven])
     if info is None:
         return X
     i, gain_fn = info
-    gain = float(gain_fn(*params))
-    if gain == 0 or not math.isfinite(gain):
+    gain = np.broadcast_to(np.asarray(gain_fn(*params, *driven.values()), dtype=float), (record.n_times,))
+    if np.any(gain == 0) or not np.all(np.isfinite(gain)):
         return X
     xi = np.asarray(record.y) / gain
     X[:, i] = xi

@@ -157,6 +157,9 @@ class CollocationNLP:
             n_var = blk.p_offset - offset
             lbw += [-np.inf] * (n_var + n_free * blk.nb)
             ubw += [np.inf] * (n_var + n_free * blk.nb)
+            for j, (lo, hi) in spec.pop("driven_range").items():  # input-driven states stay in their range
+                for k in range(blk.N):
+                    lbw[offset + k * nx + j], ubw[offset + k * nx + j] = lo / blk.S[j], hi / blk.S[j]
             self.layout.append(blk)
             self.blocks.append(spec)
             n_g += (nx * K + nx) * (blk.N - 1) + n_free * blk.nb
@@ -166,7 +169,7 @@ class CollocationNLP:
 
     def _record(self, ca, i, rec, start, offset, n_g):
         """One record's block: its variables, collocation and chain constraints, objective and start values."""
-        from duffsym.identify.collocation import _input_matrix, initial_states
+        from duffsym.identify.collocation import _input_matrix, driven_states, initial_states
 
         problem, model, K, tau, stride = self.problem, self.model, self.degree, self.tau, self.stride
         nx, n_free, free = model.n_states, len(self.free), self.free
@@ -176,6 +179,12 @@ class CollocationNLP:
         sidx = problem.slot_index(i)
         p_start = np.array([problem.record_params(i, start)[n] for n in model.param_names])
         X_init = initial_states(model, rec, p_start)
+        driven = {}
+        for j, traj in driven_states(model, rec, p_start).items():
+            # a first-order lag stays within the range of what drives it (the command's range for the field)
+            lo, hi = float(np.min(traj)), float(np.max(traj))
+            pad = 0.02 * (hi - lo) + 1e-6 * max(1.0, abs(lo), abs(hi))
+            driven[j] = (lo - pad, hi + pad)
         S = np.maximum(np.max(np.abs(X_init), axis=0), 1e-3 * max(1.0, float(np.max(np.abs(X_init)))))
         S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
         n_var = nx * N + nx * K * (N - 1)
@@ -214,7 +223,7 @@ class CollocationNLP:
         w0 += list(np.tile(th0[sidx] * self.p_scale[sidx] / self.p_scale_free, nb))
         pf = np.array([0.0 if n in free else problem.fixed_value(i, n) for n in model.param_names])
         spec = dict(offset=offset, N=N, U=U, h=h, S=S, pf=pf, sidx=sidx, y=np.asarray(rec.y, dtype=float),
-                    wts=wts, g_offset=n_g)
+                    wts=wts, g_offset=n_g, driven_range=driven)
         return _Block(offset, N, S, offset + n_var, nb, U, X_init), spec, parts, w0
 
     def _linear_constraints(self) -> None:

@@ -137,6 +137,18 @@ def _estimate_x0(model, p, record, U, guess):
         r = tr.y - y
         return np.where(np.isfinite(r), r, 1e6)
 
-    sol = least_squares(resid, np.asarray(guess) / scale, method="lm", max_nfev=200)
+    from duffsym.identify.collocation import driven_states
+
+    keep = sorted(driven_states(model, record, p))  # input-driven states (the field) start at their equilibrium
+    free = np.array([j for j in range(len(guess)) if j not in keep], dtype=int)
+    z0 = np.asarray(guess, dtype=float) / scale
+
+    def full(zf):
+        z = z0.copy()
+        z[free] = zf
+        return z
+
+    sol = least_squares(lambda zf: resid(full(zf)), z0[free], method="lm", max_nfev=200)
+    sol.x = full(sol.x)
     x0 = sol.x * scale
     return x0 if np.sum(resid(sol.x) ** 2) <= np.sum(resid(np.asarray(guess) / scale) ** 2) else np.asarray(guess)

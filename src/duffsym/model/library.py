@@ -217,9 +217,9 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
 COMMAND = InputChannel("command", 0)
 #: The magnetic field variable driven by the command (first-order dynamics, Spencer et al. 1997).
 FIELD = state_symbol("u_field")
-#: Coefficients of Eq. 11 that depend on the field; A_f stays constant (it breaks the scaling symmetry,
-#: fixed to max|y| as in the paper) and k3 stays constant (0 by default).
-FIELD_COEFFICIENTS = ("c1", "c2", "c3", "k1", "k2")
+#: Coefficients of Eq. 11 that depend on the field (k3 stays constant, 0 by default). The constant part of
+#: A_f is fixed to max|y| by the fit, as in the paper: it removes the scaling symmetry x -> s x.
+FIELD_COEFFICIENTS = ("c1", "c2", "c3", "k1", "k2", "A_f")
 #: Field dependences of the coefficients: theta(u) = theta + theta_u * g(u) (+ theta_uu * u^2).
 FIELD_FORMS = ("linear", "quadratic", "saturating")
 
@@ -239,16 +239,19 @@ def _field_params(form: str) -> tuple[list[ParamSpec], dict[str, sp.Expr]]:
     exprs = {}
     for name in FIELD_COEFFICIENTS:
         spec = base[name]
-        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6,
-                   f"change of {name} per unit field (command units)", scale=spec.typical_scale)
+        relative = name == "A_f"  # the force scale: relative change, so A_f_u is O(1) in any force unit
+        scale = 1.0 if relative else spec.typical_scale
+        what = "relative change of A_f" if relative else f"change of {name}"
+        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6, f"{what} per unit field (command units)",
+                   scale=scale)
         extra.append(slope)
-        e = spec.symbol + slope.symbol * g
+        e = slope.symbol * g
         if form == "quadratic":
             curv = _p(f"{name}_uu", spec.latex + "^{(uu)}", 0.0, -1e6, 1e6,
-                      f"curvature of {name} in the field", scale=spec.typical_scale)
+                      f"curvature of {name} in the field" + (" (relative)" if relative else ""), scale=scale)
             extra.append(curv)
             e = e + curv.symbol * u**2
-        exprs[name] = e
+        exprs[name] = spec.symbol * (1 + e) if relative else spec.symbol + e
     return extra, exprs
 
 
@@ -258,13 +261,14 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
 
     .. math:: \ddot x + c_2(u)\dot x + k_2(u) x + k_3 x^{n} + c_3(u)\dot x^{n}
               = k_1(u)(d - x) + c_1(u)(\dot d - \dot x), \qquad \dot u = -\eta\,(u - i),
-              \qquad y = A_f \dot x
+              \qquad y = A_f(u)\,\dot x
 
     The field variable u follows the command i (the ``current`` or ``voltage`` column) through
     first-order dynamics (Spencer et al.'s phenomenological model). Each of c1, c2, c3, k1, k2 is
-    ``theta + theta_u * g(u)``: ``field="linear"`` g = u; ``"quadratic"`` adds ``theta_uu * u**2``;
-    ``"saturating"`` g = u_sat tanh(u / u_sat). A_f and k3 are constants. At constant command the
-    model is Eq. 12 with the coefficients at u = i.
+    ``theta + theta_u * g(u)`` and the force scale ``A_f (1 + A_f_u * g(u))``: ``field="linear"`` g = u;
+    ``"quadratic"`` adds ``theta_uu * u**2``; ``"saturating"`` g = u_sat tanh(u / u_sat). k3 is constant.
+    At constant command the model is Eq. 12 with the coefficients at u = i. The constant part A_f is
+    fixed to max|y| by the fit (the scaling symmetry x -> s x, as in the paper).
     """
     if field not in FIELD_FORMS:
         raise ModelError(f"field must be one of {FIELD_FORMS}; got {field!r}")
@@ -280,10 +284,28 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
     eq = mr_damper_equation(n_x, n_v).xreplace(subs)
     return SymbolicModel(
         name=name, states=(X1, X2, FIELD), inputs=(D, D_DOT, COMMAND), params=base.params + tuple(extra) + (eta,),
-        rhs=(X2, acc, -eta.symbol * (FIELD - COMMAND.symbol)), output=base.output, output_name="y",
+        rhs=(X2, acc, -eta.symbol * (FIELD - COMMAND.symbol)), output=base.output.xreplace(subs), output_name="y",
         structural=tuple({"n_x": n_x, "n_v": n_v}.items()), position=X1, velocity=X2, equation=eq,
         description=f"MR damper, Eq. 12 driven by its command (current/voltage): coefficients {field} in a "
                     "field u with u' = -eta (u - command)",
+    )
+
+
+def at_constant_command(model: SymbolicModel) -> SymbolicModel | None:
+    """The mechanical model of a command-driven model at a constant command: the field at its equilibrium
+    ``u_field = i``, with the level ``i`` a parameter (for the derivations: how the stability conditions
+    depend on the current). None if ``model`` has no field state driven by the command."""
+    if FIELD not in model.states or COMMAND not in model.inputs or model.n_states != 3:
+        return None
+    level = _p("i", "i", 0.5, -1e3, 1e3, "constant command level (current or voltage); the field equals it",
+               unit="command unit")
+    subs = {FIELD: level.symbol}
+    return SymbolicModel(
+        name=f"{model.name} at a constant command i", states=(X1, X2),
+        inputs=tuple(c for c in model.inputs if c != COMMAND), params=model.params + (level,),
+        rhs=tuple(e.xreplace(subs) for e in model.rhs[:2]), output=model.output.xreplace(subs),
+        output_name=model.output_name, structural=model.structural, position=X1, velocity=X2,
+        description=f"{model.name} with the field at its equilibrium u = i (constant command)",
     )
 
 

@@ -1,0 +1,426 @@
+"""Study s11 — one model of the MR damper driven by its command (issue 17): the coil current or voltage as
+a model input (``mr-damper-current``), one parameter set for a whole test campaign, and the random-voltage
+Dyke record.
+
+Model. Eq. 12 whose coefficients c1, c2, c3, k1, k2 are ``theta + theta_u g(u)`` and whose force scale is
+``A_f (1 + A_f_u g(u))``, with a field u following the command i through u' = -eta (u - i) (Spencer et
+al. 1997); g(u) = u (``linear``), u_sat tanh(u/u_sat) (``saturating``), or u plus a u^2 term
+(``quadratic``). A_f = max|y| (the scaling symmetry), k3 = 0.
+
+Part A — UTFSM campaign (Quiroz 2022; ``external_data_dir()/mr_damper_utfsm_quiroz2022``): the 30 sinusoid
+tests (six amplitude/frequency pairs x 0, 0.25, 0.5, 0.75, 1 A), decimated as in s06 to about
+``Config.samples_per_period`` samples per period (velocity derived at the full rate). Each field form is
+fitted to all 30 tests at once (one parameter set; each test its own initial state; eta held at
+``Config.campaign_eta``: a constant current does not show the field's lag), with the total stiffness
+k1(u) + k2(u) >= 0 at u = 0 and 1 A. The form is chosen by BIC of that fit. Held-out error: for the chosen
+form, ``Config.holdout`` = ``"excitation"`` refits without all five tests of one amplitude/frequency pair
+and predicts them in free run (six folds: each test predicted by a model that never saw its excitation at
+any current; a stricter split than leaving one test out, which keeps its excitation at the other four
+currents), or ``"test"`` (30 folds, one test left out). The earthquake-type record (at 0.2, 0.4, 0.6, 0.8,
+1 A; 0.2-0.8 A are currents the campaign never saw) is predicted by the all-30 model.
+
+Part B — Dyke (NEES 1996; ``external_data_dir()/mr_damper_dyke_nees1996``): 74 068 samples at 3004.8 Hz of
+random displacement and random command voltage (0 / 2.25 V switching). Decimated by
+``Config.dyke_decimation`` (the data were anti-alias filtered at 100 Hz), fitted on the first
+``Config.dyke_fit_seconds`` s and validated in free run on the second half of the record (never seen).
+The free run is the compiled one when it completes; when it reports a blow-up (the compiled fixed-step
+free run cannot follow the stiff c3 x'^n term on broadband data: issue 17 item 5, fixed on another branch)
+the study re-simulates with scipy's LSODA (stiff/non-stiff switching, rtol 1e-6) and says so in the output.
+Reference: a windowed LSTM reached 49.5 N validation RMSE on this record (informal, see SOURCE.md).
+
+Files: ``data/derived/s11_current_driven.{npz,json}``; figures ``paper/figures/s11_current_driven_campaign.png``
+(held-out NRMSE per test, with s06's per-test and per-current fits when s06's derived file exists) and
+``..._dyke.png`` (measured and predicted force on the validation half); numbers ``paper/output/s11_*.tex``.
+Without the external data the study prints how to get it and exits 0.
+"""
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as C  # noqa: E402
+
+STUDY = "s11_current_driven"
+TAG = "s11"
+DYKE = "mr_damper_dyke_nees1996"
+DYKE_COLUMNS = dict(time="t", input="D", output="F", velocity="V", voltage="Y")
+LSTM_RMSE_N = 49.46
+GOAL_MEDIAN, GOAL_WORST = 0.10, 0.20
+
+
+@dataclass(frozen=True)
+class Config:
+    """Settings of study s11 (see the module docstring).
+
+    forms : field forms compared on the campaign (model names). holdout : "excitation" (6 folds) or "test"
+    (30 folds) or "none". campaign_eta : the field rate held in the campaign fits (1/s).
+    dyke_forms : model(s) fitted to the Dyke record.
+    """
+
+    tests: tuple[str, ...] = ("2mm5Hz", "5mm3Hz", "10mm1Hz", "25mm0x5Hz", "25mm0x25Hz", "25mm0x1Hz")
+    currents: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
+    samples_per_period: int = 50
+    forms: tuple[str, ...] = ("mr-damper-current", "mr-damper-current-saturating")
+    holdout: str = "excitation"
+    campaign_eta: float = 100.0
+    earthquake: bool = True
+    dyke: bool = True
+    dyke_decimation: int = 3
+    dyke_fit_seconds: float = 6.0
+    dyke_forms: tuple[str, ...] = ("mr-damper-current",)
+    dyke_val_seconds: float | None = None
+
+    @classmethod
+    def smoke(cls) -> "Config":
+        """Two tests at two currents, one form, no hold-out; a 1 s Dyke fit at 500 Hz."""
+        return cls(tests=("2mm5Hz", "5mm3Hz"), currents=(0.0, 1.0), samples_per_period=25,
+                   forms=("mr-damper-current",), holdout="none", earthquake=False, dyke_decimation=6,
+                   dyke_fit_seconds=1.0, dyke_val_seconds=1.0)
+
+    def summary(self) -> str:
+        return (f"s11 config: campaign {len(self.tests)} tests x {len(self.currents)} currents at "
+                f"~{self.samples_per_period} samples/period, forms {', '.join(self.forms)}, hold-out "
+                f"{self.holdout}; Dyke q={self.dyke_decimation}, fit {self.dyke_fit_seconds:g} s")
+
+
+# ------------------------------------------------------------------------------------------- data
+def _folder(name: str) -> Path | None:
+    from duffsym.data import external_data_dir
+    from duffsym.errors import DataError
+
+    try:
+        p = external_data_dir() / name
+    except DataError:
+        return None
+    return p if p.is_dir() else None
+
+
+def campaign_records(cfg: Config) -> list:
+    """The decimated sinusoid tests (s06's loader), current as the record's constant command."""
+    import s06_real_mr_damper as s06
+
+    scfg = s06.Config(samples_per_period=cfg.samples_per_period)
+    return [s06.load_test(t, c, scfg)[0] for t in cfg.tests for c in cfg.currents]
+
+
+def dyke_record(q: int):
+    from duffsym.data import read_csv
+
+    r = read_csv(_folder(DYKE) / "ranran_50_converted.csv", columns=DYKE_COLUMNS,
+                 units={"time": "s", "input": "cm", "output": "N", "velocity": "cm/s", "voltage": "V"})
+    return r.replace(t=r.t[::q], d=r.d[::q], y=r.y[::q], d_dot=r.d_dot[::q], command=r.command[::q],
+                     metadata={"decimation": q}, name=f"dyke_q{q}")
+
+
+# ------------------------------------------------------------------------------------------- fits
+def _constraints(model):
+    """k1(u) + k2(u) >= 0 at u = 0, and at u = 1 for the linear form (a negative one has no equilibrium)."""
+    cons = [({"k1": 1.0, "k2": 1.0}, 0.0, math.inf)]
+    if model.name == "mr-damper-current":
+        cons.append(({"k1": 1.0, "k2": 1.0, "k1_u": 1.0, "k2_u": 1.0}, 0.0, math.inf))
+    return cons
+
+
+def campaign_fit(model, recs, cfg: Config):
+    from duffsym.identify import Problem, fit
+
+    fixed = {"eta": cfg.campaign_eta}
+    return fit(Problem(model, recs, fixed=fixed, constraints=_constraints(model)))
+
+
+def bic(res) -> float:
+    """n log(RSS/n) + k log n with RSS the fit's cost (squared output residuals of the collocation fit)."""
+    n = res.n_samples
+    return n * math.log(res.cost / n) + len(res.free) * math.log(n)
+
+
+def free_run(res, rec, model):
+    """Free-run prediction: ``duffsym.identify.validate``; LSODA when the compiled free run fails."""
+    from duffsym.identify import validate
+    from duffsym.identify.result import nrmse
+
+    v = validate(res, rec, model)
+    if v.success:
+        return v.y_sim, v.nrmse, "compiled RK4"
+    y = lsoda_free_run(model, model.param_vector(res.params), rec)
+    return y, (nrmse(rec.y, y) if np.all(np.isfinite(y)) else math.inf), "LSODA (compiled run failed)"
+
+
+def lsoda_free_run(model, p, rec) -> np.ndarray:
+    """scipy LSODA over the whole record, inputs interpolated linearly, started from the data-based state."""
+    from scipy.integrate import solve_ivp
+
+    from duffsym.codegen.numpy_rhs import scalar_model
+    from duffsym.identify.collocation import initial_states
+    from duffsym.simulate import input_matrix
+
+    sm = scalar_model(model)
+    t = np.asarray(rec.t)
+    U = input_matrix(model, t, rec.inputs_for(model))
+    dt = float(t[1] - t[0])
+
+    def u_at(tt):
+        k = min(max(int((tt - t[0]) / dt), 0), t.size - 2)
+        w = (tt - t[k]) / (t[k + 1] - t[k])
+        return U[k] + w * (U[k + 1] - U[k])
+
+    x0 = initial_states(model, rec, p)[0]
+    sol = solve_ivp(lambda tt, x: sm.rhs(x, u_at(tt), p), (t[0], t[-1]), x0, method="LSODA", t_eval=t,
+                    rtol=1e-6, atol=1e-9, jac=lambda tt, x: sm.jac_states(x, u_at(tt), p))
+    if not sol.success or sol.y.shape[1] != t.size:
+        return np.full(t.size, np.nan)
+    from duffsym.codegen.numpy_rhs import numpy_model
+
+    return np.asarray(numpy_model(model).output(sol.y.T, U, p), dtype=float).reshape(-1)
+
+
+# ------------------------------------------------------------------------------------------- compute
+def compute_campaign(cfg: Config, arrays: dict) -> dict:
+    from duffsym.model import get_model
+
+    recs = campaign_records(cfg)
+    names = [r.name for r in recs]
+    out: dict = {"records": names, "forms": {}}
+    best, best_bic = None, math.inf
+    for form in cfg.forms:
+        model = get_model(form)
+        t0 = time.perf_counter()
+        res = campaign_fit(model, recs, cfg)
+        wall = time.perf_counter() - t0
+        b = bic(res)
+        ins = [free_run(res, r, model) for r in recs]
+        out["forms"][form] = dict(params=res.params, stderr=res.stderr, success=res.success, status=res.status,
+                                  bic=b, n_samples=res.n_samples, n_free=len(res.free), wall_s=wall,
+                                  nrmse_in_sample={n: e for n, (_, e, _) in zip(names, ins)},
+                                  methods=sorted({m for _, _, m in ins}))
+        print(f"  campaign {form}: {res.n_samples} samples, {len(res.free)} free, BIC {b:.1f}, in-sample NRMSE "
+              f"median {np.median([e for _, e, _ in ins]):.3f} max {max(e for _, e, _ in ins):.3f}, {wall:.0f} s",
+              flush=True)
+        if b < best_bic:
+            best, best_bic = (form, res, model), b
+    form, res, model = best
+    out["chosen"] = form
+    out["heldout"], out["holdout_wall_s"] = holdout(cfg, recs, model, arrays)
+    if cfg.earthquake:
+        out["earthquake"] = earthquake(res, model, arrays)
+    return out
+
+
+def _folds(cfg: Config, recs) -> list[list[int]]:
+    if cfg.holdout == "excitation":
+        return [[i for i, r in enumerate(recs) if r.name.startswith(t)] for t in cfg.tests]
+    if cfg.holdout == "test":
+        return [[i] for i in range(len(recs))]
+    return []
+
+
+def holdout(cfg: Config, recs, model, arrays) -> tuple[dict, float]:
+    t0 = time.perf_counter()
+    held = {}
+    for fold in _folds(cfg, recs):
+        train = [r for i, r in enumerate(recs) if i not in fold]
+        res = campaign_fit(model, train, cfg)
+        for i in fold:
+            y, e, how = free_run(res, recs[i], model)
+            held[recs[i].name] = dict(nrmse=e, method=how, fit_success=res.success)
+            arrays[f"held_{recs[i].name}"] = np.asarray(y)
+            print(f"    held out {recs[i].name}: NRMSE {e:.3f} ({how})", flush=True)
+    return held, time.perf_counter() - t0
+
+
+def earthquake(res, model, arrays) -> dict:
+    import s06_real_mr_damper as s06
+
+    from duffsym.data import load_mr_damper_utfsm
+
+    path = _folder(s06.DATASET) / "earthquake_validation" / "validacion.mat"
+    out = {}
+    if not path.is_file():
+        return out
+    for cur in (0.2, 0.4, 0.6, 0.8, 1.0):
+        rec = s06._decimate(load_mr_damper_utfsm(path, current=cur), 5, f"validacion_{cur:g}A")
+        y, e, how = free_run(res, rec, model)
+        out[f"{cur:g}A"] = dict(nrmse=e, method=how)
+        arrays[f"eq_{cur:g}A"] = np.asarray(y)
+        print(f"    earthquake record at {cur:g} A: NRMSE {e:.3f} ({how})", flush=True)
+    return out
+
+
+def compute_dyke(cfg: Config, arrays: dict) -> dict:
+    from duffsym.identify import Problem, fit
+    from duffsym.model import get_model
+
+    rec = dyke_record(cfg.dyke_decimation)
+    n_fit = int(round(cfg.dyke_fit_seconds / rec.dt))
+    n_val = None if cfg.dyke_val_seconds is None else rec.n_times // 2 + int(round(cfg.dyke_val_seconds / rec.dt))
+    train, val = rec.slice(0, n_fit), rec.slice(rec.n_times // 2, n_val)
+    out = dict(n_fit=train.n_times, n_val=val.n_times, dt=rec.dt, val_start_s=float(val.t[0]),
+               force_std_val=float(np.std(val.y)), forms={})
+    arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"] = (np.asarray(val.t), np.asarray(val.y),
+                                                              np.asarray(val.command))
+    for form in cfg.dyke_forms:
+        model = get_model(form)
+        t0 = time.perf_counter()
+        res = fit(Problem(model, train))
+        wall = time.perf_counter() - t0
+        y_fit, e_fit, how_fit = free_run(res, train, model)
+        y, e, how = free_run(res, val, model)
+        rmse = float(np.sqrt(np.mean((np.asarray(val.y) - y) ** 2)))
+        out["forms"][form] = dict(params=res.params, stderr=res.stderr, status=res.status, fit_success=res.success,
+                                  fit_message=res.message, wall_s=wall, nrmse_fit=e_fit, method_fit=how_fit,
+                                  nrmse_val=e, rmse_val_N=rmse, method_val=how)
+        arrays[f"dyke_{form}"] = np.asarray(y)
+        print(f"  Dyke {form}: fit {train.n_times} samples in {wall:.0f} s (status {res.status}); free run on the "
+              f"fit part NRMSE {e_fit:.3f} ({how_fit}); validation NRMSE {e:.3f}, RMSE {rmse:.1f} N ({how})",
+              flush=True)
+    return out
+
+
+def compute(cfg: Config) -> dict:
+    t0 = time.perf_counter()
+    arrays: dict[str, np.ndarray] = {}
+    meta = dict(study=STUDY, **C.provenance(cfg))
+    if _folder("mr_damper_utfsm_quiroz2022") is None and _folder(DYKE) is None:
+        meta["missing"] = True
+    if _folder("mr_damper_utfsm_quiroz2022") is not None:
+        meta["campaign"] = compute_campaign(cfg, arrays)
+    if cfg.dyke and _folder(DYKE) is not None:
+        meta["dyke"] = compute_dyke(cfg, arrays)
+    meta["total_s"] = time.perf_counter() - t0
+    files = C.write_derived(STUDY, arrays, meta)
+    return dict(meta=meta, files=files)
+
+
+def read() -> tuple[dict, dict]:
+    return C.read_derived(STUDY)
+
+
+# ------------------------------------------------------------------------------------------- outputs
+def _s06_per_test() -> dict:
+    """s06's per-test in-sample NRMSE and per-current leave-one-out, if its derived file exists."""
+    try:
+        _, meta = C.read_derived("s06_real_mr_damper")
+    except (FileNotFoundError, OSError, ValueError):
+        return {}
+    return {"single": {k: f["nrmse"] for k, f in meta.get("fits", {}).items()},
+            "loo": {k: f["nrmse"] for k, f in meta.get("loo", {}).items()}}
+
+
+def plot(results: dict | None = None) -> list:
+    _, meta = read()
+    files = []
+    plt = C.style()
+    camp = meta.get("campaign")
+    if camp and camp.get("heldout"):
+        names = camp["records"]
+        held = [camp["heldout"].get(n, {}).get("nrmse", math.nan) for n in names]
+        ins = [camp["forms"][camp["chosen"]]["nrmse_in_sample"][n] for n in names]
+        s06 = _s06_per_test()
+        fig, ax = plt.subplots(figsize=(10, 4))
+        x = np.arange(len(names))
+        ax.bar(x - 0.2, np.minimum(held, 1.0), 0.4, color="k", label=f"one model ({camp['chosen']}), held out")
+        ax.plot(x + 0.2, ins, "s", color="0.5", ms=4, label="one model, in sample")
+        if s06.get("single"):
+            ax.plot(x, [s06["single"].get(n, math.nan) for n in names], "o", mfc="none", color="tab:blue", ms=5,
+                    label="s06: one fit per test (in sample)")
+        ax.axhline(GOAL_MEDIAN, color="tab:green", ls="--", lw=0.8, label="goal: median 0.10")
+        ax.axhline(GOAL_WORST, color="tab:red", ls=":", lw=0.8, label="goal: worst 0.20")
+        ax.set_xticks(x, names, rotation=90, fontsize=7)
+        ax.set_ylabel("free-run NRMSE")
+        ax.set_title(f"UTFSM campaign: one parameter set, each test predicted without its excitation "
+                     f"(median {np.nanmedian(held):.3f}, worst {np.nanmax(held):.3f})")
+        ax.legend(fontsize=7, ncol=2)
+        files.append(C.save(fig, STUDY, "campaign"))
+    dyke = meta.get("dyke")
+    if dyke and dyke.get("forms"):
+        arrays, _ = read()
+        form = next(iter(dyke["forms"]))
+        d = dyke["forms"][form]
+        t, y, cmd = arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"]
+        sl = slice(0, min(t.size, int(2.0 / dyke["dt"])))
+        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, gridspec_kw=dict(height_ratios=(3, 1)))
+        a1.plot(t[sl], y[sl], color="0.6", lw=1.2, label="measured")
+        a1.plot(t[sl], arrays[f"dyke_{form}"][sl], color="k", lw=0.8,
+                label=f"{form}, free run ({d['method_val']})")
+        a1.set_ylabel("force (N)")
+        a1.legend(fontsize=8)
+        a1.set_title(f"Dyke record, validation half (never fitted): NRMSE {d['nrmse_val']:.3f}, "
+                     f"RMSE {d['rmse_val_N']:.0f} N (LSTM reference {LSTM_RMSE_N:g} N); first 2 s shown")
+        a2.plot(t[sl], cmd[sl], color="tab:orange", lw=0.8)
+        a2.set_ylabel("command (V)")
+        a2.set_xlabel("time (s)")
+        files.append(C.save(fig, STUDY, "dyke"))
+    return files
+
+
+def _fmt(v) -> str:
+    return "--" if v is None or not math.isfinite(v) else f"{v:.3f}"
+
+
+def write_numbers(meta: dict) -> list:
+    files = []
+    camp = meta.get("campaign")
+    if camp and camp.get("heldout"):
+        held = [h["nrmse"] for h in camp["heldout"].values()]
+        files += [C.write_number(STUDY, f"{TAG}_heldout_median", _fmt(float(np.median(held)))),
+                  C.write_number(STUDY, f"{TAG}_heldout_worst", _fmt(float(np.max(held)))),
+                  C.write_number(STUDY, f"{TAG}_chosen_form", camp["chosen"].replace("mr-damper-current", "linear")
+                                 .replace("linear-", ""))]
+        rows = [r"\begin{tabular}{lrr}\toprule test & one model, held out & one model, in sample\\\midrule"]
+        ins = camp["forms"][camp["chosen"]]["nrmse_in_sample"]
+        for n in camp["records"]:
+            rows.append(f"{n} & {_fmt(camp['heldout'][n]['nrmse'])} & {_fmt(ins[n])}\\\\")
+        rows.append(r"\bottomrule\end{tabular}")
+        files.append(C.write_number(STUDY, f"{TAG}_campaign_table", "\n".join(rows)))
+    dyke = meta.get("dyke")
+    if dyke and dyke.get("forms"):
+        d = next(iter(dyke["forms"].values()))
+        files += [C.write_number(STUDY, f"{TAG}_dyke_nrmse", _fmt(d["nrmse_val"])),
+                  C.write_number(STUDY, f"{TAG}_dyke_rmse", f"{d['rmse_val_N']:.0f}")]
+    return files
+
+
+def summarize(meta: dict) -> str:
+    lines = [f"{STUDY}:"]
+    camp = meta.get("campaign")
+    if camp:
+        for form, f in camp["forms"].items():
+            e = list(f["nrmse_in_sample"].values())
+            lines.append(f"  campaign {form}: BIC {f['bic']:.1f}, in-sample NRMSE median {np.median(e):.3f}, "
+                         f"worst {np.max(e):.3f}, fit {f['wall_s']:.0f} s")
+        lines.append(f"  chosen by BIC: {camp['chosen']}")
+        if camp.get("heldout"):
+            held = [h["nrmse"] for h in camp["heldout"].values()]
+            lines.append(f"  held out ({meta['config']['holdout']}): median {np.median(held):.3f} (goal "
+                         f"{GOAL_MEDIAN}), worst {np.max(held):.3f} (goal {GOAL_WORST}); folds took "
+                         f"{camp['holdout_wall_s']:.0f} s")
+        for k, v in camp.get("earthquake", {}).items():
+            lines.append(f"  earthquake record {k}: NRMSE {v['nrmse']:.3f} ({v['method']})")
+    dyke = meta.get("dyke")
+    if dyke:
+        for form, d in dyke["forms"].items():
+            lines.append(f"  Dyke {form}: validation NRMSE {d['nrmse_val']:.3f}, RMSE {d['rmse_val_N']:.1f} N "
+                         f"(LSTM reference {LSTM_RMSE_N} N; force std {dyke['force_std_val']:.0f} N) by "
+                         f"{d['method_val']}; fit {d['wall_s']:.0f} s on {dyke['n_fit']} samples")
+    if meta.get("missing"):
+        lines.append("  external data absent: set DUFFSYM_EXTERNAL_DATA (see duffsym.data.external_data_dir)")
+    return "\n".join(lines)
+
+
+def main(argv=None, smoke: bool | None = None) -> int:
+    if smoke is not None:
+        argv = ["--smoke"] if smoke else []
+    return C.run_study(argv, doc=__doc__, label=STUDY, config=Config, compute=compute, plot=plot,
+                       write_numbers=write_numbers, summarize=summarize, read=read, announce=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
