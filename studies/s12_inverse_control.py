@@ -39,7 +39,7 @@ import _common as C
 STUDY = "s12_inverse_control"
 #: The true damper: force grows with the current (c1 up, c3 down with the field), field lag 10 ms.
 TRUTH = dict(c1=4.0, c2=20.0, c3=400.0, k1=20.0, k2=300.0, k3=0.0, A_f=1.0, c1_u=40.0, c2_u=-10.0,
-             c3_u=-300.0, k1_u=30.0, k2_u=100.0, eta=100.0)
+             c3_u=-300.0, k1_u=30.0, k2_u=100.0, A_f_u=0.0, eta=100.0)
 LIMITS = (0.0, 1.0)
 
 
@@ -56,7 +56,7 @@ class Config:
 
     @classmethod
     def smoke(cls) -> "Config":
-        return cls(train_s=2.0, test_s=1.5, n_passive=5)
+        return cls(train_s=4.0, test_s=1.5, n_passive=5)
 
     def summary(self) -> str:
         return (f"s12 config: fit on {self.train_s} s, track {self.test_s} s at dt {self.dt} s, F* = c_v d' with "

@@ -20,7 +20,7 @@ DT = 0.005
 #: A damper whose force grows with the command (c1 up, c3 down with the field), like Table 2 across voltage;
 #: the generator's TRUTH is not monotone in the command, so "beyond the upper limit" needs this one.
 MONOTONE = dict(c1=4.0, c2=20.0, c3=400.0, k1=20.0, k2=300.0, k3=0.0, A_f=1.0, c1_u=40.0, c2_u=-10.0, c3_u=-300.0,
-                k1_u=30.0, k2_u=100.0, eta=100.0)
+                k1_u=30.0, k2_u=100.0, A_f_u=0.0, eta=100.0)
 DISP = gen.Sines((0.6, 0.25), (1.0, 2.3), (0.0, 1.0))
 CMD = gen.Switching(0.1, 0.9, gen.Sines((1.0, 0.7), (0.6, 1.3), (0.3, 2.0)), sharp=3.0)
 
