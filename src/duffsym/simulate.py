@@ -33,8 +33,9 @@ STATUS_MESSAGES = {0: "ok", 1: "blow-up", 2: "too stiff"}
 METHODS = ("auto", "rk4", "rosenbrock", "radau")
 #: Error tolerances of the compiled implicit integrator (ROS2, second order): scaled RMS of the
 #: embedded error per step. At these values the Dyke record's free run agrees with the Radau
-#: reference to ~3e-4 of the force's standard deviation (RK4 at h*rho <= 0.6: 1.5e-3), at 25-100x
-#: the explicit run's cost; 1e-5 gives 3e-5 at ~3x more (benchmarks/bench_stiff.py).
+#: reference to 3.5e-4 of the force's standard deviation (RK4 at h*rho <= 0.6 elsewhere: 1.5e-3);
+#: it costs ~20x a well-chosen fixed-substep RK4 run there and 229x the automatic RK4 on a non-stiff
+#: record (it runs only when RK4 stops); 1e-5 gives 3e-5 at ~3x more (benchmarks/bench_stiff.py).
 IMPLICIT_RTOL = 1e-4
 IMPLICIT_ATOL = 1e-7
 #: Step attempts the implicit integrator may take within one sample interval (its own budget: it
