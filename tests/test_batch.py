@@ -91,7 +91,7 @@ def test_batch_on_a_local_cluster_equals_serial_and_the_single_fits(data, cluste
     assert main(["validate", str(tmp_path / "par" / "rec1_0.4V.json"), str(recs[1]), "--json"]) == 0
 
 
-def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path):
+def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path, monkeypatch):
     out = tmp_path / "res"
     first = batch([data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"], command="fit", out=out,
                   workers=0, progress=False)
@@ -99,6 +99,11 @@ def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path):
     again = batch([data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"], command="fit", out=out,
                   workers=0, progress=False)
     assert again.n_ran == 0 and all(r["reused"] for r in again)
+    # a result of another duffsym release is recomputed, not reused
+    monkeypatch.setattr(duffsym, "__version__", "0.0.0-other")
+    other = batch([data / "recs" / "rec0_0.2V.csv"], command="fit", out=out, workers=0, progress=False)
+    assert other.n_ran == 1
+    monkeypatch.undo()
     # changed options rerun every record; the stored result then holds the new options
     opt = batch([data / "recs" / "rec0_0.2V.csv"], command="fit", out=out, workers=0, progress=False,
                 options={"fix": ["c1=2.5"]})

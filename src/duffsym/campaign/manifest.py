@@ -49,9 +49,15 @@ class Job:
     labels: dict = field(default_factory=dict)
 
     def input_hash(self, command: str) -> str:
-        """SHA-256 of the command, the options and the bytes of every input file (data and fit)."""
+        """SHA-256 of the duffsym version, the command, the options and the bytes of every input file.
+
+        The version is part of it: a result computed by another release is recomputed, not reused.
+        """
+        from duffsym import __version__
+
         h = hashlib.sha256()
-        h.update(json.dumps({"command": command, "argv": list(self.argv)}, sort_keys=True).encode())
+        h.update(json.dumps({"duffsym": __version__, "command": command, "argv": list(self.argv)},
+                            sort_keys=True).encode())
         for path in (self.data, self.fit):
             if path is not None:
                 h.update(b"\0file\0")
