@@ -34,6 +34,7 @@ LAYERS = (
     "uncertainty",
     "diagnose",
     "benchmark",  # public benchmarks scored by their own protocol (identify, diagnose below)
+    "control",  # the inverse for control (a fitted model's command for a desired force)
     "engine", "campaign",  # run commands over many records (they drive everything below)
     "cli",
 )

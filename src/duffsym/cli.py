@@ -43,6 +43,7 @@ COMMAND_MODULES = (
     "duffsym.data.command",         # convert
     "duffsym.campaign.command",     # batch
     "duffsym.benchmark.command",    # benchmark
+    "duffsym.control.command",      # invert
 )
 
 

@@ -30,7 +30,17 @@ H_LAMBDA = 0.6
 MAX_SUBSTEPS = 5000
 BLOWUP = 1e8
 STATUS_MESSAGES = {0: "ok", 1: "blow-up", 2: "too stiff"}
-METHODS = ("rk4", "radau")
+METHODS = ("auto", "rk4", "rosenbrock", "radau")
+#: Error tolerances of the compiled implicit integrator (ROS2, second order): scaled RMS of the
+#: embedded error per step. At these values the Dyke record's free run agrees with the Radau
+#: reference to 3.5e-4 of the force's standard deviation (RK4 at h*rho <= 0.6 elsewhere: 1.5e-3);
+#: it costs ~20x a well-chosen fixed-substep RK4 run there and 229x the automatic RK4 on a non-stiff
+#: record (it runs only when RK4 stops); 1e-5 gives 3e-5 at ~3x more (benchmarks/bench_stiff.py).
+IMPLICIT_RTOL = 1e-4
+IMPLICIT_ATOL = 1e-7
+#: Step attempts the implicit integrator may take within one sample interval (its own budget: it
+#: is the fallback when the RK4 substep budget ``max_substeps`` is exceeded).
+IMPLICIT_MAX_STEPS = 20000
 RECONSTRUCTIONS = ("linear", "hold")
 
 
@@ -66,6 +76,14 @@ class Trajectory:
     input_names: tuple[str, ...] = ()
     state_names: tuple[str, ...] = ()
     output_name: str = "y"
+    fallback: str = ""
+
+    @property
+    def integrator(self) -> dict:
+        """Which integrator produced the trajectory and why: ``{"method": str, "reason": str}``."""
+        reason = self.fallback or ("requested" if self.method in ("rosenbrock", "radau") else
+                                   "default explicit path (accurate at this stiffness)")
+        return {"method": self.method, "reason": reason}
 
     def raise_for_status(self) -> "Trajectory":
         """Raise :class:`SimulationError` if the simulation failed; return self otherwise."""
@@ -76,7 +94,8 @@ class Trajectory:
     def summary(self) -> str:
         sub = f", substeps {int(self.substeps.min())}..{int(self.substeps.max())}" if self.substeps.size else ""
         return (f"{self.model}: {self.t.size} samples over {self.t[-1] - self.t[0]:g} s, {self.method}{sub}; "
-                f"{self.status}" + ("" if self.success else f": {self.message}"))
+                f"{self.status}" + ("" if self.success else f": {self.message}")
+                + (f" [{self.fallback}]" if self.fallback else ""))
 
 
 def check_time(t) -> np.ndarray:
@@ -158,7 +177,16 @@ def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> 
     return U
 
 
-def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup):
+def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup, method="rk4"):
+    if method == "rosenbrock":
+        if status == 1:
+            return (f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}) with the "
+                    f"implicit integrator (ROS2, error-controlled): a state became non-finite or exceeded {blowup:g}, "
+                    "so the trajectory itself diverges; the parameter set is probably unstable "
+                    "(check duffsym.derive.stability_certificate) or the input too large")
+        return (f"model {model.name}: the implicit integrator's step size collapsed at t={t[k]:.6g} s (sample {k} of "
+                f"{t.size}; more than {IMPLICIT_MAX_STEPS} steps in one sample interval) without the state growing: "
+                "the right-hand side is too stiff or too rough for the error control (a near-discontinuous term?)")
     if status == 1:
         return (f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}): "
                 f"a state became non-finite or exceeded {blowup:g}; the parameter set is probably unstable "
@@ -175,7 +203,7 @@ def simulate(
     inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray,
     *,
     x0: Sequence[float] | None = None,
-    method: str = "rk4",
+    method: str = "auto",
     substeps: int | str = "auto",
     h_lambda: float = H_LAMBDA,
     max_substeps: int = MAX_SUBSTEPS,
@@ -195,14 +223,18 @@ def simulate(
     inputs : an :class:`~duffsym.excitation.Excitation` (exact derivatives), a mapping from
         channel name (``"d"``, ``"d_dot"``) to samples, or an array ``(n_times, n_inputs)``.
     x0 : initial state (default zeros).
-    method : ``"rk4"`` (compiled, stiffness-aware) or ``"radau"`` (scipy reference, slow, accurate).
+    method : ``"auto"`` (default): the compiled stiffness-aware RK4, and if it stops (blow-up or too
+        stiff) the run is redone with the compiled implicit ROS2 integrator and the trajectory's
+        ``fallback`` says why; a failure of both is a divergence of the trajectory itself.
+        ``"rk4"`` (explicit only), ``"rosenbrock"`` (implicit only: L-stable, error-controlled, or
+        ``substeps`` equal steps per sample when fixed) or ``"radau"`` (scipy reference, slow, accurate).
     substeps : ``"auto"`` (from the local stiffness) or a fixed number of RK4 substeps per sample;
         keep it fixed while finite-differencing, so the discretisation does not change with θ.
     h_lambda : target :math:`h\\rho(J)` per substep in auto mode.
     reconstruction : how the sampled input is reconstructed between samples: ``"linear"`` or
         ``"hold"`` (zero-order hold).
     blowup : magnitude of a state taken as blow-up.
-    rtol, atol : tolerances of the Radau reference.
+    rtol, atol : tolerances of the Radau reference (the implicit ROS2 uses IMPLICIT_RTOL/IMPLICIT_ATOL).
     on_failure : ``"raise"`` (:class:`SimulationError`) or ``"return"`` (a trajectory with
         ``success=False`` and NaN after the failure).
     """
@@ -218,28 +250,48 @@ def simulate(
     x0 = _initial_state(model, x0)
     fixed = _substep_setting(substeps)
     _check_integrator_options(h_lambda, max_substeps, blowup)
-    if method == "rk4":
-        from duffsym.codegen.compiled import compiled_module
-
-        mod = compiled_module(model)
-        X = np.empty((t.size, model.n_states))
-        Y = np.empty(t.size)
-        M = np.zeros(t.size - 1, dtype=np.int64)
-        st, idx = mod.integrate(t, U, x0, p, fixed, float(h_lambda), int(max_substeps),
-                                reconstruction == "hold", float(blowup), X, Y, M)
-        subs = M
-    else:
+    fallback = ""
+    if method == "radau":
         X, Y, st, idx = _radau(model, t, U, x0, p, reconstruction == "hold", rtol, atol, blowup)
-        subs = np.zeros(0, dtype=np.int64)
-    message = "ok" if st == 0 else _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
+        subs, ran = np.zeros(0, dtype=np.int64), "radau"
+    else:
+        ran = "rosenbrock" if method == "rosenbrock" else "rk4"
+        X, Y, st, idx, subs = _compiled_run(model, ran, t, U, x0, p, fixed, h_lambda, max_substeps,
+                                            reconstruction == "hold", blowup)
+        if method == "auto" and st != 0:
+            fallback = (f"explicit RK4 stopped ({STATUS_MESSAGES[st]} at t={t[idx]:.6g} s); rerun with the implicit "
+                        "ROS2 integrator")
+            first = _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
+            X, Y, st, idx, subs = _compiled_run(model, "rosenbrock", t, U, x0, p, fixed, h_lambda, max_substeps,
+                                                reconstruction == "hold", blowup)
+            ran = "rosenbrock"
+            if st != 0:
+                fallback += f"; it failed too (the RK4 run: {first})"
+    message = "ok" if st == 0 else _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup, ran)
     traj = Trajectory(model=model.name, t=t, x=X, y=Y, u=U, params=dict(zip(model.param_names, p.tolist())),
                       success=st == 0,
-                      status=STATUS_MESSAGES[st], message=message, method=method, substeps=subs, failed_at=idx,
+                      status=STATUS_MESSAGES[st], message=message, method=ran, substeps=subs, failed_at=idx,
                       input_names=tuple(c.name for c in model.inputs), state_names=model.state_names,
-                      output_name=model.output_name)
+                      output_name=model.output_name, fallback=fallback)
     if on_failure == "raise":
         traj.raise_for_status()
     return traj
+
+
+def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hold, blowup):
+    """One compiled run, explicit (``"rk4"``) or implicit (``"rosenbrock"``): X, Y, status, index, steps."""
+    from duffsym.codegen.compiled import compiled_module
+
+    mod = compiled_module(model)
+    X = np.empty((t.size, model.n_states))
+    Y = np.empty(t.size)
+    M = np.zeros(t.size - 1, dtype=np.int64)
+    if method == "rk4":
+        st, idx = mod.integrate(t, U, x0, p, fixed, float(h_lambda), int(max_substeps), hold, float(blowup), X, Y, M)
+    else:
+        st, idx = mod.integrate_implicit(t, U, x0, p, fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold,
+                                         float(blowup), X, Y, M)
+    return X, Y, int(st), int(idx), M
 
 
 def _initial_state(model, x0) -> np.ndarray:
@@ -325,10 +377,14 @@ class BatchResult:
 
 def simulate_batch(model: SymbolicModel, params: np.ndarray, t, inputs, *, x0=None, substeps: int | str = "auto",
                    h_lambda: float = H_LAMBDA, max_substeps: int = MAX_SUBSTEPS, reconstruction: str = "linear",
-                   blowup: float = BLOWUP) -> BatchResult:
+                   blowup: float = BLOWUP, method: str = "rk4") -> BatchResult:
     """Simulate many parameter sets (rows of ``params``, ordered as ``model.params``) in parallel.
 
-    Failures do not raise: they are reported per set in ``status`` (0 ok, 1 blow-up, 2 too stiff).
+    Failures do not raise: they are reported per set in ``status`` (0 ok, 1 blow-up, 2 too stiff). With
+    ``method="auto"`` a set whose explicit RK4 run stops is rerun with the implicit ROS2 integrator (as
+    ``simulate``'s default); its status is then the implicit run's. The default ``"rk4"`` keeps the
+    explicit run's verdict: a grid search (:func:`duffsym.identify.initial_guess`) drops a set too stiff
+    for it rather than paying an implicit run for a start it does not need.
     """
     from duffsym.codegen.compiled import compiled_module
 
@@ -356,9 +412,16 @@ def simulate_batch(model: SymbolicModel, params: np.ndarray, t, inputs, *, x0=No
     status = np.zeros(P.shape[0], dtype=np.int64)
     fail = np.zeros(P.shape[0], dtype=np.int64)
     total = np.zeros(P.shape[0], dtype=np.int64)
-    compiled_module(model).integrate_batch(t, U, X0, np.ascontiguousarray(P), _substep_setting(substeps),
+    fixed = _substep_setting(substeps)
+    compiled_module(model).integrate_batch(t, U, X0, np.ascontiguousarray(P), fixed,
                                            float(h_lambda), int(max_substeps), reconstruction == "hold",
                                            float(blowup), Y, status, fail, total)
+    if method not in ("rk4", "auto"):
+        raise ModelError(f"method must be 'rk4' or 'auto' for a batch; got {method!r}")
+    for s in np.flatnonzero(status != 0) if method == "auto" else ():  # the implicit integrator decides
+        _, Y[s], status[s], fail[s], M = _compiled_run(model, "rosenbrock", t, U, X0[s], P[s], fixed, h_lambda,
+                                                       max_substeps, reconstruction == "hold", blowup)
+        total[s] = M.sum()
     return BatchResult(t=t, y=Y, status=status, failed_at=fail, total_substeps=total)
 
 

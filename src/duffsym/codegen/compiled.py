@@ -24,7 +24,7 @@ from duffsym.codegen._printing import check_numeric_structure, state_jacobian
 from duffsym.model.core import SymbolicModel
 
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
-_GENERATOR_VERSION = "8"
+_GENERATOR_VERSION = "12"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
 #: dependency chain of each stage (~30 % faster); no "nnan"/"ninf", so the blow-up test on
 #: non-finite states stays valid.

@@ -330,7 +330,8 @@ def fit(
                 "linear_solver": linear_solver, "start": start,
                 "n_starts": n_starts, "starts_converged": n_ok, "constraints": nlp.constraints,
                 "bound_restart": bound_note,
-                "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs], "y_norm": nlp.y_norm}
+                "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs], "y_norm": nlp.y_norm,
+                "integrator": fitted["integrator"]}
     return _result(problem, nlp, best, fitted, slot_values, x0s, settings, {"build": build, "solve": solve},
                    flags=flags)
 
@@ -448,7 +449,9 @@ def _evaluate(problem: Problem, nlp: CollocationNLP, slot_values, x0s, compute_s
     rec_params = [problem.record_params(i, slot_values) for i in range(len(problem.records))]
     U_list = [b.U for b in nlp.layout]
     t_free = time.perf_counter()
-    free_run = [_free_run(problem.model, rp, rec, U, x) for rp, rec, U, x in zip(rec_params, problem.records, U_list, x0s)]
+    runs = [free_run_trajectory(problem.model, rp, rec, U, x)
+            for rp, rec, U, x in zip(rec_params, problem.records, U_list, x0s)]
+    free_run = [_outcome(tr) for tr in runs]
     t_free = time.perf_counter() - t_free
     y_sims = tuple(fr[0] for fr in free_run)
     ok_runs = all(fr[1] for fr in free_run)
@@ -464,6 +467,7 @@ def _evaluate(problem: Problem, nlp: CollocationNLP, slot_values, x0s, compute_s
         cov = laplace_covariance(problem, rec_params, x0s, U_list, y_sims)
     t_se = time.perf_counter() - t_se
     return {"rec_params": rec_params, "y_sims": y_sims, "ok": ok_runs,
+            "integrator": [{"record": r.name, **tr.integrator} for r, tr in zip(records, runs)],
             "failure": next((fr[2] for fr in free_run if not fr[1]), ""),
             "nrmse": math.sqrt(sse / sst) if ok_runs else math.inf,
             "nrmse_records": tuple(record_nrmse(r.y, ys) for r, ys in zip(records, y_sims)),
@@ -684,11 +688,20 @@ def _status_message(status: str, success: bool, max_iter: int) -> str:
     return hints.get(status, f"IPOPT did not converge ({status}); inspect the problem or try another start")
 
 
-def _free_run(model, params, record, U, x0):
+def free_run_trajectory(model, params, record, U, x0):
+    """The free run of ``params`` on ``record`` (explicit RK4, or the implicit integrator it fell back to)."""
     from duffsym.simulate import simulate
 
-    traj = simulate(model, params, np.asarray(record.t), U, x0=x0, on_failure="return")
+    return simulate(model, params, np.asarray(record.t), U, x0=x0, on_failure="return")
+
+
+def _outcome(traj) -> tuple:
     return np.asarray(traj.y, dtype=float), traj.success, traj.message
+
+
+def _free_run(model, params, record, U, x0):
+    """``(y, success, message)`` of :func:`free_run_trajectory`."""
+    return _outcome(free_run_trajectory(model, params, record, U, x0))
 
 
 def laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
@@ -710,7 +723,9 @@ def laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
         if not ref.success:
             return np.full((n_slots, n_slots), np.nan)
         n_sub = int(min(max(int(ref.substeps.max()), 1) * 2, 200))
-        base = simulate(model, params, t, chans, x0=x0, substeps=n_sub, on_failure="return")
+        # ... and the same integrator (the implicit one when the explicit run fell back to it)
+        how = {"substeps": n_sub, "method": ref.method, "on_failure": "return"}
+        base = simulate(model, params, t, chans, x0=x0, **how)
         Jb = np.zeros((rec.n_times, n_cols))
         for j in sorted(set(problem.slot_index(i))):
             n = slots[j][0]
@@ -719,7 +734,7 @@ def laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
             for sgn in (1, -1):
                 p = dict(params)
                 p[n] = params[n] + sgn * step
-                ys.append(simulate(model, p, t, chans, x0=x0, substeps=n_sub, on_failure="return").y)
+                ys.append(simulate(model, p, t, chans, x0=x0, **how).y)
             Jb[:, j] = (ys[0] - ys[1]) / (2 * step)
         x0v = np.asarray(x0, dtype=float)
         for s in range(nx):
@@ -728,7 +743,7 @@ def laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
             for sgn in (1, -1):
                 xx = x0v.copy()
                 xx[s] += sgn * step
-                ys.append(simulate(model, params, t, chans, x0=xx, substeps=n_sub, on_failure="return").y)
+                ys.append(simulate(model, params, t, chans, x0=xx, **how).y)
             Jb[:, n_slots + nx * i + s] = (ys[0] - ys[1]) / (2 * step)
         blocks.append(Jb)
         resid.append(np.asarray(rec.y) - base.y)

@@ -106,6 +106,8 @@ class IdentificationResult:
             lines.append(f"  {self.message}")
         lines.append(f"  free-run NRMSE {self.nrmse:.4g} (R2 {self.r2:.5g}) over {self.n_samples} samples; "
                      f"cost {self.cost:.4g}")
+        lines += [f"  free run of {i.get('record', '?')} by {i['method']}: {i.get('reason', '')}"
+                  for i in self.settings.get("integrator", []) if i.get("method") != "rk4"]
         lines += [f"  flag {f.get('flag', '?')}: {f.get('message', '')}" for f in self.flags]
         for n, v in self.params.items():
             if n in self.stderr:

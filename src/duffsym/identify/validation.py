@@ -32,17 +32,20 @@ class ValidationResult:
     message: str
     x0: tuple = ()
     y_sim: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    integrator: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {"record": self.record, "model": self.model, "nrmse": finite_or_none(self.nrmse),
                 "rmse": finite_or_none(self.rmse), "r2": finite_or_none(self.r2), "success": bool(self.success), "message": self.message,
-                "x0": [float(v) for v in self.x0]}
+                "x0": [float(v) for v in self.x0], "integrator": dict(self.integrator)}
 
     def summary(self) -> str:
         head = f"validation of {self.model} on {self.record}: "
         if not self.success:
             return head + f"FAILED: {self.message}"
-        return head + f"free-run NRMSE {self.nrmse:.4g}, RMSE {self.rmse:.4g}, R2 {self.r2:.5g}"
+        how = self.integrator.get("method", "rk4")
+        note = "" if how == "rk4" else f" (integrated by {how}: {self.integrator.get('reason', '')})"
+        return head + f"free-run NRMSE {self.nrmse:.4g}, RMSE {self.rmse:.4g}, R2 {self.r2:.5g}" + note
 
 
 def model_from_result(result: IdentificationResult):
@@ -84,7 +87,9 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     group : for a fit with groups, the group whose parameters to use; by default the record's
         current (``"0.5A"``) or voltage (``"0.4V"``) label.
     """
-    from duffsym.identify.collocation import _free_run, _input_matrix, initial_states
+    from duffsym.identify.collocation import _input_matrix, free_run_trajectory, initial_states
+
+    from duffsym.identify.problem import check_command
 
     from duffsym.identify.problem import check_command
 
@@ -97,14 +102,15 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     p = model.param_vector(result.params_for(group))
     U = _input_matrix(model, record)
     x0 = _estimate_x0(model, p, record, U, initial_states(model, record, p)[0])
-    y_sim, ok, message = _free_run(model, p, record, U, x0)
-    if not ok:
-        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False, message,
-                                tuple(map(float, x0)), y_sim)
+    tr = free_run_trajectory(model, p, record, U, x0)
+    y_sim = np.asarray(tr.y, dtype=float)
+    if not tr.success:
+        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False, tr.message,
+                                tuple(map(float, x0)), y_sim, tr.integrator)
     rmse = float(np.sqrt(np.mean((np.asarray(record.y) - y_sim) ** 2)))
     err = nrmse(record.y, y_sim)
     return ValidationResult(record.name, model.name, err, rmse, 1 - err**2, True, "ok",
-                            tuple(map(float, x0)), y_sim)
+                            tuple(map(float, x0)), y_sim, tr.integrator)
 
 
 def _estimate_x0(model, p, record, U, guess):
@@ -129,7 +135,7 @@ def _estimate_x0(model, p, record, U, guess):
     scale = np.maximum(np.abs(guess), 1e-3 * max(1.0, float(np.max(np.abs(guess)))))
 
     def resid(z):
-        tr = simulate(model, p, t, chans, x0=z * scale, substeps=sub, on_failure="return")
+        tr = simulate(model, p, t, chans, x0=z * scale, substeps=sub, method=ref.method, on_failure="return")
         r = tr.y - y
         return np.where(np.isfinite(r), r, 1e6)
 
