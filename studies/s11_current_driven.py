@@ -49,7 +49,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _common as C  # noqa: E402
 
 STUDY = "s11_current_driven"
-TAG = "s11"
 DYKE = "mr_damper_dyke_nees1996"
 DYKE_COLUMNS = dict(time="t", input="D", output="F", velocity="V", voltage="Y")
 LSTM_RMSE_N = 49.46
@@ -316,49 +315,56 @@ def _s06_per_test() -> dict:
 
 def plot(results: dict | None = None) -> list:
     _, meta = read()
-    files = []
-    plt = C.style()
+    with C.style() as plt:
+        return _plot_campaign(plt, meta) + _plot_dyke(plt, meta)
+
+
+def _plot_campaign(plt, meta: dict) -> list:
     camp = meta.get("campaign")
-    if camp and camp.get("heldout"):
-        names = camp["records"]
-        held = [camp["heldout"].get(n, {}).get("nrmse", math.nan) for n in names]
-        ins = [camp["forms"][camp["chosen"]]["nrmse_in_sample"][n] for n in names]
-        s06 = _s06_per_test()
-        fig, ax = plt.subplots(figsize=(10, 4))
-        x = np.arange(len(names))
-        ax.bar(x - 0.2, np.minimum(held, 1.0), 0.4, color="k", label=f"one model ({camp['chosen']}), held out")
-        ax.plot(x + 0.2, ins, "s", color="0.5", ms=4, label="one model, in sample")
-        if s06.get("single"):
-            ax.plot(x, [s06["single"].get(n, math.nan) for n in names], "o", mfc="none", color="tab:blue", ms=5,
-                    label="s06: one fit per test (in sample)")
-        ax.axhline(GOAL_MEDIAN, color="tab:green", ls="--", lw=0.8, label="goal: median 0.10")
-        ax.axhline(GOAL_WORST, color="tab:red", ls=":", lw=0.8, label="goal: worst 0.20")
-        ax.set_xticks(x, names, rotation=90, fontsize=7)
-        ax.set_ylabel("free-run NRMSE")
-        ax.set_title(f"UTFSM campaign: one parameter set, each test predicted without its excitation "
-                     f"(median {np.nanmedian(held):.3f}, worst {np.nanmax(held):.3f})")
-        ax.legend(fontsize=7, ncol=2)
-        files.append(C.save(fig, STUDY, "campaign"))
+    if not (camp and camp.get("heldout")):
+        return []
+    names = camp["records"]
+    held = [camp["heldout"].get(n, {}).get("nrmse", math.nan) for n in names]
+    ins = [camp["forms"][camp["chosen"]]["nrmse_in_sample"][n] for n in names]
+    s06 = _s06_per_test()
+    fig, ax = plt.subplots(figsize=(10, 4))
+    x = np.arange(len(names))
+    ax.bar(x - 0.2, np.minimum(held, 1.0), 0.4, color="k", label=f"one model ({camp['chosen']}), held out")
+    ax.plot(x + 0.2, ins, "s", color="0.5", ms=4, label="one model, in sample")
+    if s06.get("single"):
+        ax.plot(x, [s06["single"].get(n, math.nan) for n in names], "o", mfc="none", color="tab:blue", ms=5,
+                label="s06: one fit per test (in sample)")
+    ax.axhline(GOAL_MEDIAN, color="tab:green", ls="--", lw=0.8, label="goal: median 0.10")
+    ax.axhline(GOAL_WORST, color="tab:red", ls=":", lw=0.8, label="goal: worst 0.20")
+    ax.set_xticks(x, names, rotation=90, fontsize=7)
+    ax.set_ylabel("free-run NRMSE")
+    ax.set_title(f"UTFSM campaign: one parameter set, each test predicted without its excitation "
+                 f"(median {np.nanmedian(held):.3f}, worst {np.nanmax(held):.3f})")
+    ax.legend(fontsize=7, ncol=2)
+    return [C.save(fig, STUDY, "campaign")]
+
+
+def _plot_dyke(plt, meta: dict) -> list:
     dyke = meta.get("dyke")
-    if dyke and dyke.get("forms"):
-        arrays, _ = read()
-        form = next(iter(dyke["forms"]))
-        d = dyke["forms"][form]
-        t, y, cmd = arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"]
-        sl = slice(0, min(t.size, int(2.0 / dyke["dt"])))
-        fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, gridspec_kw=dict(height_ratios=(3, 1)))
-        a1.plot(t[sl], y[sl], color="0.6", lw=1.2, label="measured")
-        a1.plot(t[sl], arrays[f"dyke_{form}"][sl], color="k", lw=0.8,
-                label=f"{form}, free run ({d['method_val']})")
-        a1.set_ylabel("force (N)")
-        a1.legend(fontsize=8)
-        a1.set_title(f"Dyke record, validation half (never fitted): NRMSE {d['nrmse_val']:.3f}, "
-                     f"RMSE {d['rmse_val_N']:.0f} N (LSTM reference {LSTM_RMSE_N:g} N); first 2 s shown")
-        a2.plot(t[sl], cmd[sl], color="tab:orange", lw=0.8)
-        a2.set_ylabel("command (V)")
-        a2.set_xlabel("time (s)")
-        files.append(C.save(fig, STUDY, "dyke"))
-    return files
+    if not (dyke and dyke.get("forms")):
+        return []
+    arrays, _ = read()
+    form = next(iter(dyke["forms"]))
+    d = dyke["forms"][form]
+    t, y, cmd = arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"]
+    sl = slice(0, min(t.size, int(2.0 / dyke["dt"])))
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, gridspec_kw=dict(height_ratios=(3, 1)))
+    a1.plot(t[sl], y[sl], color="0.6", lw=1.2, label="measured")
+    a1.plot(t[sl], arrays[f"dyke_{form}"][sl], color="k", lw=0.8,
+            label=f"{form}, free run ({d['method_val']})")
+    a1.set_ylabel("force (N)")
+    a1.legend(fontsize=8)
+    a1.set_title(f"Dyke record, validation half (never fitted): NRMSE {d['nrmse_val']:.3f}, "
+                 f"RMSE {d['rmse_val_N']:.0f} N (LSTM reference {LSTM_RMSE_N:g} N); first 2 s shown")
+    a2.plot(t[sl], cmd[sl], color="tab:orange", lw=0.8)
+    a2.set_ylabel("command (V)")
+    a2.set_xlabel("time (s)")
+    return [C.save(fig, STUDY, "dyke")]
 
 
 def _fmt(v) -> str:
@@ -370,23 +376,23 @@ def write_numbers(meta: dict) -> list:
     camp = meta.get("campaign")
     if camp and camp.get("heldout"):
         held = [h["nrmse"] for h in camp["heldout"].values()]
-        files += [C.write_number(STUDY, f"{TAG}_heldout_median", _fmt(float(np.median(held)))),
-                  C.write_number(STUDY, f"{TAG}_heldout_worst", _fmt(float(np.max(held)))),
-                  C.write_number(STUDY, f"{TAG}_chosen_form", camp["chosen"].replace("mr-damper-current", "linear")
+        files += [C.write_number(STUDY, "heldout_median", _fmt(float(np.median(held)))),
+                  C.write_number(STUDY, "heldout_worst", _fmt(float(np.max(held)))),
+                  C.write_number(STUDY, "chosen_form", camp["chosen"].replace("mr-damper-current", "linear")
                                  .replace("linear-", ""))]
         rows = [r"\begin{tabular}{lrr}\toprule test & one model, held out & one model, in sample\\\midrule"]
         ins = camp["forms"][camp["chosen"]]["nrmse_in_sample"]
         for n in camp["records"]:
             rows.append(f"{n} & {_fmt(camp['heldout'][n]['nrmse'])} & {_fmt(ins[n])}\\\\")
         rows.append(r"\bottomrule\end{tabular}")
-        files.append(C.write_number(STUDY, f"{TAG}_campaign_table", "\n".join(rows)))
+        files.append(C.write_number(STUDY, "campaign_table", "\n".join(rows)))
     dyke = meta.get("dyke")
     if dyke and dyke.get("forms"):
         d = next(iter(dyke["forms"].values()))
-        files += [C.write_number(STUDY, f"{TAG}_dyke_nrmse", _fmt(d["nrmse_val"])),
-                  C.write_number(STUDY, f"{TAG}_dyke_rmse", f"{d['rmse_val_N']:.0f}")]
-    files.append(C.write_number(STUDY, f"{TAG}_campaign_text", campaign_text(meta)))
-    files.append(C.write_number(STUDY, f"{TAG}_dyke_text", dyke_text(meta)))
+        files += [C.write_number(STUDY, "dyke_nrmse", _fmt(d["nrmse_val"])),
+                  C.write_number(STUDY, "dyke_rmse", f"{d['rmse_val_N']:.0f}")]
+    files.append(C.write_number(STUDY, "campaign_text", campaign_text(meta)))
+    files.append(C.write_number(STUDY, "dyke_text", dyke_text(meta)))
     return files
 
 

@@ -51,7 +51,7 @@ def test_outputs_exist(smoke):
     root, code, meta, _ = smoke
     assert code == 0
     assert (root / "paper" / "smoke" / "figures" / "s11_current_driven_dyke.png").is_file()
-    assert (root / "paper" / "smoke" / "output" / "s11_dyke_rmse.tex").is_file()
+    assert (root / "paper" / "smoke" / "output" / "s11_current_driven_dyke_rmse.tex").is_file()
 
 
 def test_dyke_numbers_recomputed_from_the_saved_free_run(smoke):
