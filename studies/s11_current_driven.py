@@ -352,7 +352,7 @@ def _plot_dyke(plt, meta: dict) -> list:
     form = next(iter(dyke["forms"]))
     d = dyke["forms"][form]
     t, y, cmd = arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"]
-    sl = slice(0, min(t.size, int(2.0 / dyke["dt"])))
+    sl = np.flatnonzero(t <= t[0] + 2.0)  # the first 2 s (or the whole part when shorter)
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, gridspec_kw=dict(height_ratios=(3, 1)))
     a1.plot(t[sl], y[sl], color="0.6", lw=1.2, label="measured")
     a1.plot(t[sl], arrays[f"dyke_{form}"][sl], color="k", lw=0.8,
@@ -360,7 +360,8 @@ def _plot_dyke(plt, meta: dict) -> list:
     a1.set_ylabel("force (N)")
     a1.legend(fontsize=8)
     a1.set_title(f"Dyke record, validation half (never fitted): NRMSE {d['nrmse_val']:.3f}, "
-                 f"RMSE {d['rmse_val_N']:.0f} N (LSTM reference {LSTM_RMSE_N:g} N); first 2 s shown")
+                 f"RMSE {d['rmse_val_N']:.0f} N (LSTM reference {LSTM_RMSE_N:g} N); "
+                 f"first {t[sl][-1] - t[0]:.1f} s shown")
     a2.plot(t[sl], cmd[sl], color="tab:orange", lw=0.8)
     a2.set_ylabel("command (V)")
     a2.set_xlabel("time (s)")
