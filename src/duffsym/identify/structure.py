@@ -168,7 +168,8 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
         total = np.zeros(t.size)
         for el in elements:
             tr = simulate(el, {n: values[n] for n in el.param_names}, t,
-                          {ch.name: sig[ch.name] for ch in el.inputs}, on_failure="return", max_substeps=200)
+                          {ch.name: sig[ch.name] for ch in el.inputs}, on_failure="return", max_substeps=200,
+                          method="rk4")  # a start too stiff for 200 substeps is rejected, not rerun implicitly
             if not tr.success or not np.all(np.isfinite(tr.y)):
                 return None
             total += tr.y
