@@ -183,3 +183,20 @@ def test_derive_gives_the_stability_conditions_as_functions_of_the_current():
             for a in (-5, 0, 5) for b in (-5, 0, 5) for c in (0, 0.5, 1)]
     assert all(bool(got.subs(v)) == bool(expected.subs(v)) for v in vals)
     assert at_constant_command(get_model("mr-damper")) is None
+
+
+def test_certificate_flag_is_checked_over_the_records_command_range():
+    """The fit's certificate flag of a command model tests the held-command conditions at every level
+    of the records' command range. For the generator's truth, dV/dt <= 0 needs
+    c1 + c2 + (c1_u + c2_u) i = 40 - 24 i >= 0, i.e. i <= 5/3 A (analytic): a range up to 2 A fails
+    exactly at the grid levels above 5/3, a range up to 1.6 A passes."""
+    from duffsym.identify.quality import _outside_certificate
+
+    model = get_model("mr-damper-current")
+    assert _outside_certificate(model, [gen.TRUTH], tuple(np.linspace(0.0, 1.6, 11))) == []
+    flags = _outside_certificate(model, [gen.TRUTH], tuple(np.linspace(0.0, 2.0, 11)))
+    assert len(flags) == 1 and "dV/dt negative semi-definite" in flags[0]["failed"]
+    assert flags[0]["command_levels"] == pytest.approx([1.8, 2.0])
+    assert "at command 1.8..2" in flags[0]["message"]
+    # the level matters: the same parameters at 1.6 A pass, so the flag is not about the parameters alone
+    assert _outside_certificate(model, [gen.TRUTH], (1.6,)) == []

@@ -14,7 +14,9 @@ use the same helpers.)
 from __future__ import annotations
 
 import contextlib
+import csv
 import json
+import math
 import os
 import stat
 import tempfile
@@ -181,3 +183,37 @@ def _writable_folder(folder: Path, what: str, instead: str) -> None:
         raise DataError(f"{what}: cannot create the folder {folder} ({exc.strerror or exc}); choose {instead}") from None
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DataError(f"{what}: the folder {folder} is not writable; choose {instead}")
+
+
+def read_columns(path, roles: dict[str, tuple[str, ...]], optional=()) -> dict:
+    """Named numeric columns of a small CSV with a header: ``roles`` maps a role to the accepted column
+    names (matched case-insensitively, first hit wins); one-line errors name the file, row and column."""
+    import numpy as np
+
+    p = Path(path)
+    check_input_file(p)
+    with p.open("r", encoding="utf-8-sig", newline="") as fh:
+        rows = list(csv.reader(fh))
+    rows = [r for r in rows if any(f.strip() for f in r)]
+    if len(rows) < 3:
+        raise DataError(f"{path}: needs a header row and at least 2 data rows; got {max(len(rows) - 1, 0)} data row(s)")
+    header = [h.strip().lower() for h in rows[0]]
+    index = {}
+    for role, names in roles.items():
+        hit = next((header.index(n) for n in names if n in header), None)
+        if hit is None and role not in optional:
+            raise DataError(f"{path}: missing column {names[0]!r} (the {role}); the file has {rows[0]}; rename it")
+        if hit is not None:
+            index[role] = hit
+    out = {r: np.empty(len(rows) - 1) for r in index}
+    for k, row in enumerate(rows[1:], start=2):
+        for role, i in index.items():
+            try:
+                v = float(row[i])
+            except (IndexError, ValueError):
+                raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not a number "
+                                f"({row[i] if i < len(row) else 'missing'!r}); fix the value") from None
+            if not math.isfinite(v):
+                raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not finite ({row[i]!r}); fill or remove it")
+            out[role][k - 2] = v
+    return out

@@ -237,6 +237,13 @@ def simulate(
     rtol, atol : tolerances of the Radau reference (the implicit ROS2 uses IMPLICIT_RTOL/IMPLICIT_ATOL).
     on_failure : ``"raise"`` (:class:`SimulationError`) or ``"return"`` (a trajectory with
         ``success=False`` and NaN after the failure).
+
+    Which method to ask for: a run whose answer is used (a free run, a fit's state trajectory,
+    the choice between a handful of candidate starts) keeps ``"auto"``, so a stiff but bounded run
+    is never reported as a blow-up. A loop that tries many trial parameter sets and merely discards
+    the ones that fail (a grid or random multistart: :func:`duffsym.identify.initial_guess`, the
+    structure's equation-error start) asks for ``"rk4"``: an implicit rerun of every rejected
+    trial costs up to a few hundred times an explicit one and buys nothing there.
     """
     if method not in METHODS:
         raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")

@@ -33,6 +33,14 @@ def _simulation_columns(model):
     return inputs, output
 
 
+def _with_command(model, t, exc, command):
+    """The input mapping of a command-driven model: the excitation's channels and the command."""
+    chans = {}
+    for ch in model.inputs:
+        chans[ch.name] = command if ch.signal == "command" else exc.derivative(t, ch.order)
+    return chans
+
+
 #: Most samples ``duffsym simulate`` writes (``--dt 1e-9`` used to fill the memory).
 MAX_SIMULATE_SAMPLES = 10_000_000
 
@@ -59,6 +67,49 @@ def _check_excitation_options(args) -> None:
             raise CLIError(f"--substeps must be 'auto' or a positive integer; got {args.substeps!r}") from None
         if not 1 <= sub <= 100_000:
             raise CLIError(f"--substeps must be between 1 and 100000; got {sub}")
+
+
+def _command_signal(args, model, t):
+    """``(column name, samples)`` of the command for a command-driven model, or ``None`` for the others.
+
+    ``--command`` is a number (held) or a CSV file with a ``time`` column and a ``current`` or
+    ``voltage`` column (interpolated linearly onto the simulation's time grid)."""
+    import numpy as np
+
+    if "command" not in model.signals:
+        if args.command_input is not None:
+            raise CLIError(f"--command drives the command-driven models (mr-damper-current...); model {model.name} "
+                           "has no command input: drop --command")
+        return None
+    if args.command_input is None:
+        raise CLIError(f"model {model.name} is driven by a command (coil current or voltage): give --command VALUE "
+                       "(held) or --command FILE.csv (columns time and current or voltage)")
+    try:
+        level = float(args.command_input)
+    except ValueError:
+        return _command_file(args.command_input, t)
+    if not math.isfinite(level):
+        raise CLIError(f"--command must be a finite number or a CSV file; got {args.command_input!r}")
+    return "current", np.full(t.size, level)
+
+
+def _command_file(path, t):
+    import numpy as np
+
+    from duffsym._io import read_columns
+
+    cols = read_columns(path, {"time": ("time", "t"), "current": ("current",), "voltage": ("voltage",)},
+                        optional=("current", "voltage"))
+    name = next((n for n in ("current", "voltage") if n in cols), None)
+    if name is None:
+        raise CLIError(f"{path}: the command file needs a 'current' or a 'voltage' column beside 'time'")
+    tc, c = cols["time"], cols[name]
+    if tc.size < 2 or np.any(np.diff(tc) <= 0):
+        raise CLIError(f"{path}: the 'time' column must increase strictly and have at least two rows")
+    if t[-1] > tc[-1] + 1e-12 or t[0] < tc[0] - 1e-12:
+        raise CLIError(f"{path}: the command covers {tc[0]:g}..{tc[-1]:g} s but the simulation runs "
+                       f"{t[0]:g}..{t[-1]:g} s; shorten --duration or extend the file")
+    return name, np.interp(t, tc, c)
 
 
 def cmd_simulate(args) -> int:
@@ -90,9 +141,16 @@ def cmd_simulate(args) -> int:
         raise CLIError(f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
                        f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration")
     t = np.arange(int(round(n_samples)) + 1) * args.dt
-    exc = _excitation(args, next(iter(model.signals)))
-    traj = simulate(model, pvec, t, exc, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
+    exc = _excitation(args, next(s for s in model.signals if s != "command"))
+    command = _command_signal(args, model, t)
+    inputs = exc if command is None else _with_command(model, t, exc, command[1])
+    if command is not None and not any(pvec[i] for i, n in enumerate(model.param_names) if n.endswith("_u")):
+        _err(f"note: every field coefficient of {model.name} (the *_u parameters) is 0 at its defaults, so the command "
+             "changes nothing; set them with --param (e.g. c1_u=-4,k2_u=-200,A_f_u=0.8) or fit a record")
+    traj = simulate(model, pvec, t, inputs, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
     in_cols, out_col = _simulation_columns(model)
+    if command is not None:
+        in_cols = [command[0] if c == "input" and ch.signal == "command" else c for c, ch in zip(in_cols, model.inputs)]
     header = ["time", *in_cols, out_col]
     data = np.column_stack([traj.t, traj.u, traj.y])
     written = []
@@ -144,6 +202,9 @@ def register(sub) -> None:
     s.add_argument("--dt", type=float, default=0.005, help="sampling time, s (paper: 0.005)")
     s.add_argument("--duration", type=float, default=5.0, help="duration, s")
     s.add_argument("--periods", type=float, default=None, help="duration in periods of --frequency (overrides --duration)")
+    s.add_argument("--command", dest="command_input", default=None, metavar="VALUE|FILE.csv",
+                   help="the command of a command-driven model (mr-damper-current...): a held value (A or V) or a "
+                        "CSV with columns time and current (or voltage)")
     s.add_argument("--substeps", default="auto", help="RK4 substeps per sample: auto (from the local stiffness) or N")
     s.add_argument("--out", help="CSV file to write (default: stdout)")
     s.add_argument("--plot", help="loop plot file (PNG/PDF)")

@@ -8,45 +8,13 @@ from pathlib import Path
 
 import numpy as np
 
+from duffsym._io import read_columns
 from duffsym.errors import DataError
 
 _TIME = ("time", "t")
 _DISP = ("displacement", "input", "d")
 _VEL = ("velocity", "d_dot")
 _FORCE = ("force", "output", "y")
-
-
-def _read_columns(path: str, roles: dict[str, tuple[str, ...]], optional=()) -> dict[str, np.ndarray]:
-    """Named numeric columns of a CSV with a header (matched case-insensitively); one-line errors."""
-    from duffsym._io import check_input_file
-
-    p = Path(path)
-    check_input_file(p)
-    with p.open("r", encoding="utf-8-sig", newline="") as fh:
-        rows = list(csv.reader(fh))
-    rows = [r for r in rows if any(f.strip() for f in r)]
-    if len(rows) < 3:
-        raise DataError(f"{path}: needs a header row and at least 2 data rows; got {max(len(rows) - 1, 0)} data row(s)")
-    header = [h.strip().lower() for h in rows[0]]
-    index = {}
-    for role, names in roles.items():
-        hit = next((header.index(n) for n in names if n in header), None)
-        if hit is None and role not in optional:
-            raise DataError(f"{path}: missing column {names[0]!r} (the {role}); the file has {rows[0]}; rename it")
-        if hit is not None:
-            index[role] = hit
-    out = {r: np.empty(len(rows) - 1) for r in index}
-    for k, row in enumerate(rows[1:], start=2):
-        for role, i in index.items():
-            try:
-                v = float(row[i])
-            except (IndexError, ValueError):
-                raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not a number "
-                                f"({row[i] if i < len(row) else 'missing'!r}); fix the value") from None
-            if not math.isfinite(v):
-                raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not finite ({row[i]!r}); fill or remove it")
-            out[role][k - 2] = v
-    return out
 
 
 def _parse_limits(text: str) -> tuple[float, float]:
@@ -66,8 +34,8 @@ def load_motion_and_force(model, disp_path: str, force_path: str, lo: float):
     from duffsym.data.record import Record
     from duffsym.identify.collocation import _input_matrix
 
-    dcols = _read_columns(disp_path, {"time": _TIME, "displacement": _DISP, "velocity": _VEL}, optional=("velocity",))
-    fcols = _read_columns(force_path, {"time": _TIME, "force": _FORCE})
+    dcols = read_columns(disp_path, {"time": _TIME, "displacement": _DISP, "velocity": _VEL}, optional=("velocity",))
+    fcols = read_columns(force_path, {"time": _TIME, "force": _FORCE})
     t = dcols["time"]
     if fcols["time"].shape != t.shape or not np.allclose(fcols["time"], t, rtol=0, atol=1e-9 * max(1.0, abs(t[-1]))):
         raise DataError(f"{force_path}: its time column must equal that of {disp_path} ({t.size} samples); give the "

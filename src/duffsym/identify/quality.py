@@ -18,6 +18,8 @@ from typing import Sequence
 
 import numpy as np
 
+from duffsym.errors import DuffsymError
+
 #: R² below which a usable fit is flagged as explaining little of the record.
 R2_LITTLE = 0.5
 
@@ -50,7 +52,7 @@ def fit_flags(problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float
     on_bound = _on_bound(problem, nlp, w)
     if on_bound:
         flags.append(on_bound)
-    flags += _outside_certificate(problem.model, rec_params)
+    flags += _outside_certificate(problem.model, rec_params, _command_levels(problem))
     if math.isfinite(r2) and 0 <= r2 < R2_LITTLE:
         flags.append({"flag": "explains-little", "r2": float(r2),
                       "message": f"the model explains little of the record (R2 {r2:.3g} < {R2_LITTLE}): the fit "
@@ -80,34 +82,71 @@ _CONDITIONS: dict[str, tuple] = {}
 
 
 def _conditions(model) -> tuple:
-    """The model's derived stability conditions as fast numeric tests (cached per model); () if none apply."""
+    """The model's derived stability conditions as fast numeric tests (cached per model); () if none apply.
+
+    For a command-driven model the conditions are those of its mechanics at a held command i (the field
+    at its equilibrium u = i, :func:`~duffsym.model.library.at_constant_command`): each test then takes
+    the parameters and i, and is checked at every command level the records drive the model through."""
     if model.key in _CONDITIONS:
         return _CONDITIONS[model.key]
     import sympy as sp
 
     from duffsym.derive.stability import stability_conditions
+    from duffsym.model.library import at_constant_command
 
     out = []
     try:
+        frozen = at_constant_command(model)
+        target = model if frozen is None else frozen
         if getattr(model, "composition", ()):  # a structure with an element: the coupled linearization's Hurwitz test
             from duffsym.derive.coupled import coupled_analysis
 
             named = {f"Hurwitz {i + 1}": h > 0 for i, h in enumerate(coupled_analysis(model).hurwitz)}
         else:
-            named = stability_conditions(model).named()
+            named = stability_conditions(target).named()
         for name, cond in named.items():
             if cond in (sp.true, sp.false):  # structural (e.g. an extended model this V does not cover)
                 continue
-            if not cond.free_symbols <= set(model.param_symbols):
+            if not cond.free_symbols <= set(target.param_symbols):
                 continue
-            out.append((name, sp.lambdify(model.param_symbols, cond, "math")))
+            out.append((name, sp.lambdify(target.param_symbols, cond, "math")))
     except Exception:  # noqa: BLE001 - a model the derivation does not cover gets no certificate flag
         out = []
     _CONDITIONS[model.key] = tuple(out)
     return _CONDITIONS[model.key]
 
 
-def _outside_certificate(model, rec_params: Sequence[dict]) -> list[dict]:
+#: Command levels checked across a record's command range (besides its extremes), for a command-driven model.
+COMMAND_LEVELS = 11
+
+
+def _command_levels(problem) -> tuple[float, ...]:
+    """The command levels the records drive the model through (their range on a grid); () without a command."""
+    if "command" not in problem.model.signals:
+        return ()
+    lo, hi = math.inf, -math.inf
+    for rec in problem.records:
+        try:
+            c = np.asarray(rec.command_signal(problem.model.name), dtype=float)
+        except DuffsymError:
+            continue
+        lo, hi = min(lo, float(np.min(c))), max(hi, float(np.max(c)))
+    return tuple(np.linspace(lo, hi, COMMAND_LEVELS)) if lo <= hi else ()
+
+
+def _failed(tests, key: tuple, levels: tuple) -> tuple[list[str], list[float]]:
+    """Conditions that fail, and the command levels where any fails (``levels`` () for models without one)."""
+    failed, where = [], []
+    for lv in levels or (None,):
+        args = key if lv is None else key + (lv,)
+        bad = [name for name, test in tests if not bool(test(*args))]
+        failed += [n for n in bad if n not in failed]
+        if bad and lv is not None:
+            where.append(lv)
+    return failed, where
+
+
+def _outside_certificate(model, rec_params: Sequence[dict], levels: tuple = ()) -> list[dict]:
     tests = _conditions(model)
     if not tests:
         return []
@@ -118,16 +157,21 @@ def _outside_certificate(model, rec_params: Sequence[dict]) -> list[dict]:
             continue
         seen.add(key)
         try:
-            failed = [name for name, test in tests if not bool(test(*key))]
+            failed, where = _failed(tests, key, levels)
         except (TypeError, ValueError, ZeroDivisionError):
             continue
         if not failed:
             continue
-        flags.append({"flag": "outside-stability-certificate", "failed": failed,
-                      "message": f"the fitted set is outside the model's derived stability certificate "
-                                 f"({', '.join(failed)}: {'fails' if len(failed) == 1 else 'fail'})"
-                                 f"{_origin(model, params)}; it describes this record only, do not extrapolate it "
-                                 "(duffsym derive --json states the conditions)"})
+        at = (f" at command {where[0]:.3g}" + (f"..{where[-1]:.3g}" if len(where) > 1 else "")
+              + f" of the records' range {levels[0]:.3g}..{levels[-1]:.3g}") if where else ""
+        flag = {"flag": "outside-stability-certificate", "failed": failed,
+                "message": f"the fitted set is outside the model's derived stability certificate "
+                           f"({', '.join(failed)}: {'fails' if len(failed) == 1 else 'fail'}{at})"
+                           f"{'' if levels else _origin(model, params)}; it describes this record only, do not "
+                           "extrapolate it (duffsym derive --json states the conditions)"}
+        if where:
+            flag["command_levels"] = [float(v) for v in where]
+        flags.append(flag)
     return flags
 
 

@@ -250,7 +250,9 @@ def _field_params(form: str) -> tuple[list[ParamSpec], dict[str, sp.Expr]]:
         relative = name == "A_f"  # the force scale: relative change, so A_f_u is O(1) in any force unit
         scale = 1.0 if relative else spec.typical_scale
         what = "relative change of A_f" if relative else f"change of {name}"
-        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6, f"{what} per unit field (command units)",
+        # a slope may move the coefficient across its whole range per unit field (c3 of a real damper is ~3e6)
+        span = 1e6 if relative else max(abs(spec.lower), abs(spec.upper))
+        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -span, span, f"{what} per unit field (command units)",
                    scale=scale)
         extra.append(slope)
         e = slope.symbol * g
