@@ -9,7 +9,8 @@ al. 1997); g(u) = u (``linear``), u_sat tanh(u/u_sat) (``saturating``), or u plu
 
 Part A — UTFSM campaign (Quiroz 2022; ``external_data_dir()/mr_damper_utfsm_quiroz2022``): the 30 sinusoid
 tests (six amplitude/frequency pairs x 0, 0.25, 0.5, 0.75, 1 A), decimated as in s06 to about
-``Config.samples_per_period`` samples per period (velocity derived at the full rate). Each field form is
+``Config.samples_per_period`` samples per period (velocity derived at the full rate; 25 keeps each
+all-test fit under about a minute on an idle 2-core machine, 8300 samples). Each field form is
 fitted to all 30 tests at once (one parameter set; each test its own initial state; eta held at
 ``Config.campaign_eta``: a constant current does not show the field's lag), with the total stiffness
 k1(u) + k2(u) >= 0 at u = 0 and 1 A. The form is chosen by BIC of that fit. Held-out error: for the chosen
@@ -23,9 +24,9 @@ Part B — Dyke (NEES 1996; ``external_data_dir()/mr_damper_dyke_nees1996``): 74
 random displacement and random command voltage (0 / 2.25 V switching). Decimated by
 ``Config.dyke_decimation`` (the data were anti-alias filtered at 100 Hz), fitted on the first
 ``Config.dyke_fit_seconds`` s and validated in free run on the second half of the record (never seen).
-The free run is the compiled one when it completes; when it reports a blow-up (the compiled fixed-step
-free run cannot follow the stiff c3 x'^n term on broadband data: issue 17 item 5, fixed on another branch)
-the study re-simulates with scipy's LSODA (stiff/non-stiff switching, rtol 1e-6) and says so in the output.
+Free runs are ``duffsym.identify.validate``'s (compiled RK4, with its reported fallback to the compiled
+implicit ROS2 integrator when the stiff c3 x'^n term stops it); should both fail, the study re-simulates
+with scipy's LSODA (rtol 1e-6) and says so in the output.
 Reference: a windowed LSTM reached 49.5 N validation RMSE on this record (informal, see SOURCE.md).
 
 Files: ``data/derived/s11_current_driven.{npz,json}``; figures ``paper/figures/s11_current_driven_campaign.png``
@@ -66,7 +67,7 @@ class Config:
 
     tests: tuple[str, ...] = ("2mm5Hz", "5mm3Hz", "10mm1Hz", "25mm0x5Hz", "25mm0x25Hz", "25mm0x1Hz")
     currents: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
-    samples_per_period: int = 50
+    samples_per_period: int = 25
     forms: tuple[str, ...] = ("mr-damper-current", "mr-damper-current-saturating")
     holdout: str = "excitation"
     campaign_eta: float = 100.0
@@ -142,13 +143,14 @@ def bic(res) -> float:
 
 
 def free_run(res, rec, model):
-    """Free-run prediction: ``duffsym.identify.validate``; LSODA when the compiled free run fails."""
+    """Free-run prediction: ``duffsym.identify.validate`` (RK4, or ROS2 after a reported fallback); LSODA when
+    both compiled integrators fail."""
     from duffsym.identify import validate
     from duffsym.identify.result import nrmse
 
     v = validate(res, rec, model)
     if v.success:
-        return v.y_sim, v.nrmse, "compiled RK4"
+        return v.y_sim, v.nrmse, "compiled " + ("ROS2 (RK4 stopped)" if v.integrator.get("method") == "rosenbrock" else "RK4")
     y = lsoda_free_run(model, model.param_vector(res.params), rec)
     return y, (nrmse(rec.y, y) if np.all(np.isfinite(y)) else math.inf), "LSODA (compiled run failed)"
 
