@@ -150,7 +150,8 @@ def free_run(res, rec, model):
 
     v = validate(res, rec, model)
     if v.success:
-        return v.y_sim, v.nrmse, "compiled " + ("ROS2 (RK4 stopped)" if v.integrator.get("method") == "rosenbrock" else "RK4")
+        ros = v.integrator.get("method") == "rosenbrock"
+        return v.y_sim, v.nrmse, "compiled " + ("ROS2 (RK4 stopped)" if ros else "RK4")
     y = lsoda_free_run(model, model.param_vector(res.params), rec)
     return y, (nrmse(rec.y, y) if np.all(np.isfinite(y)) else math.inf), "LSODA (compiled run failed)"
 
