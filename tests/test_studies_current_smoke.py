@@ -4,12 +4,9 @@ the ones recomputed from the arrays it saved (NRMSE and RMSE of the Dyke validat
 campaign model predicts its own four tests better than the mean (R2 > 0)."""
 from __future__ import annotations
 
-import importlib
-import json
-import os
-
 import numpy as np
 import pytest
+from _smoke import run_smoke
 
 from duffsym.data import external_data_dir
 from duffsym.errors import DataError
@@ -31,19 +28,7 @@ pytestmark = [pytest.mark.slow,
 
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
-    root = tmp_path_factory.mktemp("s11")
-    old = os.environ.get("DUFFSYM_OUTPUT_ROOT")
-    os.environ["DUFFSYM_OUTPUT_ROOT"] = str(root)
-    try:
-        code = importlib.import_module("s11_current_driven").main(smoke=True)
-    finally:
-        if old is None:
-            os.environ.pop("DUFFSYM_OUTPUT_ROOT", None)
-        else:
-            os.environ["DUFFSYM_OUTPUT_ROOT"] = old
-    meta = json.loads((root / "data" / "derived" / "smoke" / "s11_current_driven.json").read_text())
-    with np.load(root / "data" / "derived" / "smoke" / "s11_current_driven.npz") as f:
-        arrays = {k: f[k] for k in f.files}
+    root, code, meta, arrays, _ = run_smoke(tmp_path_factory, "s11_current_driven")
     return root, code, meta, arrays
 
 

@@ -12,12 +12,9 @@ the estimation data, candidates force-offset and cubic-damping, one step, the fi
 """
 from __future__ import annotations
 
-import importlib
-import json
-import os
-
 import numpy as np
 import pytest
+from _smoke import run_smoke
 
 from duffsym.data import external_data_dir
 from duffsym.errors import DataError
@@ -35,19 +32,7 @@ pytestmark = pytest.mark.skipif(not _have_data(), reason="Silverbox data absent 
 
 @pytest.fixture(scope="module")
 def smoke(tmp_path_factory):
-    root = tmp_path_factory.mktemp("s10")
-    old = os.environ.get("DUFFSYM_OUTPUT_ROOT")
-    os.environ["DUFFSYM_OUTPUT_ROOT"] = str(root)
-    try:
-        code = importlib.import_module("s10_silverbox").main(smoke=True)
-    finally:
-        if old is None:
-            os.environ.pop("DUFFSYM_OUTPUT_ROOT", None)
-        else:
-            os.environ["DUFFSYM_OUTPUT_ROOT"] = old
-    meta = json.loads((root / "data" / "derived" / "smoke" / "s10_silverbox.json").read_text())
-    with np.load(root / "data" / "derived" / "smoke" / "s10_silverbox.npz") as f:
-        arrays = {k: f[k] for k in f.files}
+    root, code, meta, arrays, _ = run_smoke(tmp_path_factory, "s10_silverbox")
     return root, code, meta, arrays
 
 
