@@ -15,6 +15,12 @@ force A_f x' on the mass)::
     m y'' + c y' + k y + A_f x' = u,
     x'' + (c1 + c2) x' + (k1 + k2) x + k3 x^n + c3 x'^n = k1 y + c1 y'
 
+and the rate-independent (path-time) variant of that element, written here from its definition: the
+element's own time is the path s of its driving displacement (ds = rho dt, rho = sqrt(y'^2 + eps^2))::
+
+    dx/dt = rho w,   dw/dt = rho (k1 y - (c1 + c2) w - (k1 + k2) x - k3 x^n - c3 w^n) + c1 y',
+    force on the mass A_f w   (w = dx/ds)
+
 Integration: classical RK4 with ``substeps`` steps per sample; the force u is the sampled input held
 linearly between samples (as the benchmark's upsampled multisine), evaluated at every stage.
 """
@@ -60,6 +66,16 @@ def _dl_rhs(s, u, p):
     return np.array([v, acc, w, xacc])
 
 
+def _dlp_rhs(s, u, p):
+    y, v, x, w = s
+    n = p["n"]
+    rho = math.sqrt(v * v + p["eps"] ** 2)
+    acc = (u - p["c"] * v - p["k"] * y - p["A_f"] * w) / p["m"]
+    wdot = rho * (p["k1"] * y - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x - p["k3"] * x**n
+                  - p["c3"] * w**n) + p["c1"] * v
+    return np.array([v, acc, rho * w, wdot])
+
+
 def _rk4(rhs, s0, u, p, dt, substeps):
     s = np.array(s0, dtype=float)
     out = np.empty((u.size, s.size))
@@ -87,3 +103,40 @@ def simulate_bouc_wen(u, fs: float = 750.0, params: dict | None = None, *, subst
 def simulate_duffing_like_structure(u, fs: float, params: dict, *, substeps: int = 20, s0=(0, 0, 0, 0)):
     """States ``(n, 4)``: y, y', the element's x, x' (force on the mass ``A_f x'``)."""
     return _rk4(_dl_rhs, s0, np.asarray(u, dtype=float), params, 1.0 / fs, substeps)
+
+
+def simulate_path_structure(u, fs: float, params: dict, *, substeps: int = 20, s0=(0, 0, 0, 0)):
+    """States ``(n, 4)`` of a mass carrying the path-time element: y, y', x, w = dx/ds (force ``A_f w``);
+    ``params`` holds m, c, k, c1, c2, c3, k1, k2, k3, A_f, n and eps."""
+    return _rk4(_dlp_rhs, s0, np.asarray(u, dtype=float), params, 1.0 / fs, substeps)
+
+
+def path_element_loop(amplitude: float, params: dict, *, cycles: int = 3, per_cycle: int = 400, substeps: int = 10):
+    """The path-time element driven by d = amplitude sin(theta), integrated in the phase theta (no time, no
+    rate: ds = |amplitude cos theta| dtheta, the limit eps -> 0): ``(theta, d, y = A_f w)`` at
+    ``per_cycle`` phases per cycle. The statement of rate independence: a drive at any frequency gives
+    this loop."""
+    A, n = amplitude, params["n"]
+
+    def rhs(s, theta, p):
+        x, w = s
+        dth, rate = A * math.cos(theta), abs(A * math.cos(theta))
+        wdot = rate * (p["k1"] * A * math.sin(theta) - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x
+                       - p["k3"] * x**n - p["c3"] * w**n) + p["c1"] * dth
+        return np.array([rate * w, wdot])
+
+    theta = np.arange(cycles * per_cycle + 1) * (2 * math.pi / per_cycle)
+    s = np.zeros(2)
+    out = np.empty((theta.size, 2))
+    out[0] = s
+    h = theta[1] / substeps
+    for i in range(theta.size - 1):
+        for j in range(substeps):
+            t0 = theta[i] + j * h
+            k1 = rhs(s, t0, params)
+            k2 = rhs(s + 0.5 * h * k1, t0 + 0.5 * h, params)
+            k3 = rhs(s + 0.5 * h * k2, t0 + 0.5 * h, params)
+            k4 = rhs(s + h * k3, t0 + h, params)
+            s = s + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out[i + 1] = s
+    return theta, A * np.sin(theta), params["A_f"] * out[:, 1]

@@ -42,8 +42,12 @@ TARGET = 4.52e-5
 class BoucWenOptions:
     """Every option of the Bouc-Wen run (the defaults are what ``duffsym benchmark bouc-wen`` uses)."""
 
+    element: str = "path"           # "path": the rate-independent element (path time); "rate": Eq. 12 as published
     n: int = 3                      # power of the element (Eq. 12)
-    powers: tuple = (3,)            # polynomial stiffness terms of the structure
+    powers: tuple = (3, 5)          # polynomial stiffness terms of the structure
+    epsilon: float = 0.16           # mm/s, regularisation of |q'| in the path time (1e-3 of the training rms of q')
+    force_scale: float = 50.0       # N, A_f of a path element (the multisine's rms force)
+    element_gains: tuple = (0.3, 1.0, 3.0)  # O(1) starts of a path element's c1, c2, c3, k1, k2
     n_elements: int = 1             # elements in parallel (the second one's parameters end in _2)
     estimation_start: int = 8192    # first training sample used (period 1 is the start-up transient)
     ee_samples: int = 8192          # samples of the equation-error start
@@ -58,13 +62,42 @@ class BoucWenOptions:
         return cls(ee_samples=2000, ee_random_starts=0, oe_samples=0)
 
 
+#: The elements ``BoucWenOptions.element`` can choose.
+ELEMENTS = ("path", "rate")
+
+
 def bouc_wen_model(options: BoucWenOptions = BoucWenOptions()):
-    from duffsym.model.library import mr_damper
+    """The structure model of the run: a mass with the polynomial spring ``options.powers`` and
+    ``options.n_elements`` MR-damper elements (Eq. 12, power n); with ``element="path"`` (default) each is
+    the rate-independent variant (:func:`duffsym.model.library.path_time`, epsilon ``options.epsilon``
+    mm/s) and its parameters start at the O(1) values of ``element_start`` with ``A_f = force_scale``."""
+    from duffsym.errors import ModelError
+    from duffsym.identify.structure import scaled_to
+    from duffsym.model.library import mr_damper, path_time
     from duffsym.model.structure import mass_spring_damper, structure
 
+    if options.element not in ELEMENTS:
+        raise ModelError(f"BoucWenOptions.element must be one of {ELEMENTS}; got {options.element!r}")
+    path = options.element == "path"
+    make = (lambda: path_time(mr_damper(options.n), options.epsilon)) if path else (lambda: mr_damper(options.n))
     eq, params = mass_spring_damper(tuple(options.powers))
-    extra = tuple(mr_damper(options.n) for _ in range(options.n_elements - 1))
-    return structure(mr_damper(options.n), equation=eq, params=params, name="structure", extra_elements=extra)
+    extra = tuple(make() for _ in range(options.n_elements - 1))
+    model = structure(make(), equation=eq, params=params, name="structure-path" if path else "structure",
+                      extra_elements=extra)
+    if not path:
+        return model
+    return scaled_to(model, element_start(model, options, 1.0))
+
+
+def element_start(model, options: BoucWenOptions, gain: float) -> dict:
+    """Every parameter at its default, the path elements' c1, c2, c3, k1, k2 at ``gain`` (O(1) per mm of
+    path), k3 = 0 and A_f = ``options.force_scale`` (N; it fixes the scaling symmetry x -> s x)."""
+    n_s = dict(model.composition)["n_structure_params"]
+    out = dict(model.defaults())
+    for name in model.param_names[n_s:]:
+        base = name.split("_")[0] if not name.startswith("A_f") else "A_f"
+        out[name] = {"A_f": options.force_scale, "k3": 0.0}.get(base, gain)
+    return out
 
 
 def _free_element(model, options) -> list[str]:
@@ -83,8 +116,10 @@ def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -
     seg = train.slice(a, a + options.ee_samples)
     say(f"equation-error start on {seg.n_times} samples ({options.ee_random_starts} random starts)")
     t0 = time.perf_counter()
+    starts = ([element_start(model, options, g) for g in options.element_gains] if options.element == "path"
+              else None)
     start = equation_error_start(seg, model, n_random=options.ee_random_starts, spread=options.ee_spread,
-                                 free_element=_free_element(model, options))
+                                 free_element=_free_element(model, options), starts=starts)
     details = {"equation_error_nrmse": start.pop("_equation_nrmse"), "ee_seconds": time.perf_counter() - t0,
                "start": dict(start)}
     params = dict(start)

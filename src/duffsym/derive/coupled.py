@@ -18,7 +18,14 @@ Computed from the composed model (:mod:`duffsym.model.structure`), nothing typed
    argument does not close and falls back on the linearization.
 2. **Linearization.** The characteristic polynomial of the state matrix and its Hurwitz conditions
    (local asymptotic stability of the origin); :func:`coupled_certificate` checks them numerically.
-3. **Energy per cycle.** Over a period of a periodic steady state the input's work splits into the
+3. **Rate-independent (path-time) elements** (:func:`duffsym.model.library.path_time`): the element's
+   equations carry the path rate :math:`\rho = \sqrt{\dot q^2/L^2 + \varepsilon^2}`; it is replaced by a
+   positive symbol ``rho`` for the argument. E_e is the element's Eq. 8 energy in its own (path) time;
+   :math:`\dot E_e = \rho\,dE_e/ds` plus the input term :math:`c_1\dot d x'`, so the same weight cancels
+   the cross term and the element's dissipation is multiplied by :math:`\rho \ge \varepsilon > 0`: the
+   argument holds for :math:`\varepsilon > 0` and says so; as :math:`\varepsilon \to 0` the element
+   freezes at rest and LaSalle's set is no longer the origin alone (the report states it).
+4. **Energy per cycle.** Over a period of a periodic steady state the input's work splits into the
    structure's viscous loss and the element's share,
    :math:`\oint F\dot q\,dt = \oint c\dot q^2\,dt + \oint H\dot q\,dt`, and the element's share is its
    own balance with the piston motion replaced by the structure's:
@@ -59,6 +66,7 @@ class CoupledAnalysis:
     element_cycle: sp.Eq
     conclusion: str
     states: tuple = field(default=(), repr=False)
+    path_rate: sp.Expr | None = None  # rho = sqrt(q'^2/L^2 + eps^2) of a path-time element, else None
 
     def summary(self) -> str:
         lines = [f"coupled stability of {self.model}",
@@ -70,6 +78,8 @@ class CoupledAnalysis:
         lines += [f"  Hurwitz {i + 1}: {h} > 0" for i, h in enumerate(self.hurwitz)]
         lines.append(f"  per cycle (structure): {self.structure_cycle}")
         lines.append(f"  per cycle (element):   {self.element_cycle}")
+        if self.path_rate is not None:
+            lines.append(f"  rho = {self.path_rate} (the path rate of the rate-independent element, >= eps > 0)")
         lines.append(f"  {self.conclusion}")
         return "\n".join(lines)
 
@@ -79,7 +89,8 @@ class CoupledAnalysis:
                 "dissipation": str(self.dissipation), "remainder": str(self.remainder),
                 "conditions": {n: str(c) for n, c in self.conditions}, "char_poly": str(self.char_poly),
                 "hurwitz": [str(h) for h in self.hurwitz], "structure_cycle": str(self.structure_cycle),
-                "element_cycle": str(self.element_cycle), "conclusion": self.conclusion}
+                "element_cycle": str(self.element_cycle), "conclusion": self.conclusion,
+                "path_rate": None if self.path_rate is None else str(self.path_rate)}
 
 
 def _structure_energy(comp) -> sp.Expr:
@@ -92,6 +103,29 @@ def _structure_energy(comp) -> sp.Expr:
     q1, q2 = comp["structure_states"]
     pot = sp.integrate(restoring.xreplace({Q: s}), (s, 0, q1))
     return sp.expand(mass * q2**2 / 2 + pot)
+
+
+#: The symbol standing for the path rate of a rate-independent element in the coupled argument.
+RHO = sp.Symbol("rho", positive=True)
+
+
+def _path_rate(model, q2) -> sp.Expr | None:
+    """The path rate sqrt(q2^2/L^2 + eps^2) in a composed model's equations (a path-time element), else None."""
+    found = {p for e in model.rhs for p in e.atoms(sp.Pow) if p.exp == sp.Rational(1, 2) and q2 in p.base.free_symbols}
+    if len(found) > 1:
+        raise ModelError(f"model {model.name}: the coupled argument covers one path rate; found {sorted(map(str, found))}")
+    return next(iter(found), None)
+
+
+def _element_in_own_time(el) -> SymbolicModel:
+    """A path-time element with its path rate set to 1: the element's equations in its own time (Eq. 8 applies)."""
+    from dataclasses import replace
+
+    from duffsym.model.library import D_DOT
+
+    found = {p for e in el.rhs for p in e.atoms(sp.Pow) if p.exp == sp.Rational(1, 2)
+             and D_DOT.symbol in p.base.free_symbols}
+    return replace(el, rhs=tuple(e.xreplace({p: sp.Integer(1) for p in found}) for e in el.rhs)) if found else el
 
 
 def _free_rhs(model) -> list[sp.Expr]:
@@ -112,11 +146,13 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
     q1, q2 = comp["structure_states"]
     x1, x2 = el.position, el.velocity
     Es = _structure_energy(comp)
-    Ee = energy_lyapunov(el)
+    rho = _path_rate(model, q2)
+    Ee = energy_lyapunov(_element_in_own_time(el))
     a = sp.Symbol("a", positive=True)
     V = a * Es + Ee
     rhs = _free_rhs(model)
-    Vd = sp.expand(sum((sp.diff(V, s) * e for s, e in zip(model.states, rhs)), sp.Integer(0)))
+    rhs_rho = rhs if rho is None else [e.xreplace({rho: RHO}) for e in rhs]
+    Vd = sp.expand(sum((sp.diff(V, s) * e for s, e in zip(model.states, rhs_rho)), sp.Integer(0)))
     cross = Vd.coeff(q2).coeff(x2)
     sol = sp.solve(cross, a)
     weight = sp.simplify(sol[0]) if sol else sp.Integer(1)
@@ -136,7 +172,12 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
     poly = sp.Poly(sp.expand((lam * sp.eye(4) - A).det() * _mass(comp)), lam)
     hurwitz = _hurwitz(poly)
     s_cyc, e_cyc = _cycle_identities(model, comp, el, diss, weight)
-    if rem == 0:
+    if rem == 0 and rho is not None:
+        concl = ("dV/dt = -W <= 0 with no remainder; the element's dissipation carries the path rate rho >= eps > 0, "
+                 "so for eps > 0 the coupled system is globally asymptotically stable under the conditions (LaSalle: "
+                 "dq/dt = dx/ds = 0 leaves only the origin); as eps -> 0 the element freezes at rest (rho = 0) and "
+                 "the argument gives stability only, not convergence to the origin")
+    elif rem == 0:
         concl = ("dV/dt = -W <= 0 with no remainder: under the conditions the coupled system is globally "
                  "asymptotically stable (LaSalle: dq/dt = dx/dt = 0 leaves only the origin)")
     else:
@@ -148,7 +189,7 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
                            V_dot=Vd, dissipation=sp.expand(diss), remainder=sp.expand(rem),
                            conditions=conds, char_poly=poly.as_expr(), hurwitz=hurwitz,
                            structure_cycle=s_cyc, element_cycle=e_cyc, conclusion=concl,
-                           states=(q1, q2, x1, x2))
+                           states=(q1, q2, x1, x2), path_rate=None if rho is None else sp.Eq(RHO, rho))
 
 
 def _mass(comp) -> sp.Expr:
@@ -273,7 +314,8 @@ def coupled_report_items(model: SymbolicModel) -> list:
                    data={"V": str(an.V), "weight": str(an.weight)}),
         ReportItem("coupled_lyapunov_derivative", "its time derivative along the free coupled dynamics",
                    "Eq. 9 for the coupled system",
-                   f"dV/dt = {an.V_dot}\n  = -W + remainder\nW = {an.dissipation}\nremainder = {an.remainder}",
+                   f"dV/dt = {an.V_dot}\n  = -W + remainder\nW = {an.dissipation}\nremainder = {an.remainder}"
+                   + ("" if an.path_rate is None else f"\n{an.path_rate.lhs} = {an.path_rate.rhs} (path rate, >= eps > 0)"),
                    f"\\dot V = {tex(an.V_dot)}", note=an.conclusion,
                    data={"V_dot": str(an.V_dot), "W": str(an.dissipation), "remainder": str(an.remainder)}),
         ReportItem("coupled_conditions", "conditions of the energy argument", "",

@@ -6,6 +6,7 @@ The state-space form is not typed here: :func:`from_second_order` solves the equ
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Callable, Mapping, Sequence
 
 import sympy as sp
@@ -211,6 +212,71 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
         output=lambda x1, x2: af * x2, output_name="y", structural={"n_x": n_x, "n_v": n_v},
         description="MR damper model, Eq. 11" + ("" if physical else " normalized by m (Eq. 12), output Eq. 14"),
     )
+
+
+#: Name suffix of a rate-independent (path-time) element, :func:`path_time`.
+PATH_SUFFIX = "-path"
+
+
+def path_rate(d_dot: sp.Expr, epsilon: float) -> sp.Expr:
+    r"""The regularised path rate :math:`\rho = \sqrt{\dot d^2 + \varepsilon^2}` (:math:`\approx|\dot d|`)."""
+    return sp.sqrt(d_dot**2 + sp.nsimplify(epsilon, rational=True) ** 2)
+
+
+def path_time(element: SymbolicModel, epsilon: float) -> SymbolicModel:
+    r"""The rate-independent variant of a two-state element driven by (d, d'): its own time is the
+    accumulated path of d.
+
+    The element's equation is read with :math:`' = d/ds`, :math:`ds = |\dot d|\,dt` (so
+    :math:`d' = \operatorname{sign}\dot d`), regularised as :math:`ds = \rho\,dt`,
+    :math:`\rho = \sqrt{\dot d^2 + \varepsilon^2}`:
+
+    .. math:: \dot x_1 = \rho\,x_2, \qquad \dot x_2 = \rho\, f(x_1, x_2, d, \dot d/\rho), \qquad y = A_f x_2
+
+    where :math:`x_2 = dx/ds` and :math:`f` is the element's acceleration (for Eq. 12:
+    :math:`\rho f = -\rho[(c_1+c_2)x_2 + (k_1+k_2)x_1 + k_3x_1^n + c_3x_2^n - k_1 d] + c_1\dot d`,
+    the sign switch of :math:`d'` cancels against :math:`\rho`). For :math:`\varepsilon \to 0` the
+    trajectory (x, y) as a function of the path of d does not depend on the speed at which the path is
+    travelled: the loop y(d) is rate-independent (Bouc-Wen-like), while the paper's Eq. 12 is
+    rate-dependent (force A_f dx/dt, a damper). ``epsilon`` is a fixed constant in units of d/dt (not
+    identified); choose it small against the velocity scale of the data (e.g. 1e-3 of the rms of d').
+    The powers, parameters and output are the element's; the model name gets the suffix ``-path``.
+    """
+    if element.n_states != 2 or element.position is None or element.velocity is None:
+        raise ModelError(f"path_time: the element must be a two-state mechanical model; {element.name} has "
+                         f"{element.n_states} state(s)")
+    if set(element.inputs) != {D, D_DOT}:
+        raise ModelError(f"path_time: the element must be driven by d and d_dot only; {element.name} has "
+                         f"{[c.name for c in element.inputs]}")
+    if not (isinstance(epsilon, (int, float)) and math.isfinite(epsilon) and epsilon > 0):
+        raise ModelError(f"path_time: epsilon must be a positive number (units of d/dt); got {epsilon!r}")
+    rho = path_rate(D_DOT.symbol, epsilon)
+    x1, x2 = element.position, element.velocity
+    if sp.simplify(element.rhs[element.states.index(x1)] - x2) != 0:
+        raise ModelError(f"path_time: {element.name}'s first state equation must be dx1/dt = x2")
+    acc = element.rhs[element.states.index(x2)].xreplace({D_DOT.symbol: D_DOT.symbol / rho})
+    rhs = {x1: rho * x2, x2: sp.expand(rho * acc)}
+    return replace(element, name=element.name + PATH_SUFFIX, rhs=tuple(rhs[s] for s in element.states),
+                   equation=None,
+                   description=f"{element.description}, rate-independent: its time is the path of d "
+                               f"(ds = sqrt(d_dot^2 + eps^2) dt, eps = {epsilon:g})")
+
+
+def path_epsilon(model: SymbolicModel) -> float | None:
+    """The ``epsilon`` of a path-time element (:func:`path_time`) found in its equations, else None."""
+    for e in model.rhs:
+        for pw in e.atoms(sp.Pow):
+            base = pw.base
+            if pw.exp == sp.Rational(1, 2) and D_DOT.symbol in base.free_symbols:
+                rest = sp.expand(base - D_DOT.symbol**2)
+                if rest.is_Number and rest > 0:
+                    return float(sp.sqrt(rest))
+    return None
+
+
+def mr_damper_path(n: int | sp.Symbol = 3, *, epsilon: float = 1e-3, **kwargs) -> SymbolicModel:
+    """The rate-independent MR-damper element: :func:`path_time` of :func:`mr_damper` (Eq. 12 in path time)."""
+    return path_time(mr_damper(n, **kwargs), epsilon)
 
 
 def structure_with_damper(n: int | sp.Symbol = 3, **kwargs) -> SymbolicModel:
