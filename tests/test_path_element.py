@@ -58,8 +58,8 @@ def test_loop_is_rate_independent_and_matches_the_phase_integration():
     slow, fast = _loop(el, p, A, 0.5), _loop(el, p, A, 50.0)
     scale = np.max(np.abs(ref))
     assert scale > 0.5
-    assert np.max(np.abs(slow - fast)) < 2e-3 * scale
-    assert np.max(np.abs(slow - ref)) < 5e-3 * scale
+    assert np.max(np.abs(slow - fast)) < 1e-4 * scale  # measured 1e-6
+    assert np.max(np.abs(slow - ref)) < 5e-4 * scale  # measured 3e-5
     rate = mr_damper(3)
     r_slow, r_fast = _loop(rate, p, A, 0.5), _loop(rate, p, A, 50.0)
     assert np.max(np.abs(r_slow - r_fast)) > 0.3 * max(np.max(np.abs(r_slow)), np.max(np.abs(r_fast)))

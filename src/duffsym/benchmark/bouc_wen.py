@@ -8,9 +8,14 @@ at rest, so the model is run over ``transient_periods`` periods of the same inpu
 one) and the **sine sweep** (153 000 samples, starting from rest: zero initial state). Score: RMSE of the
 free-run simulation in metres over every sample of the test set.
 
-Model: a mass with a polynomial spring (``mass_spring_damper(powers)``) whose restoring force includes
-the paper's MR-damper element (Eq. 12, power n) driven by the mass's own motion
-(:func:`duffsym.model.structure.structure`); the displacement enters in mm (O(1) numbers).
+Model: a mass with a polynomial spring (``mass_spring_damper(powers)``, default cubic and quintic)
+whose restoring force includes the paper's MR-damper element (Eq. 12, power n) driven by the mass's
+own motion (:func:`duffsym.model.structure.structure`); the displacement enters in mm (O(1) numbers).
+By default (``element="path"``) the element is its rate-independent variant
+(:func:`duffsym.model.library.path_time`: Eq. 12 in the path of q, epsilon 0.16 mm/s), with A_f fixed
+to the multisine's 50 N rms force and its other coefficients started at O(1) values (per mm of path);
+``element="rate"`` is Eq. 12 as published (the rate-dependent damper; the previous default, with
+``powers=(3,)``).
 Estimation: :func:`duffsym.identify.structure.equation_error_start` (variable projection on the
 low-passed equation error, random starts) on ``ee_samples`` samples, then the output-error collocation
 fit (:func:`duffsym.identify.fit`) from that start on ``oe_samples`` samples.

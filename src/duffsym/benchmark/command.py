@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 
 from duffsym._cli_common import _emit_json
 
@@ -21,6 +22,8 @@ def cmd_benchmark(args) -> int:
         res = run_silverbox(folder, opts, progress=say)
     else:
         opts = BoucWenOptions.smoke() if args.smoke else BoucWenOptions()
+        if getattr(args, "element", None):
+            opts = replace(opts, element=args.element)
         res = run_bouc_wen(folder, opts, progress=say)
     if args.out:
         write_json_atomic(args.out, jsonable(res.to_dict()))
@@ -36,6 +39,9 @@ def register(sub) -> None:
                        "the published figures")
     s.add_argument("name", choices=("silverbox", "bouc-wen"), help="the benchmark")
     s.add_argument("--smoke", action="store_true", help="small settings (seconds; scores not comparable)")
+    s.add_argument("--element", choices=("path", "rate"), default=None,
+                   help="bouc-wen only: the element in the structure, 'path' (default: the rate-independent "
+                        "path-time variant of Eq. 12) or 'rate' (Eq. 12 as published)")
     s.add_argument("--out", help="also write the result JSON to this file")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--json", action="store_true", help="print one JSON object")
