@@ -116,3 +116,14 @@ def test_fit_recovers_the_independent_path_structure():
     for name in ("m", "k", "c1", "c2", "k1", "k2"):
         assert r.params[name] == pytest.approx(TRUTH[name], rel=0.08), name
     assert r.params["c3"] == pytest.approx(TRUTH["c3"], rel=0.25)
+
+
+def test_single_element_derivations_are_in_its_own_time():
+    """derive on a path element: a first item says the derivations are in the path s; they are Eq. 12's."""
+    from duffsym.derive.report import derivation_report
+    from duffsym.model.library import mr_damper_path
+
+    path, rate = derivation_report(mr_damper_path(3, epsilon=0.01)), derivation_report(mr_damper(3))
+    assert path.items[0].key == "path_time" and "rho" in path.items[0].note
+    assert path.item("lyapunov_derivative").text == rate.item("lyapunov_derivative").text
+    assert path.item("stability_conditions").text == rate.item("stability_conditions").text

@@ -217,6 +217,11 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
 
         return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
                                 items=tuple(coupled_report_items(model)))
+    from duffsym.model.library import path_epsilon
+
+    eps = path_epsilon(model)
+    if eps is not None:
+        return _path_time_report(model, eps)
     pr = _Printer(model)
     base = model.name if model.name in _EQUATIONS else ""
     eq_main, eq_ss = _EQUATIONS.get(base, ("", ""))
@@ -231,6 +236,30 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
              *_certificate_items(model)]
     return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
                             items=tuple(items))
+
+
+def _path_time_report(model: SymbolicModel, eps: float) -> DerivationReport:
+    """A rate-independent (path-time) element: the derivations of the element in its own time s, after a
+    first item saying how they carry over to t (every d/dt is rho d/ds, rho = sqrt(d_dot^2 + eps^2))."""
+    from dataclasses import replace
+
+    from duffsym.derive.coupled import _element_in_own_time
+
+    own = _element_in_own_time(model)
+    own = replace(own, name=model.name.removesuffix("-path"))
+    inner = derivation_report(own)
+    note = ReportItem(
+        "path_time", "a rate-independent element: the derivations below are in its own time s", "",
+        f"dt-form: {', '.join(f'd{s}/dt = {e}' for s, e in zip(model.states, model.rhs))}\n"
+        f"ds = rho dt, rho = sqrt(d_dot**2 + {eps:g}**2); in s: d' = dd/ds = d_dot/rho (sign of d_dot as eps -> 0)",
+        "", note="every item below is the element's equation read in the path s of d, with d' = dd/ds and x' = "
+        "dx/ds: along t each time derivative is rho times the s-derivative, rho >= eps > 0, so the signs of dV/dt, "
+        "the stability conditions and the invariant-set argument carry over for eps > 0 (rates scale by rho); "
+        "as eps -> 0 the element is frozen while d is at rest and convergence to the origin holds only along "
+        "the path; per-cycle integrals over t become integrals over s",
+        data={"epsilon": eps})
+    return DerivationReport(model=model.name, structural=dict(model.structural), effects=tuple(model.effects),
+                            items=(note,) + inner.items)
 
 
 def _equation_items(model, pr, eq_main) -> list[ReportItem]:

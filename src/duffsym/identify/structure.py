@@ -72,7 +72,7 @@ def structure_initial_states(model, record, params: np.ndarray) -> np.ndarray:
 
 
 def structure_columns(model, q, v, a) -> tuple[list[str], np.ndarray]:
-    """The structure's parameters that enter its equation linearly, and their regressor columns
+    r"""The structure's parameters that enter its equation linearly, and their regressor columns
     :math:`\partial(\mathrm{lhs}-\mathrm{rhs})/\partial p` evaluated on the data (q, q', q'')."""
     import sympy as sp
 
