@@ -64,6 +64,20 @@ def test_bouc_wen_smoke_scores_recomputed():
     assert 1e-5 < d["scores"]["multisine"] < 5e-4  # a fitted model: above the true system, below y's RMS 6.7e-4
 
 
+@needs_bw
+def test_bouc_wen_cli_element_choice(capsys):
+    """--element picks the element (default the path-time one); the smoke run scores it."""
+    from duffsym.cli import main
+
+    assert main(["benchmark", "bouc-wen", "--smoke", "--quiet", "--json", "--element", "rate"]) == 0
+    rate = json.loads(capsys.readouterr().out)
+    assert rate["model"] == "structure" and rate["protocol"]["element"] == "rate"
+    assert main(["benchmark", "bouc-wen", "--smoke", "--quiet", "--json"]) == 0
+    path = json.loads(capsys.readouterr().out)
+    assert path["model"] == "structure-path" and path["protocol"]["element"] == "path"
+    assert path["scores"]["multisine"] < rate["scores"]["multisine"]  # smoke: 5.4e-5 vs 1.8e-4 m
+
+
 def test_benchmark_cli_rejects_unknown_name(capsys):
     from duffsym.cli import main
 
