@@ -12,10 +12,12 @@ effect             form                                                         
 force-offset       y += off_y0                                                  off_y0
 gas-accumulator    y += off_y0 + gas_k d (preload = the force offset)           off_y0, gas_k
 inertia            y += inertia_m d''                                           inertia_m
+parallel-damping   y += (pd_c + pd_c_u u) d' (pd_c_u on command models)         pd_c, pd_c_u
 coulomb-friction   x'' += -fric_mu tanh(x'/0.01) (inside the fluid model)           fric_mu
 seal-friction      y += seal_F tanh(d'/seal_eps) (on the piston velocity)           seal_F, seal_eps
 asymmetry          y += asym_a F tanh(x'/0.05)                                  asym_a
 output-lag         z' = (y - z)/lag_tau, output z                               lag_tau
+field-asymmetry    u' = -eta (1 + fa_a tanh((i-u)/fa_eps)) (u - i) (command models) fa_a, fa_eps
 input-delay        Pade all-pass state q; d -> 2q - d                           delay_tau
 input-shift        d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)  shift_tau
 backlash           smooth play state b; d -> b                                  bl_h
@@ -30,16 +32,18 @@ found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --dis
 from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
-from duffsym.effects.output import Asymmetry, ForceOffset, GasAccumulator, OutputLag, PistonInertia, SealFriction
+from duffsym.effects.output import (Asymmetry, FieldAsymmetry, ForceOffset, GasAccumulator, OutputLag, ParallelDamping, PistonInertia,
+                                    SealFriction)
 from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
 
 #: Effects by name.
 CATALOGUE: dict[str, Effect] = {e.name: e for e in (
-    ForceOffset(), GasAccumulator(), PistonInertia(), CoulombFriction(), SealFriction(), Asymmetry(), OutputLag(),
+    ForceOffset(), GasAccumulator(), PistonInertia(), ParallelDamping(), CoulombFriction(), SealFriction(), Asymmetry(),
+    OutputLag(), FieldAsymmetry(),
     InputDelay(), InputShift(), Backlash(), QuadraticStiffness(), CubicDamping(), InputCurvature(),
 )}
 
-__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "CoulombFriction", "SealFriction", "Asymmetry",
-           "OutputLag", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain",
+__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "ParallelDamping", "CoulombFriction", "SealFriction", "Asymmetry",
+           "OutputLag", "FieldAsymmetry", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain",
            "initial_states_with_effects",
            "CATALOGUE"]

@@ -1,4 +1,4 @@
-"""Effects on the measured force: offset, gas accumulator, inertia, asymmetry, output lag.
+"""Effects on the measured force: offset, gas accumulator, inertia, parallel damping, asymmetry, output lag.
 
 Each adds a term to the output (or, for the lag, a filter state between the model force and the
 measured force). None of them changes the state equations of the mechanical model, so the
@@ -185,6 +185,117 @@ class PistonInertia(Effect):
 
     def base_output(self, y, record, params):
         return y - params[f"{self.prefix}m"] * np.asarray(record.acceleration())
+
+
+@dataclass(frozen=True)
+class ParallelDamping(Effect):
+    """A viscous damper in parallel with the model, on the piston: :math:`y \\leftarrow y + c_0\\dot d`;
+    on a command-driven model its coefficient follows the field, :math:`c_0(u) = c_0 + c_{0u} u`.
+
+    Where it acts: on the piston, beside the fluid element (the :math:`c_0` of Spencer et al.'s
+    phenomenological model, whose :math:`c_0 = c_{0a} + c_{0b} u`). The fluid element's force
+    :math:`A_f\\dot x` saturates once the :math:`c_3\\dot x^n` term dominates (the yield); the force of an MR
+    damper keeps rising with the piston speed after yield (the post-yield viscous slope), which this
+    term carries. With a backlash applied the piston velocity is the backlash state's rate.
+
+    Initial guess: least squares of the residual on :math:`[1, \\dot d]` (and :math:`i\\,\\dot d`, the
+    command standing for the field, on a command-driven model).
+    """
+
+    name: str = "parallel-damping"
+    prefix: str = "pd_"
+    physics: str = ("viscous damper in parallel with the fluid element on the piston (Spencer's c0; field-dependent "
+                    "on a command-driven model): the post-yield slope of force against velocity")
+    signature: str = ("residual proportional to d' (in phase with the velocity), growing at high speed: the measured "
+                      "force keeps rising after yield while the model's saturates")
+    form: str = "y += (pd_c + pd_c_u * u_field) * d_dot (pd_c_u only on a command-driven model)"
+    guess: str = "least squares of the residual on [1, d'] (and command * d' on a command-driven model)"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec(f"{self.prefix}c", "c_{0}", 0.0, -1e9, 1e9, unit="output unit / (input unit/s)",
+                          scale=0.1, description="parallel viscous damping"),
+                ParamSpec(f"{self.prefix}c_u", "c_{0}^{(u)}", 0.0, -1e9, 1e9,
+                          unit="output unit / (input unit/s) per command unit", scale=0.1,
+                          description="change of the parallel damping per unit field"))
+
+    def _field(self, model: SymbolicModel):
+        from duffsym.model.library import FIELD
+
+        return FIELD if FIELD in model.states else None
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        _piston(self, model, 1)
+        _, v = piston_path(model)
+        c, c_u = self.parameters()
+        u = self._field(model)
+        if u is None:
+            return model.extend(effect=self.name, params=(c,), output_add=c.symbol * v)
+        return model.extend(effect=self.name, params=(c, c_u), output_add=(c.symbol + c_u.symbol * u) * v)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        v = np.asarray(record.velocity(), dtype=float)
+        cmd = record.command
+        if cmd is None:
+            _, c = lstsq_coeffs(r, np.ones_like(v), v)
+            return {f"{self.prefix}c": self._clip(f"{self.prefix}c", c), f"{self.prefix}c_u": 0.0}
+        _, c, c_u = lstsq_coeffs(r, np.ones_like(v), v, np.asarray(cmd, dtype=float) * v)
+        return {f"{self.prefix}c": self._clip(f"{self.prefix}c", c),
+                f"{self.prefix}c_u": self._clip(f"{self.prefix}c_u", c_u)}
+
+    def base_output(self, y, record, params):
+        v = np.asarray(record.velocity(), dtype=float)
+        c = params[f"{self.prefix}c"] + params.get(f"{self.prefix}c_u", 0.0) * (
+            0.0 if record.command is None else np.asarray(record.command, dtype=float))
+        return y - c * v
+
+
+@dataclass(frozen=True)
+class FieldAsymmetry(Effect):
+    """The field of a command-driven model rises and decays at different rates:
+    :math:`\\dot u = -\\eta\\,(1 + a\\tanh((i - u)/\\varepsilon))\\,(u - i)`, rate :math:`\\eta(1 + a)` while the field
+    rises towards the command and :math:`\\eta(1 - a)` while it decays.
+
+    Where it acts: in the coil and the fluid, between the command and the field. A current driver pushes
+    the coil current up against its inductance but lets it decay through the coil's resistance (and eddy
+    currents in the steel slow the decay of the flux), so switching on and off differ; a symmetric
+    first-order lag averages the two. Only for models with a field state driven by a command.
+
+    Initial guess: :math:`a = 0` (the symmetric lag of the fitted model) and :math:`\\varepsilon` = 2 % of
+    the command's range.
+    """
+
+    name: str = "field-asymmetry"
+    prefix: str = "fa_"
+    physics: str = ("the field rises and decays at different rates (current driver against the coil's inductance "
+                    "on switch-on, resistance and eddy currents on switch-off)")
+    signature: str = ("residual after command switches, of one sign after switch-on and the other after switch-off "
+                      "(the model's force rises too slowly and decays too fast, or the reverse)")
+    form: str = "u' = -eta (1 + fa_a tanh((i - u)/fa_eps)) (u - i)"
+    guess: str = "fa_a = 0; fa_eps = 2 % of the command's range"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (ParamSpec(f"{self.prefix}a", "a_{u}", 0.0, -0.95, 0.95, unit="1", scale=0.1,
+                          description="relative rate difference, rising +a, decaying -a"),
+                ParamSpec(f"{self.prefix}eps", r"\\varepsilon_{u}", 0.05, 1e-4, 1e3, unit="command unit", scale=0.05,
+                          description="field-command difference over which the rate switches (tanh 1)"))
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        from duffsym.model.library import COMMAND, FIELD
+
+        if FIELD not in model.states or COMMAND not in model.inputs or "eta" not in model.param_names:
+            raise ModelError(f"effect {self.name} needs a command-driven model with a field state (e.g. "
+                             f"mr-damper-current); model {model.name} has none")
+        a, eps = self.parameters()
+        u, i, eta = FIELD, COMMAND.symbol, model.param("eta").symbol
+        term = -eta * a.symbol * sp.tanh((i - u) / eps.symbol) * (u - i)
+        return model.extend(effect=self.name, params=(a, eps), rhs_add={u: term})
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        residual(record, y_model)
+        span = float(np.ptp(np.asarray(record.command, dtype=float))) if record.command is not None else 0.0
+        eps = 0.02 * span if span > 0 else self._spec(f"{self.prefix}eps").default
+        return {f"{self.prefix}a": 0.0, f"{self.prefix}eps": self._clip(f"{self.prefix}eps", eps)}
 
 
 @dataclass(frozen=True)

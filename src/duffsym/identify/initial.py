@@ -58,7 +58,10 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
         start = equation_error_start(record, model, fixed=fixed)
         start.pop("_equation_nrmse")
         return start
-    if _command_varies(record, model):
+    start = _command_start_with_effects(record, model, fixed)
+    if start is not None:
+        return start
+    if not model.effects and _command_varies(record, model):
         return command_start(record, model, fixed=fixed)
     return tuning_guess(record, model, fixed=fixed, max_samples=max_samples)
 
@@ -182,6 +185,30 @@ def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = 
     if not np.any(np.isfinite(err)):
         return tuning_guess(record, model, fixed=fixed)
     return {k: float(v) for k, v in candidates[int(np.argmin(err))].items()}
+
+
+def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float]) -> dict[str, float] | None:
+    """For a command-driven model extended by effects, on a record whose command changes: the base model's
+    :func:`command_start`, then each effect's :meth:`~duffsym.effects.Effect.initial_guess` from the base
+    model's free run (as a ladder step starts an effect). None when this does not apply."""
+    from duffsym.effects.base import effect_chain
+    from duffsym.identify.collocation import _input_matrix, initial_states
+    from duffsym.simulate import simulate
+
+    chain = effect_chain(model) if model.effects else None
+    if chain is None or not _command_varies(record, chain[0]):
+        return None
+    base, steps = chain
+    values = {**model.defaults(), **command_start(record, base, fixed={k: v for k, v in fixed.items()
+                                                                         if k in base.param_names})}
+    p = base.param_vector({n: values[n] for n in base.param_names})
+    tr = simulate(base, p, np.asarray(record.t), _input_matrix(base, record), x0=initial_states(base, record, p)[0],
+                  on_failure="return", method="rk4")
+    if tr.success and np.all(np.isfinite(tr.y)):
+        for effect, _ in steps:
+            values.update(effect.initial_guess(record, tr.y))
+    values.update(fixed)
+    return {k: float(values[k]) for k in model.param_names}
 
 
 def _rate_parameters(model) -> list[str]:
