@@ -45,6 +45,8 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
     inputs alone, e.g. the field of ``mr-damper-current``) on a record whose command changes starts
     from :func:`command_start` instead: the tuning procedure knows only constant coefficients, and from
     its start a switching-current record converged to a diverging optimum (field rate 0.29/s, c2 < 0).
+    Extended by effects, such a model starts from its base model's :func:`command_start` with each
+    effect's own guess from that start's free run.
 
     Returns
     -------
