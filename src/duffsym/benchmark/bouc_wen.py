@@ -54,6 +54,8 @@ class BoucWenOptions:
     force_scale: float = 50.0       # N, A_f of a path element (the multisine's rms force)
     element_gains: tuple = (0.3, 1.0, 3.0)  # O(1) starts of a path element's c1, c2, c3, k1, k2
     n_elements: int = 1             # elements in parallel (the second one's parameters end in _2)
+    direction: str = "velocity"     # directional damping on each path element: x'' += -dir_c d' g(x), g = |x'|
+                                    # ("velocity"), |x'| x', |x| or "" (none); see effects.mechanical.DIRECTION_FORMS
     estimation_start: int = 8192    # first training sample used (period 1 is the start-up transient)
     ee_samples: int = 8192          # samples of the equation-error start
     ee_random_starts: int = 32      # random starts of the equation-error start (besides the defaults)
@@ -85,6 +87,11 @@ def bouc_wen_model(options: BoucWenOptions = BoucWenOptions()):
         raise ModelError(f"BoucWenOptions.element must be one of {ELEMENTS}; got {options.element!r}")
     path = options.element == "path"
     make = (lambda: path_time(mr_damper(options.n), options.epsilon)) if path else (lambda: mr_damper(options.n))
+    if options.direction:
+        from duffsym.effects.mechanical import DirectionalDamping
+
+        plain, effect = make, DirectionalDamping(shape=options.direction)
+        make = lambda: effect.apply(plain())  # noqa: E731
     eq, params = mass_spring_damper(tuple(options.powers))
     extra = tuple(make() for _ in range(options.n_elements - 1))
     model = structure(make(), equation=eq, params=params, name="structure-path" if path else "structure",
@@ -101,7 +108,20 @@ def element_start(model, options: BoucWenOptions, gain: float) -> dict:
     out = dict(model.defaults())
     for name in model.param_names[n_s:]:
         base = name.split("_")[0] if not name.startswith("A_f") else "A_f"
-        out[name] = {"A_f": options.force_scale, "k3": 0.0}.get(base, gain)
+        out[name] = {"A_f": options.force_scale, "k3": 0.0, "dir": 0.0}.get(base, gain)
+    return out
+
+
+def _starts(model, options: BoucWenOptions) -> list[dict]:
+    """The explicit starts of the equation-error start: each element gain, and with a directional damping
+    also its coefficient at -gain/2 and +gain/2 (its sign is not known beforehand)."""
+    out = []
+    for g in options.element_gains:
+        base = element_start(model, options, g)
+        out.append(base)
+        dirs = [n for n in base if n.startswith("dir_")]
+        for s in ((-0.5, 0.5) if dirs else ()):
+            out.append({**base, **{n: s * g for n in dirs}})
     return out
 
 
@@ -121,8 +141,7 @@ def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -
     seg = train.slice(a, a + options.ee_samples)
     say(f"equation-error start on {seg.n_times} samples ({options.ee_random_starts} random starts)")
     t0 = time.perf_counter()
-    starts = ([element_start(model, options, g) for g in options.element_gains] if options.element == "path"
-              else None)
+    starts = _starts(model, options) if options.element == "path" else None
     start = equation_error_start(seg, model, n_random=options.ee_random_starts, spread=options.ee_spread,
                                  free_element=_free_element(model, options), starts=starts)
     details = {"equation_error_nrmse": start.pop("_equation_nrmse"), "ee_seconds": time.perf_counter() - t0,
