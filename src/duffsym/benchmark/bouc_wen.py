@@ -87,8 +87,15 @@ def bouc_wen_model(options: BoucWenOptions = BoucWenOptions()):
         raise ModelError(f"BoucWenOptions.element must be one of {ELEMENTS}; got {options.element!r}")
     path = options.element == "path"
     make = (lambda: path_time(mr_damper(options.n), options.epsilon)) if path else (lambda: mr_damper(options.n))
+    if options.direction and not path:
+        raise ModelError("BoucWenOptions.direction applies to the path element only; use direction=\"\" with "
+                         "element=\"rate\"")
     if options.direction:
-        from duffsym.effects.mechanical import DirectionalDamping
+        from duffsym.effects.mechanical import DIRECTION_FORMS, DirectionalDamping
+
+        if options.direction not in DIRECTION_FORMS:
+            raise ModelError(f"BoucWenOptions.direction must be one of {sorted(DIRECTION_FORMS)} or \"\"; "
+                             f"got {options.direction!r}")
 
         plain, effect = make, DirectionalDamping(shape=options.direction)
         make = lambda: effect.apply(plain())  # noqa: E731
