@@ -96,3 +96,23 @@ def test_fit_recovers_the_directional_damping_from_an_independent_record():
         assert r.params[name] == pytest.approx(TRUTH[name], rel=0.03), name
     assert r.params["dir_c"] == pytest.approx(TRUTH["c_dir"], rel=0.03)  # measured -0.797
     assert r.params["c3"] == pytest.approx(TRUTH["c3"], rel=0.1)  # measured 0.399
+
+
+def test_coupled_argument_names_the_directional_remainder():
+    """V = (c1/A_f) E_s + E_e as without the term; dV/dt gains -dir_c q2 x2 |x2| (hand statement), which has no
+    sign: the argument does not close, and the certificate of the benchmark-like parameters fails."""
+    from duffsym.derive.coupled import RHO, coupled_analysis, coupled_certificate
+
+    model = structure(DirectionalDamping().apply(path_time(mr_damper(3), 0.5)))
+    an = coupled_analysis(model)
+    q1, q2, x1, x2 = (_sym(s) for s in ("q1", "q2", "x1", "x2"))
+    m, c, k, c1, c2, c3, k1, k2, k3, Af, cd = (_sym(s) for s in ("m", "c", "k", "c1", "c2", "c3", "k1", "k2", "k3",
+                                                                 "A_f", "dir_c"))
+    V = c1 / Af * (m * q2**2 / 2 + k * q1**2 / 2) + x2**2 / 2 + (k1 + k2) * x1**2 / 2 + k3 * x1**4 / 4
+    absx2 = sp.sqrt(x2**2 + sp.Rational(1, 10**6)) - sp.Rational(1, 1000)
+    Vdot = (-c * c1 / Af * q2**2 + RHO * (-(c1 + c2) * x2**2 - c3 * x2**4 + k1 * q1 * x2) - cd * q2 * x2 * absx2)
+    assert sp.simplify(an.V - V) == 0
+    assert sp.simplify(sp.nsimplify(an.V_dot - Vdot)) == 0
+    assert cd in an.remainder.free_symbols and "does not close" in an.conclusion
+    _, p = _benchmark_as_path_model()
+    assert not coupled_certificate(model, p).holds_global
