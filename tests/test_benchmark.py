@@ -77,6 +77,8 @@ def test_bouc_wen_cli_element_choice(capsys):
     path = json.loads(capsys.readouterr().out)
     assert path["model"] == "structure-path" and path["protocol"]["element"] == "path"
     assert path["protocol"]["direction"] == "velocity" and "dir_c" in path["params"]
+    c12 = path["params"]["c1"] + path["params"]["c2"]  # smoke: |dir_c| 1.13 > c1 + c2 0.82, flagged
+    assert any("outside the Lyapunov argument" in n for n in path["notes"]) == (abs(path["params"]["dir_c"]) >= c12)
     assert path["scores"]["multisine"] < rate["scores"]["multisine"]  # smoke: 1.8e-5 vs 2.0e-4 m
 
 

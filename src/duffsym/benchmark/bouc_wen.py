@@ -203,6 +203,14 @@ def run_bouc_wen(folder=None, options: BoucWenOptions = BoucWenOptions(), progre
     notes = []
     if not scores["multisine"] <= TARGET:
         notes.append(f"multisine RMSE {scores['multisine']:.3g} m is above dynoNet's {TARGET:.3g} m")
+    dirs = [n for n in params if n.startswith("dir_c")]
+    for n in dirs:
+        suffix = n[len("dir_c"):]
+        damp = params.get("c1" + suffix, 0.0) + params.get("c2" + suffix, 0.0)
+        if abs(params[n]) >= damp:
+            notes.append(f"the fitted directional damping |{n}| = {abs(params[n]):.3g} >= c1 + c2 = {damp:.3g}: the "
+                         "element's path damping is negative on loading, outside the Lyapunov argument (stable "
+                         "only because the drive reverses, as a Bouc-Wen element with |delta| > gamma)")
     if details.get("oe_success") is False:
         notes.append(f"the output-error fit did not converge ({details.get('oe_status')}); the equation-error "
                      "start is scored")
