@@ -64,7 +64,8 @@ class BoucWenOptions:
     ee_samples: int = 8192          # samples of the equation-error start
     ee_random_starts: int = 8       # random starts of the equation-error start (besides the explicit ones;
                                     # measured: 0, 8 and 32 give the same start, with or without the directional
-                                    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8)
+                                    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8;
+                                    # the rate element needs 32: 6.8e-5 m, with 8 1.2e-4 m; RATE_RANDOM_STARTS)
     ee_spread: float = 1000.0       # ... log-uniform within this factor of the element's defaults
     oe_samples: int = 3000          # samples of the output-error collocation fit (0: none)
     max_iter: int = 300             # IPOPT iterations of that fit
@@ -74,6 +75,9 @@ class BoucWenOptions:
     def smoke(cls) -> "BoucWenOptions":
         return cls(ee_samples=2000, ee_random_starts=0, oe_samples=0)
 
+
+#: Random equation-error starts the rate-dependent element needs (``--element rate`` uses them).
+RATE_RANDOM_STARTS = 32
 
 #: The elements ``BoucWenOptions.element`` can choose.
 ELEMENTS = ("path", "rate")

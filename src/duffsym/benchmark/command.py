@@ -23,7 +23,11 @@ def cmd_benchmark(args) -> int:
     else:
         opts = BoucWenOptions.smoke() if args.smoke else BoucWenOptions()
         if getattr(args, "element", None):
-            opts = replace(opts, element=args.element, direction="" if args.element == "rate" else opts.direction)
+            if args.element == "rate":
+                from duffsym.benchmark.bouc_wen import RATE_RANDOM_STARTS
+
+                opts = replace(opts, direction="", ee_random_starts=RATE_RANDOM_STARTS if opts.ee_random_starts else 0)
+            opts = replace(opts, element=args.element)
         if getattr(args, "direction", None):
             if opts.element == "rate" and args.direction != "none":
                 raise CLIError("--direction applies to the path element only; drop it or use --element path")
