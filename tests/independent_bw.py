@@ -18,8 +18,10 @@ force A_f x' on the mass)::
 and the rate-independent (path-time) variant of that element, written here from its definition: the
 element's own time is the path s of its driving displacement (ds = rho dt, rho = sqrt(y'^2 + eps^2))::
 
-    dx/dt = rho w,   dw/dt = rho (k1 y - (c1 + c2) w - (k1 + k2) x - k3 x^n - c3 w^n) + c1 y',
+    dx/dt = rho w,   dw/dt = rho (k1 y - (c1 + c2) w - (k1 + k2) x - k3 x^n - c3 w^n) + c1 y' - c_dir y' |w|,
     force on the mass A_f w   (w = dx/ds)
+
+(``c_dir``: an optional directional damping, per unit path c_dir sign(y') |w|, the exact |.|, default 0).
 
 Integration: classical RK4 with ``substeps`` steps per sample; the force u is the sampled input held
 linearly between samples (as the benchmark's upsampled multisine), evaluated at every stage.
@@ -73,6 +75,7 @@ def _dlp_rhs(s, u, p):
     acc = (u - p["c"] * v - p["k"] * y - p["A_f"] * w) / p["m"]
     wdot = rho * (p["k1"] * y - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x - p["k3"] * x**n
                   - p["c3"] * w**n) + p["c1"] * v
+    wdot -= p.get("c_dir", 0.0) * v * abs(w)  # the directional damping (sign of y') |w| per unit path
     return np.array([v, acc, rho * w, wdot])
 
 
@@ -107,7 +110,7 @@ def simulate_duffing_like_structure(u, fs: float, params: dict, *, substeps: int
 
 def simulate_path_structure(u, fs: float, params: dict, *, substeps: int = 20, s0=(0, 0, 0, 0)):
     """States ``(n, 4)`` of a mass carrying the path-time element: y, y', x, w = dx/ds (force ``A_f w``);
-    ``params`` holds m, c, k, c1, c2, c3, k1, k2, k3, A_f, n and eps."""
+    ``params`` holds m, c, k, c1, c2, c3, k1, k2, k3, A_f, n and eps (and optionally c_dir)."""
     return _rk4(_dlp_rhs, s0, np.asarray(u, dtype=float), params, 1.0 / fs, substeps)
 
 

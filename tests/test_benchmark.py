@@ -72,10 +72,24 @@ def test_bouc_wen_cli_element_choice(capsys):
     assert main(["benchmark", "bouc-wen", "--smoke", "--quiet", "--json", "--element", "rate"]) == 0
     rate = json.loads(capsys.readouterr().out)
     assert rate["model"] == "structure" and rate["protocol"]["element"] == "rate"
+    assert rate["protocol"]["direction"] == ""
     assert main(["benchmark", "bouc-wen", "--smoke", "--quiet", "--json"]) == 0
     path = json.loads(capsys.readouterr().out)
     assert path["model"] == "structure-path" and path["protocol"]["element"] == "path"
-    assert path["scores"]["multisine"] < rate["scores"]["multisine"]  # smoke: 5.4e-5 vs 1.8e-4 m
+    assert path["protocol"]["direction"] == "velocity" and "dir_c" in path["params"]
+    c12 = path["params"]["c1"] + path["params"]["c2"]  # smoke: |dir_c| 1.13 > c1 + c2 0.82, flagged
+    assert any("outside the Lyapunov argument" in n for n in path["notes"]) == (abs(path["params"]["dir_c"]) >= c12)
+    assert path["scores"]["multisine"] < rate["scores"]["multisine"]  # smoke: 1.8e-5 vs 2.0e-4 m
+
+
+@needs_bw
+def test_bouc_wen_cli_direction_needs_the_path_element(capsys):
+    """--direction with --element rate: one line on stderr naming the option, non-zero exit."""
+    from duffsym.cli import main
+
+    code = main(["benchmark", "bouc-wen", "--smoke", "--quiet", "--element", "rate", "--direction", "velocity"])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and "--direction" in err and len(err.splitlines()) == 1
 
 
 def test_benchmark_cli_rejects_unknown_name(capsys):

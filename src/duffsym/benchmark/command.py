@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from dataclasses import replace
 
-from duffsym._cli_common import _emit_json
+from duffsym._cli_common import CLIError, _emit_json
 
 
 def cmd_benchmark(args) -> int:
@@ -23,7 +23,15 @@ def cmd_benchmark(args) -> int:
     else:
         opts = BoucWenOptions.smoke() if args.smoke else BoucWenOptions()
         if getattr(args, "element", None):
+            if args.element == "rate":
+                from duffsym.benchmark.bouc_wen import RATE_RANDOM_STARTS
+
+                opts = replace(opts, direction="", ee_random_starts=RATE_RANDOM_STARTS if opts.ee_random_starts else 0)
             opts = replace(opts, element=args.element)
+        if getattr(args, "direction", None):
+            if opts.element == "rate" and args.direction != "none":
+                raise CLIError("--direction applies to the path element only; drop it or use --element path")
+            opts = replace(opts, direction="" if args.direction == "none" else args.direction)
         res = run_bouc_wen(folder, opts, progress=say)
     if args.out:
         write_json_atomic(args.out, jsonable(res.to_dict()))
@@ -42,6 +50,9 @@ def register(sub) -> None:
     s.add_argument("--element", choices=("path", "rate"), default=None,
                    help="bouc-wen only: the element in the structure, 'path' (default: the rate-independent "
                         "path-time variant of Eq. 12) or 'rate' (Eq. 12 as published)")
+    s.add_argument("--direction", choices=("velocity", "velocity-quadratic", "position", "none"), default=None,
+                   help="bouc-wen, path element only: its directional damping x'' += -dir_c d' g, g = |x'| "
+                        "('velocity', the default), |x'| x', |x|, or 'none'")
     s.add_argument("--out", help="also write the result JSON to this file")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--json", action="store_true", help="print one JSON object")

@@ -153,7 +153,9 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
     rhs = _free_rhs(model)
     rhs_rho = rhs if rho is None else [e.xreplace({rho: RHO}) for e in rhs]
     Vd = sp.expand(sum((sp.diff(V, s) * e for s, e in zip(model.states, rhs_rho)), sp.Integer(0)))
-    cross = Vd.coeff(q2).coeff(x2)
+    # the weight cancels the bilinear exchange q2*x2 (state-dependent parts of the coefficient, e.g. of a
+    # directional damping d' |x'|, stay in the remainder)
+    cross = Vd.coeff(q2).coeff(x2).xreplace({s: sp.Integer(0) for s in (q1, q2, x1, x2)})
     sol = sp.solve(cross, a)
     weight = sp.simplify(sol[0]) if sol else sp.Integer(1)
     V = sp.expand(V.xreplace({a: weight}))
@@ -181,9 +183,10 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
         concl = ("dV/dt = -W <= 0 with no remainder: under the conditions the coupled system is globally "
                  "asymptotically stable (LaSalle: dq/dt = dx/dt = 0 leaves only the origin)")
     else:
-        concl = (f"the energy argument does not close: the remainder {rem} has no sign (the element is driven "
-                 "through its spring by the structure's displacement, but its force A_f x' does not act back "
-                 "through that spring); it closes when the remainder vanishes, otherwise stability of the "
+        concl = (f"the energy argument does not close: the remainder {rem} has no sign (k1 terms: the element is "
+                 "driven through its spring by the structure's displacement, but its force A_f x' does not act back "
+                 "through that spring; dir_c terms: a direction-dependent damping, x' times the drive's velocity, "
+                 "which adds or removes energy); it closes when the remainder vanishes, otherwise stability of the "
                  "origin is local, by the Hurwitz conditions of the linearization")
     return CoupledAnalysis(model=model.name, E_structure=Es, E_element=sp.expand(Ee), weight=weight, V=V,
                            V_dot=Vd, dissipation=sp.expand(diss), remainder=sp.expand(rem),

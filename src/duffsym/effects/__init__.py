@@ -26,7 +26,10 @@ cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         
 input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
 =================  ===========================================================  ===============
 
-Outside the catalogue: ``discovered: ...`` terms (:class:`duffsym.effects.discovered.DiscoveredEffect`,
+Outside the catalogue: ``directional-damping`` (:class:`duffsym.effects.mechanical.DirectionalDamping`,
+x'' += -dir_c d' |x'|, for path-time elements inside a structure; ``duffsym benchmark bouc-wen`` applies it to
+its element; the ladder does not try it), and ``discovered: ...`` terms
+(:class:`duffsym.effects.discovered.DiscoveredEffect`,
 found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --discover``).
 """
 from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
