@@ -74,14 +74,19 @@ def _output_gain(model, driven=()):
     out = model.output
     driven = tuple(driven)
     states = [s for s in model.states if s in out.free_symbols and s not in driven]
-    if len(states) != 1 or any(c.symbol in out.free_symbols for c in model.inputs):
+    if len(states) != 1:
         return None
     s = states[0]
-    g = sp.simplify(out / s)
-    if s in g.free_symbols:
+    g = sp.simplify(sp.diff(out, s))
+    offset = sp.simplify(out - g * s)  # an output term of the inputs (e.g. a viscous force c0 d_dot), else 0
+    if s in g.free_symbols or s in offset.free_symbols or any(c.symbol in g.free_symbols for c in model.inputs):
         return None
-    fn = sp.lambdify([*model.param_symbols, *driven], g, "numpy")
-    return model.states.index(s), fn
+    args = [*model.param_symbols, *driven]
+    fn = sp.lambdify(args, g, "numpy")
+    if offset == 0:
+        return model.states.index(s), fn
+    off = sp.lambdify([*args, *model.input_symbols], offset, "numpy")
+    return model.states.index(s), fn, off
 
 
 def initial_states(model, record, params: np.ndarray) -> np.ndarray:
@@ -110,21 +115,41 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     info = _output_gain(model, [model.states[j] for j in driven])
     if info is None:
         return X
-    i, gain_fn = info
+    i, gain_fn = info[:2]
     gain = np.broadcast_to(np.asarray(gain_fn(*params, *driven.values()), dtype=float), (record.n_times,))
     if np.any(gain == 0) or not np.all(np.isfinite(gain)):
         return X
-    xi = np.asarray(record.y) / gain
+    y = np.asarray(record.y, dtype=float)
+    if len(info) == 3:  # the output's input term (e.g. c0 d_dot) removed first
+        chans = record.inputs_for(model)
+        y = y - np.broadcast_to(np.asarray(info[2](*params, *driven.values(),
+                                                   *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]),
+                                           dtype=float), y.shape)
+    xi = y / gain
     X[:, i] = xi
     if model.n_states - len(driven) == 2 and model.position is not None and model.velocity is not None:
         ip = model.states.index(model.position)
         iv = model.states.index(model.velocity)
         t = np.asarray(record.t)
         if i == iv:
-            X[:, ip] = _remove_drift(_cumulative_trapezoid(xi, t), t, record)
+            X[:, ip] = _remove_drift(_cumulative_trapezoid(xi * _position_rate(model, record, params), t), t, record)
         elif i == ip:
             X[:, iv] = np.gradient(xi, t)
     return X
+
+
+def _position_rate(model, record, params: np.ndarray) -> np.ndarray | float:
+    """``dx1/dt / x2``: 1 for a clock-time element, the path rate rho(d_dot) of a path-time one
+    (:func:`duffsym.model.library.path_time`); 1 when it is not a function of the inputs and parameters."""
+    ip, iv = model.states.index(model.position), model.states.index(model.velocity)
+    rate = sp.simplify(model.rhs[ip] / model.velocity)
+    if rate == 1 or rate.free_symbols & set(model.states):
+        return 1.0
+    chans = record.inputs_for(model)
+    fn = sp.lambdify([*model.param_symbols, *model.input_symbols], rate, "numpy")
+    out = np.asarray(fn(*[float(v) for v in params], *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]),
+                     dtype=float)
+    return out if np.all(np.isfinite(out)) else 1.0
 
 
 def driven_states(model, record, params: np.ndarray) -> dict[int, np.ndarray]:

@@ -8,6 +8,7 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError
+from duffsym.model.library import EPS_PARAM
 
 #: The paper's tuning order (Fig. 4): step 1 fixes A_f (and n, structural), then pairs of parameters.
 TUNING_STEPS: dict[str, tuple[tuple[str, ...], ...]] = {
@@ -16,7 +17,8 @@ TUNING_STEPS: dict[str, tuple[tuple[str, ...], ...]] = {
     "duffing-like": (("A_f",), ("k1", "c1"), ("gamma", "delta"), ("alpha", "beta")),  # Fig. 4a
     # the command-driven models: the constant parts as for mr-damper (the field terms start at 0)
     **{name: (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3"))
-       for name in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic")},
+       for name in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic",
+                     "mr-damper-current-path", "mr-damper-current-path-viscous")},
 }
 COARSE = (0.1, 0.3, 1.0, 3.0, 10.0)
 FINE = (0.5, 0.7, 1.0, 1.4, 2.0)
@@ -81,6 +83,8 @@ def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = N
         return {k: float(v) for k, v in values.items()}
     if "A_f" not in fixed and "A_f" in values:
         values["A_f"] = float(np.max(np.abs(record.y)))
+    if EPS_PARAM not in fixed and EPS_PARAM in values:  # a path element's transition velocity: the data's scale
+        values[EPS_PARAM] = float(np.sqrt(np.mean(np.square(record.inputs_for(model)["d_dot"]))))
     n = min(record.n_times, max_samples)
     t = np.asarray(record.t[:n])
     U = _input_matrix(model, record)[:n]

@@ -223,8 +223,8 @@ def path_rate(d_dot: sp.Expr, epsilon: float) -> sp.Expr:
     return sp.sqrt(d_dot**2 + sp.nsimplify(epsilon, rational=True) ** 2)
 
 
-def path_time(element: SymbolicModel, epsilon: float) -> SymbolicModel:
-    r"""The rate-independent variant of a two-state element driven by (d, d'): its own time is the
+def path_time(element: SymbolicModel, epsilon: float | ParamSpec) -> SymbolicModel:
+    r"""The rate-independent variant of a mechanical element driven by (d, d'): its own time is the
     accumulated path of d.
 
     The element's equation is read with :math:`' = d/ds`, :math:`ds = |\dot d|\,dt` (so
@@ -238,28 +238,46 @@ def path_time(element: SymbolicModel, epsilon: float) -> SymbolicModel:
     the sign switch of :math:`d'` cancels against :math:`\rho`). For :math:`\varepsilon \to 0` the
     trajectory (x, y) as a function of the path of d does not depend on the speed at which the path is
     travelled: the loop y(d) is rate-independent (Bouc-Wen-like), while the paper's Eq. 12 is
-    rate-dependent (force A_f dx/dt, a damper). ``epsilon`` is a fixed constant in units of d/dt (not
-    identified); choose it small against the velocity scale of the data (e.g. 1e-3 of the rms of d').
+    rate-dependent (force A_f dx/dt, a damper). ``epsilon`` is a fixed constant in units of d/dt;
+    choose it small against the velocity scale of the data (e.g. 1e-3 of the rms of d'). It may also be
+    a :class:`ParamSpec` (then a parameter of the model, appended to its parameters): for
+    :math:`|\dot d| \ll \varepsilon` the element runs in clock time scaled by :math:`\varepsilon`
+    (Eq. 12 with c -> eps c, k -> eps^2 k, c3 -> eps^(2-n) c3, A_f -> A_f/eps), so an identified
+    epsilon is the drive velocity where the element turns from rate-dependent to rate-independent.
+    States other than (x1, x2) whose equations do not involve x1, x2 (e.g. the field of
+    :func:`mr_damper_current`, driven by the command) stay in clock time.
     The powers, parameters and output are the element's; the model name gets the suffix ``-path``.
     """
-    if element.n_states != 2 or element.position is None or element.velocity is None:
-        raise ModelError(f"path_time: the element must be a two-state mechanical model; {element.name} has "
-                         f"{element.n_states} state(s)")
-    if set(element.inputs) != {D, D_DOT}:
-        raise ModelError(f"path_time: the element must be driven by d and d_dot only; {element.name} has "
+    if element.position is None or element.velocity is None or element.n_states < 2:
+        raise ModelError(f"path_time: the element must be a mechanical model (position and velocity states); "
+                         f"{element.name} has {element.n_states} state(s)")
+    if not {D, D_DOT} <= set(element.inputs):
+        raise ModelError(f"path_time: the element must be driven by d and d_dot; {element.name} has "
                          f"{[c.name for c in element.inputs]}")
-    if not (isinstance(epsilon, (int, float)) and math.isfinite(epsilon) and epsilon > 0):
-        raise ModelError(f"path_time: epsilon must be a positive number (units of d/dt); got {epsilon!r}")
-    rho = path_rate(D_DOT.symbol, epsilon)
     x1, x2 = element.position, element.velocity
+    for s, e in zip(element.states, element.rhs):
+        if s not in (x1, x2) and e.free_symbols & {x1, x2}:
+            raise ModelError(f"path_time: {element.name}'s state {s} depends on the mechanical states; only "
+                             f"states driven by the inputs (e.g. a field) can stay in clock time")
+    params = element.params
+    if isinstance(epsilon, ParamSpec):
+        eps = epsilon.symbol
+        params = params + (epsilon,)
+        label = f"eps = {epsilon.name}, identified"
+    elif isinstance(epsilon, (int, float)) and not isinstance(epsilon, bool) and math.isfinite(epsilon) and epsilon > 0:
+        eps = sp.nsimplify(epsilon, rational=True)
+        label = f"eps = {epsilon:g}"
+    else:
+        raise ModelError(f"path_time: epsilon must be a positive number (units of d/dt); got {epsilon!r}")
+    rho = sp.sqrt(D_DOT.symbol**2 + eps**2)
     if sp.simplify(element.rhs[element.states.index(x1)] - x2) != 0:
         raise ModelError(f"path_time: {element.name}'s first state equation must be dx1/dt = x2")
     acc = element.rhs[element.states.index(x2)].xreplace({D_DOT.symbol: D_DOT.symbol / rho})
     rhs = {x1: rho * x2, x2: sp.expand(rho * acc)}
-    return replace(element, name=element.name + PATH_SUFFIX, rhs=tuple(rhs[s] for s in element.states),
-                   equation=None,
+    return replace(element, name=element.name + PATH_SUFFIX, params=params,
+                   rhs=tuple(rhs.get(s, e) for s, e in zip(element.states, element.rhs)), equation=None,
                    description=f"{element.description}, rate-independent: its time is the path of d "
-                               f"(ds = sqrt(d_dot^2 + eps^2) dt, eps = {epsilon:g})")
+                               f"(ds = sqrt(d_dot^2 + eps^2) dt, {label})")
 
 
 def path_epsilon(model: SymbolicModel) -> float | None:
@@ -368,6 +386,58 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
     )
 
 
+#: Parameter name of the identified transition velocity of a blended path-time element (units of d/dt).
+EPS_PARAM = "v_eps"
+
+
+def mr_damper_current_path(n: int | sp.Symbol = 5, *, field: str = "linear", epsilon: float | None = None,
+                           viscous: bool = True, **kwargs) -> SymbolicModel:
+    r"""The command-driven MR damper (:func:`mr_damper_current`) with its mechanical element in path time
+    (:func:`path_time`), the field u staying in clock time, plus a viscous force on the piston velocity:
+
+    .. math:: \dot x_1 = \rho x_2, \quad \dot x_2 = \rho f_u(x_1, x_2, d, \dot d/\rho), \quad
+              \dot u = -\eta(u - i), \qquad y = A_f(u)\,x_2 + c_0(u)\,\dot d,
+              \qquad \rho = \sqrt{\dot d^2 + v_\varepsilon^2}
+
+    with :math:`f_u` Eq. 12's acceleration with the field-dependent coefficients and
+    :math:`c_0(u) = c_0 + c_{0,u} g(u)` (``viscous=True``; the post-yield viscous force of a Bingham
+    damper, whose yield force the rate-independent element carries). ``epsilon=None`` makes
+    :math:`v_\varepsilon` a parameter (``v_eps``, in units of d/dt): the drive velocity below which the
+    element runs in clock time (rate-dependent, Eq. 12 scaled) and above which it is rate-independent;
+    a number holds it constant. :math:`v_\varepsilon \to 0` with ``viscous=False`` is the
+    rate-independent element; :math:`v_\varepsilon \gg |\dot d|` is Eq. 12 in clock time scaled by
+    :math:`v_\varepsilon`. Names: ``mr-damper-current-path`` (+ ``-viscous``).
+    """
+    base = mr_damper_current(n, field=field, **kwargs)
+    if epsilon is None:
+        eps: float | ParamSpec = _p(EPS_PARAM, r"v_{\varepsilon}", 1.0, 1e-6, 1e6,
+                                    "drive velocity where the element turns rate-independent (units of d/dt)",
+                                    unit="d unit/s", scale=1.0)
+    else:
+        eps = epsilon
+    model = path_time(base, eps)
+    if not viscous:
+        return model
+    u = FIELD
+    g = u
+    if field == "saturating":
+        us = model.param("u_sat").symbol
+        g = us * sp.tanh(u / us)
+    c0 = _p("c0", "c_{0}", 0.0, -1e6, 1e6, "viscous force per unit piston velocity, y += c0(u) d_dot",
+            unit="force unit s/d unit", scale=1.0)
+    c0u = _p("c0_u", "c_{0}^{(u)}", 0.0, -1e6, 1e6, "change of c0 per unit field", unit="force unit s/d unit",
+             scale=1.0)
+    params = model.params[:-1] + (c0, c0u, model.params[-1]) if epsilon is None else model.params + (c0, c0u)
+    return replace(model, name=model.name + "-viscous", params=params,
+                   output=model.output + (c0.symbol + c0u.symbol * g) * D_DOT.symbol,
+                   description=model.description + "; plus a viscous force c0(u) d_dot")
+
+
+def mr_damper_current_path_viscous(n: int | sp.Symbol = 5, **kwargs) -> SymbolicModel:
+    """:func:`mr_damper_current_path` with ``viscous=True`` (the identified v_eps, unless ``epsilon`` is given)."""
+    return mr_damper_current_path(n, viscous=True, **kwargs)
+
+
 def at_constant_command(model: SymbolicModel) -> SymbolicModel | None:
     """The mechanical model of a command-driven model at a constant command: the field at its equilibrium
     ``u_field = i``, with the level ``i`` a parameter (for the derivations: how the stability conditions
@@ -402,6 +472,7 @@ MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "mr-damper-current": mr_damper_current,
     "mr-damper-current-quadratic": mr_damper_current_quadratic,
     "mr-damper-current-saturating": mr_damper_current_saturating,
+    "mr-damper-current-path-viscous": mr_damper_current_path_viscous,
     "duffing-like": duffing_like,
     "duffing": duffing,
     "duffing-gain": duffing_gain,
