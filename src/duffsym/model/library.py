@@ -415,6 +415,12 @@ def mr_damper_current_path(n: int | sp.Symbol = 5, *, field: str = "linear", eps
                                     unit="d unit/s", scale=1.0)
     else:
         eps = epsilon
+    # the path element's coefficients scale with powers of the velocity unit (c3 ~ v_eps^(n-2)): bounds keep the signs only
+    wide = {"c1": (1e-12, 1e30), "c3": (0.0, 1e30), "k1": (0.0, 1e30), "A_f": (1e-12, 1e30)}
+    base = replace(base, params=tuple(replace(p, lower=wide.get(p.name, (-1e30, 1e30))[0],
+                                              upper=wide.get(p.name, (-1e30, 1e30))[1])
+                                      if p.name in wide or p.name in ("c2", "k2", "k3") or p.name.endswith("_u")
+                                      and p.name != "A_f_u" else p for p in base.params))
     model = path_time(base, eps)
     if not viscous:
         return model
