@@ -71,9 +71,9 @@ def rhs(p: dict, n: int, x, v, u, d, dd, i):
     return v, acc, -p["eta"] * (u - i)
 
 
-def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: float = 6.0, n: int = 5,
-             noise: float = 0.01, settle: float = 1.0, substeps: int = 10, seed: int = 0) -> dict:
-    """Simulate and sample: ``{"t", "d", "d_dot", "command", "y", "y_clean"}`` after ``settle`` seconds."""
+def integrate(rhs_fn, disp: Sines, command, *, dt: float, duration: float, settle: float, substeps: int):
+    """RK4 of ``rhs_fn(x, v, u, d, d_dot, i) -> (x', v', u')`` with the analytic inputs evaluated at every stage,
+    ``substeps`` steps per sample, from rest with the field at the command; ``(t, states, n_settle)``."""
     n_settle, n_keep = int(round(settle / dt)), int(round(duration / dt))
     t = (np.arange(n_settle + n_keep) - n_settle) * dt
     h = dt / substeps
@@ -87,7 +87,7 @@ def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: floa
             d, dd, ii = disp(tt), disp(tt, 1), command(tt)
 
             def f(state, m):
-                return np.array(rhs(p, n, state[0], state[1], state[2], d[m], dd[m], ii[m]))
+                return np.array(rhs_fn(state[0], state[1], state[2], d[m], dd[m], ii[m]))
 
             q1 = f(s, 0)
             q2 = f(s + h / 2 * q1, 1)
@@ -95,6 +95,14 @@ def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: floa
             q4 = f(s + h * q3, 2)
             s = s + h / 6 * (q1 + 2 * q2 + 2 * q3 + q4)
         out[k + 1] = s
+    return t, out, n_settle
+
+
+def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: float = 6.0, n: int = 5,
+             noise: float = 0.01, settle: float = 1.0, substeps: int = 10, seed: int = 0) -> dict:
+    """Simulate and sample: ``{"t", "d", "d_dot", "command", "y", "y_clean"}`` after ``settle`` seconds."""
+    t, out, n_settle = integrate(lambda x, v, u, d, dd, i: rhs(p, n, x, v, u, d, dd, i), disp, command, dt=dt,
+                                 duration=duration, settle=settle, substeps=substeps)
     keep = slice(n_settle, None)
     y_clean = p["A_f"] * (1 + p["A_f_u"] * out[keep, 2]) * out[keep, 1]
     rng = np.random.default_rng(seed)

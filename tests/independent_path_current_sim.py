@@ -17,8 +17,7 @@ drive and command evaluated analytically at every stage.
 from __future__ import annotations
 
 import numpy as np
-
-from independent_current_sim import FIELD, Sines, Switching, constant  # noqa: F401  (numpy-only helpers)
+from independent_current_sim import FIELD, Sines, Switching, constant, integrate  # noqa: F401  (numpy-only helpers)
 
 #: O(1) coefficients per unit of path (drive amplitude ~0.5, velocity ~3), a transition velocity v_eps inside
 #: the drive's velocity range and a viscous force comparable to the element's.
@@ -38,27 +37,8 @@ def rhs(p: dict, n: int, x, v, u, d, dd, i):
 def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: float = 6.0, n: int = 5,
              noise: float = 0.01, settle: float = 1.0, substeps: int = 10, seed: int = 0) -> dict:
     """Simulate and sample: ``{"t", "d", "d_dot", "command", "y", "y_clean", "field"}`` after ``settle`` s."""
-    n_settle, n_keep = int(round(settle / dt)), int(round(duration / dt))
-    t = (np.arange(n_settle + n_keep) - n_settle) * dt
-    h = dt / substeps
-    s = np.array([0.0, 0.0, float(command(t[:1])[0])])
-    out = np.empty((t.size, 3))
-    out[0] = s
-    for k in range(t.size - 1):
-        for j in range(substeps):
-            t0 = t[k] + j * h
-            tt = np.array([t0, t0 + h / 2, t0 + h])
-            d, dd, ii = disp(tt), disp(tt, 1), command(tt)
-
-            def f(state, m):
-                return np.array(rhs(p, n, state[0], state[1], state[2], d[m], dd[m], ii[m]))
-
-            q1 = f(s, 0)
-            q2 = f(s + h / 2 * q1, 1)
-            q3 = f(s + h / 2 * q2, 1)
-            q4 = f(s + h * q3, 2)
-            s = s + h / 6 * (q1 + 2 * q2 + 2 * q3 + q4)
-        out[k + 1] = s
+    t, out, n_settle = integrate(lambda x, v, u, d, dd, i: rhs(p, n, x, v, u, d, dd, i), disp, command, dt=dt,
+                                 duration=duration, settle=settle, substeps=substeps)
     keep = slice(n_settle, None)
     u, dd = out[keep, 2], disp(t[keep], 1)
     y_clean = p["A_f"] * (1 + p["A_f_u"] * u) * out[keep, 1] + (p["c0"] + p["c0_u"] * u) * dd

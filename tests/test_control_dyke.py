@@ -7,10 +7,9 @@ external data is absent; decimated to 500 Hz and short slices to stay fast."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
+from _external import DYKE_CSV, external_file
 
-from duffsym.data import external_data_dir, read_csv
-from duffsym.errors import DataError
+from duffsym.data import read_csv
 
 COLUMNS = {"time": "t", "input": "D", "output": "F", "velocity": "V", "voltage": "Y"}
 UNITS = {"time": "s", "input": "cm", "output": "N", "velocity": "cm/s", "voltage": "V"}
@@ -19,13 +18,7 @@ LIMITS = (0.0, 2.25)  # the command's two levels
 
 
 def _dyke():
-    try:
-        path = external_data_dir() / "mr_damper_dyke_nees1996" / "ranran_50_converted.csv"
-    except DataError as exc:
-        pytest.skip(f"external data not available: {exc}")
-    if not path.is_file():
-        pytest.skip(f"{path} not available")
-    r = read_csv(path, columns=COLUMNS, units=UNITS)
+    r = read_csv(external_file(*DYKE_CSV), columns=COLUMNS, units=UNITS)
     return r.replace(t=r.t[::Q], d=r.d[::Q], y=r.y[::Q], d_dot=r.d_dot[::Q], command=r.command[::Q])
 
 

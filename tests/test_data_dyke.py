@@ -7,6 +7,7 @@ import csv
 
 import numpy as np
 import pytest
+from _external import DYKE_CSV, external_file
 
 from duffsym.data import external_data_dir, read_csv
 from duffsym.errors import DataError
@@ -16,13 +17,7 @@ COLUMNS = {"time": "t", "input": "D", "output": "F", "velocity": "V"}
 
 
 def _dyke():
-    try:
-        path = external_data_dir() / "mr_damper_dyke_nees1996" / "ranran_50_converted.csv"
-    except DataError as exc:
-        pytest.skip(f"external data not available: {exc}")
-    if not path.is_file():
-        pytest.skip(f"{path} not available")
-    return path
+    return external_file(*DYKE_CSV)
 
 
 def test_dyke_time_column_is_rebuilt_to_3004_8_hz():

@@ -7,12 +7,17 @@ import math
 
 import numpy as np
 import pytest
+from _external import DYKE_CSV, external_file
 
-from duffsym.data import external_data_dir, read_csv
-from duffsym.errors import DataError
+from duffsym.data import read_csv
 from duffsym.excitation import Sine
 from duffsym.model.library import duffing, mr_damper
-from duffsym.model.presets import TABLE2_DT, TABLE2_FREQUENCY_HZ, TABLE2_N, table2_params
+from duffsym.model.presets import (
+    TABLE2_DT,
+    TABLE2_FREQUENCY_HZ,
+    TABLE2_N,
+    table2_params,
+)
 from duffsym.simulate import simulate, simulate_batch
 
 REF_TOL = dict(rtol=1e-8, atol=1e-10)
@@ -116,12 +121,7 @@ FS = 3004.8
 
 
 def _dyke_slice(tmp_path, a, b):
-    try:
-        src = external_data_dir() / "mr_damper_dyke_nees1996" / "ranran_50_converted.csv"
-    except DataError as exc:
-        pytest.skip(f"external data not available: {exc}")
-    if not src.is_file():
-        pytest.skip(f"{src} not available")
+    src = external_file(*DYKE_CSV)
     import csv
 
     rows = [r for r in csv.reader(open(src)) if r][1:][a:b]
