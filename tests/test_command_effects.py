@@ -74,3 +74,16 @@ def test_command_model_with_an_offset_and_parallel_damping_recovers_both_from_th
     z = {n: (res.params[n] - truth[n]) / res.stderr[n] for n in res.free}
     assert max(abs(v) for v in z.values()) < 3.0, z
     assert res.nrmse < 0.012
+
+
+def test_parallel_damping_base_output_uses_a_constant_current_label():
+    """On a constant-current record (current as a label, no command column) the field is the label:
+    the term removed is (pd_c + pd_c_u I) d', as the model adds it."""
+    from duffsym.data.record import Record
+    from duffsym.effects import CATALOGUE
+
+    t = np.linspace(0.0, 3.0, 601)
+    d, v = np.sin(2 * np.pi * t), 2 * np.pi * np.cos(2 * np.pi * t)
+    rec = Record(t=t, d=d, d_dot=v, y=v, current=0.5)
+    out = CATALOGUE["parallel-damping"].base_output(np.zeros_like(t), rec, {"pd_c": 2.0, "pd_c_u": 4.0})
+    np.testing.assert_allclose(out, -(2.0 + 4.0 * 0.5) * v)

@@ -245,9 +245,10 @@ class ParallelDamping(Effect):
 
     def base_output(self, y, record, params):
         v = np.asarray(record.velocity(), dtype=float)
-        c = params[f"{self.prefix}c"] + params.get(f"{self.prefix}c_u", 0.0) * (
-            0.0 if record.command is None else np.asarray(record.command, dtype=float))
-        return y - c * v
+        c_u = params.get(f"{self.prefix}c_u", 0.0)
+        # the field at its equilibrium: the command history, or a constant-current record's label
+        field = np.asarray(record.command_signal(), dtype=float) if c_u else 0.0
+        return y - (params[f"{self.prefix}c"] + c_u * field) * v
 
 
 @dataclass(frozen=True)
