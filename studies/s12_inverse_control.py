@@ -105,11 +105,7 @@ def _fit(model, cfg, rng):
                  name="s12_train")
     tic = time.perf_counter()
     problem = Problem(model, rec, fixed={"A_f": TRUTH["A_f"]})
-    # From the model's defaults. The default start (for a changing command: equation error per trial field
-    # rate, ranked by free run) gives the same numbers when the study runs alone (0.1586 / 0.2364, fit 0.0101),
-    # but inside the full test suite, after tests/test_sindy.py, its free-run ranking failed for every candidate
-    # and the fit fell back to the tuning start and ran > 10 min: kept until that interaction is found.
-    res = fit(problem, x0={n: v for n, v in model.defaults().items() if n in problem.free})
+    res = fit(problem)
     return res, time.perf_counter() - tic
 
 
