@@ -61,3 +61,80 @@ def test_bound_restart_policy_leaves_an_interior_optimum_alone(problem):
     run = nlp.solve(nlp.th0, max_iter=500)
     kept, note = bound_restart_policy(nlp, run, nlp.th0, max_iter=500)
     assert kept is run and note is None
+
+
+class _StallingNLP:
+    """An NLP whose bound restart stalls: its solve runs the guard on slow, ill-conditioned iterations the
+    way IPOPT's callback would, and returns what the guard stopped (issue 24: a restart on 3000 Silverbox
+    samples ran 35-130 s per iteration at a Hessian regularisation of 1e11-1e13 and lost the converged fit)."""
+
+    lo, hi, n_slots, y_norm = np.array([0.0, -1.0]), np.array([10.0, 1.0]), 2, 1.0
+    slot_names = ("k1", "c1")
+
+    def __init__(self, times, regs):
+        self.times, self.regs, self.seen = times, regs, []
+
+    def solve(self, th, *, max_iter, progress=None, label="", deadline=None, guard=None, w_start=None):
+        from duffsym.identify.nlp import IterationLog
+
+        log = IterationLog(0.0)
+        for k, (dt, reg) in enumerate(zip(self.times, self.regs)):
+            log.times.append(dt)
+            log.reg.append(reg)
+            self.seen.append(k + 1)
+            reason = guard(log) if guard else ""
+            if reason:
+                return Run("User_Requested_Stop", False, k + 1, np.array([5.0, 0.5]), 9.0, "stopped",
+                           log.summary(), reason)
+        return Run("Solve_Succeeded", True, len(self.times), np.array([5.0, 0.5]), 0.5, "ok", log.summary(), "")
+
+
+def _first_on_bound():
+    from duffsym.identify.nlp import IterationLog
+
+    log = IterationLog(0.0)
+    log.times += [0.3] * 24
+    log.reg += [0.0] * 24
+    return Run("Solve_Succeeded", True, 24, np.array([0.0, 0.2]), 1.0, "IPOPT converged", log.summary(), "")
+
+
+@pytest.mark.parametrize("times, regs, why", [
+    ([0.3, 0.3, 35.0, 130.0], [0.0, 0.0, 1e11, 1e13], "took 35.0 s"),                 # a slow iteration
+    ([0.3] * 10, [0.0, 1e11, 1e12, 1e13, 1e12, 0.0, 0.0, 0.0, 0.0, 0.0], "regularisation"),  # ill-conditioned
+    ([0.3] * 500, [0.0] * 500, "72 iterations without converging"),                  # 3 x the first run's 24
+])
+def test_a_stalling_bound_restart_stops_early_and_keeps_the_converged_run(times, regs, why):
+    first = _first_on_bound()
+    nlp = _StallingNLP(times, regs)
+    kept, note = bound_restart_policy(nlp, first, np.array([3.0, 0.2]), max_iter=500)
+    assert kept.success and kept.cost == first.cost and np.array_equal(kept.w, first.w)
+    assert note["kept"] == "first" and why in note["stopped"] and "was stopped after" in kept.message
+    assert max(nlp.seen) < len(times) or len(times) == 4 and max(nlp.seen) == 3
+
+
+def test_an_improving_restart_is_still_kept():
+    kept, note = bound_restart_policy(_StallingNLP([0.3] * 20, [0.0] * 20), _first_on_bound(), np.array([3.0, 0.2]),
+                                      max_iter=500)
+    assert note["kept"] == "restart" and kept.cost == 0.5 and note["stopped"] is None
+
+
+def test_the_time_limit_stops_the_fit_with_a_message_naming_the_phase(problem):
+    res = fit(problem, {k: TRUTH[k] * 3.0 for k in problem.slot_names}, max_wall_time=1e-6, compute_stderr=False)
+    assert not res.success and res.status == "Wall_Time_Exceeded"
+    assert "time limit" in res.message and "in the IPOPT solve" in res.message and "try:" in res.message
+    it = res.settings["iterations"][0]
+    assert it["n"] == 1 and it["seconds_max"] > 0
+
+
+def test_the_fit_reports_its_iteration_times_and_regularisation(problem):
+    lines = []
+    res = fit(problem, {k: TRUTH[k] * 1.5 for k in problem.slot_names}, compute_stderr=False, progress=lines.append)
+    it = res.settings["iterations"][0]
+    # IPOPT reports its iteration 0 (the start) too
+    assert res.success and it["n"] == res.n_iter + 1 and 0 < it["seconds_median"] <= it["seconds_max"]
+    assert it["seconds_max"] <= it["seconds_total"] <= res.timings["solve"]
+    assert it["regularisation_max"] >= 0 and it["ill_conditioned"] == 0
+    assert any("iteration median" in x for x in lines)
+    import json
+
+    assert json.loads(json.dumps(res.to_dict()))["settings"]["iterations"][0]["n"] == res.n_iter + 1

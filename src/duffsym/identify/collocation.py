@@ -240,6 +240,7 @@ def fit(
     bound_restart: bool = True,
     progress: Callable[[str], None] | None = None,
     flags: bool = True,
+    max_wall_time: float | None = None,
 ) -> IdentificationResult:
     r"""Identify the free parameters of ``problem`` by direct collocation and IPOPT.
 
@@ -283,8 +284,13 @@ def fit(
         states from the data, as for every start), and keep the restart if it lowers the cost (``settings["bound_restart"]`` says what
         happened). A path can be pushed onto a bound by its first steps, far from the data's optimum.
     progress : a callable taking one line of text (e.g. ``print`` to stderr), or None: the stage
-        (building, solving) and, every ``nlp.PROGRESS_EVERY`` seconds of a solve, its IPOPT iteration
-        and elapsed time (from IPOPT's intermediate callback).
+        (building, solving) and, every ``nlp.PROGRESS_EVERY`` seconds of a solve, its IPOPT iteration,
+        elapsed time, the last iteration's time and, when it is ill-conditioned, IPOPT's Hessian
+        regularisation (from IPOPT's intermediate callback).
+    max_wall_time : seconds the solves may take in all (None: no limit). When the budget runs out, IPOPT
+        stops at its next iteration: during the first run(s) the result is not a success and its message
+        names the phase and what to try; during a bound restart the converged run it started from is kept.
+        ``settings["iterations"]`` gives each run's iteration times and regularisation either way.
 
     Returns
     -------
@@ -333,19 +339,25 @@ def fit(
     build = time.perf_counter() - t_build
 
     t_solve = time.perf_counter()
+    deadline = None if max_wall_time is None else t_solve + float(max_wall_time)
     starts = [nlp.th0] + _random_starts(nlp.th0, nlp.lo, nlp.hi, nlp.p_scale, n_starts - 1, start_spread, rng)
     say(f"built in {build:.1f} s; solving" + (f" from {n_starts} starts" if n_starts > 1 else ""))
-    runs = [nlp.solve(th, max_iter=max_iter, progress=progress, label=f"start {i + 1}/{n_starts}" if n_starts > 1 else "")
+    runs = [nlp.solve(th, max_iter=max_iter, progress=progress, deadline=deadline,
+                      label=f"start {i + 1}/{n_starts}" if n_starts > 1 else "")
             for i, th in enumerate(starts)]
+    runs = [_timed_out(r, "the IPOPT solve" + (f" of start {i + 1}/{n_starts}" if n_starts > 1 else ""),
+                       max_wall_time, problem) for i, r in enumerate(runs)]
     i_best = best_run(runs)
     best, bound_note = runs[i_best], None
     if bound_restart and n_starts == 1 and best.success:
-        best, bound_note = bound_restart_policy(nlp, best, starts[i_best], max_iter=max_iter, progress=progress)
+        best, bound_note = bound_restart_policy(nlp, best, starts[i_best], max_iter=max_iter, progress=progress,
+                                                deadline=deadline)
     n_ok = sum(r.success for r in runs)
     if n_starts > 1:
         best = replace(best, message=best.message + f"; best of {n_starts} starts ({n_ok} converged)")
     solve = time.perf_counter() - t_solve
-    say(f"solved in {solve:.1f} s: {best.status}, {best.n_iter} iterations; free run and standard errors")
+    say(f"solved in {solve:.1f} s: {best.status}, {best.n_iter} iterations" + _iteration_note(runs, bound_note)
+        + "; free run and standard errors")
 
     slot_values, x0s = nlp.unscale(best.w)
     fitted = _evaluate(problem, nlp, slot_values, x0s, compute_stderr)
@@ -356,6 +368,8 @@ def fit(
                 "n_starts": n_starts, "starts_converged": n_ok, "constraints": nlp.constraints,
                 "bound_restart": bound_note,
                 "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs], "y_norm": nlp.y_norm,
+                "max_wall_time": max_wall_time, "iterations": [r.iterations for r in runs]
+                + ([bound_note["iterations"]] if bound_note and bound_note.get("iterations") else []),
                 "integrator": fitted["integrator"]}
     return _result(problem, nlp, best, fitted, slot_values, x0s, settings, {"build": build, "solve": solve},
                    flags=flags)
@@ -363,6 +377,33 @@ def fit(
 
 def _silent(msg: str) -> None:
     return None
+
+
+def _timed_out(run: Run, phase: str, budget, problem) -> Run:
+    """A run the wall-clock budget stopped: not a success, with a message naming the phase and what to try."""
+    if run.stopped != "time":
+        return run
+    n = sum(r.n_times for r in problem.records)
+    info = run.iterations or {}
+    return replace(run, status="Wall_Time_Exceeded", success=False, message=(
+        f"stopped by the time limit ({budget:g} s) in {phase} after {run.n_iter} iterations (slowest iteration "
+        f"{info.get('seconds_max', 0):.1f} s, Hessian regularisation up to {info.get('regularisation_max', 0):.1e}); "
+        f"try: check the units of the record (a time column in ms, signals far from O(1)), a start closer to the "
+        f"data (--fix or x0), fewer samples ({n} now: decimate or cut the record), or a larger time limit"))
+
+
+def _iteration_note(runs, bound_note) -> str:
+    """`` (iterations median X s, max Y s at iteration k[; N ill-conditioned])`` of the runs of a fit."""
+    infos = [r.iterations for r in runs if r.iterations] + ([bound_note["iterations"]]
+                                                              if bound_note and bound_note.get("iterations") else [])
+    if not infos or not sum(i["n"] for i in infos):
+        return ""
+    worst = max(infos, key=lambda i: i["seconds_max"])
+    med = float(np.median([i["seconds_median"] for i in infos if i["n"]]))
+    bad = sum(i["ill_conditioned"] for i in infos)
+    return (f" (iteration median {med:.2g} s, slowest {worst['seconds_max']:.2g} s"
+            + (f"; {bad} ill-conditioned iterations, Hessian regularisation up to "
+               f"{max(i['regularisation_max'] for i in infos):.1e}" if bad else "") + ")")
 
 
 def _checked_options(problem, *, n_starts, start_spread, expand, derivatives, degree, max_iter, tol):
@@ -433,11 +474,17 @@ def best_run(runs: Sequence[Run]) -> int:
 
 
 def bound_restart_policy(nlp: CollocationNLP, best: Run, th_start: np.ndarray, *, max_iter: int,
-                         progress=None) -> tuple[Run, dict | None]:
+                         progress=None, deadline: float | None = None) -> tuple[Run, dict | None]:
     """When ``best`` ended with a parameter on a bound it did not start on, one more run from its end
     parameters with those back at their start values (states from the data); the restart is kept if
     it lowers the cost. Returns the run kept and a note for ``settings["bound_restart"]`` (None if no
-    parameter moved onto a bound)."""
+    parameter moved onto a bound).
+
+    The converged ``best`` is never lost: the restart runs under :func:`~duffsym.identify.nlp.restart_guard`
+    (it stops when its iterations turn slow or ill-conditioned, or after a few times ``best``'s iterations)
+    and under the fit's ``deadline``; a stopped restart keeps ``best``, and the note says why it stopped."""
+    from duffsym.identify.nlp import restart_guard
+
     # a parameter that moved onto a bound may be a trap of the path, not of the data: measured on
     # noise-free Table 2 data, 1 of 120 random starts stopped at k1 = 0, k2 ~ 0 (NRMSE 0.015);
     # a new run from its end parameters with k1 back at its start value (states from the data again,
@@ -452,17 +499,23 @@ def bound_restart_policy(nlp: CollocationNLP, best: Run, th_start: np.ndarray, *
         return best, None
     th_re = th_end.copy()
     th_re[at_bound] = th_start[at_bound]
-    again = nlp.solve(th_re, max_iter=max_iter, progress=progress, label="bound restart")
+    again = nlp.solve(th_re, max_iter=max_iter, progress=progress, label="bound restart", deadline=deadline,
+                      guard=restart_guard(best, max_iter=max_iter))
     names_b = ", ".join(nlp.slot_names[j] for j in at_bound)
     better = again.success and again.cost < best.cost * (1 - 1e-9)
     y2 = 2 * nlp.y_norm**2
+    stopped = ("the time limit" if again.stopped == "time" else again.stopped)
     note = {"parameters": [nlp.slot_names[j] for j in at_bound], "cost_before": best.cost * y2,
             "cost_after": again.cost * y2 if math.isfinite(again.cost) else math.inf,
-            "kept": "restart" if better else "first"}
+            "kept": "restart" if better else "first", "iterations": again.iterations,
+            "stopped": stopped or None}
     if better:
         kept = replace(again, n_iter=best.n_iter + again.n_iter,
                        message=again.message + f"; {names_b} had stopped on a bound: a restart with it back at its "
                        f"start lowered the cost {best.cost / again.cost:.3g}x")
+    elif stopped:
+        kept = replace(best, message=best.message + f"; {names_b} ended on a bound; a restart with it back at its start "
+                       f"was stopped after {again.n_iter} iterations ({stopped}); the converged run is kept")
     else:
         kept = replace(best, message=best.message + f"; {names_b} ended on a bound and a restart with it back at its "
                        "start found nothing better")

@@ -34,7 +34,7 @@ def cmd_fit(args) -> int:
     if not args.quiet:
         _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
              f"({record.t.size} samples)")
-    result = fit(problem, n_starts=args.starts, rng=args.seed,
+    result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
     if record.metadata.get("sampling", {}).get("rebuilt") and not args.quiet:
         _err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
@@ -111,6 +111,19 @@ def cmd_validate(args) -> int:
     return 0
 
 
+def _positive_seconds(text: str) -> float:
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds; got {text!r}")
+    return value
+
+
 def register(sub) -> None:
     s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
     s.add_argument("data", help="CSV with a header: time, displacement, force (+ velocity, current); see --columns")
@@ -124,6 +137,9 @@ def register(sub) -> None:
     s.add_argument("--add", help="effects to add to the model, comma-separated (see duffsym.effects)")
     s.add_argument("--starts", type=int, default=1, help="multistart: number of starts (default 1)")
     s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
+    s.add_argument("--time-limit", type=_positive_seconds, metavar="SECONDS", help="wall-clock budget of the "
+                   "IPOPT solves: past it the fit stops with a message naming the phase (a bound restart that runs "
+                   "out keeps the converged fit it started from); default none")
     _add_file_arguments(s)
     s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
     s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle")
