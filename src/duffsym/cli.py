@@ -47,7 +47,43 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: Each command, the module that registers it and its one-line help (the same text as the module's own
+#: parser, checked by tests/test_cli.py): ``duffsym --help`` lists them without importing any of the
+#: modules (their packages pull in SymPy, CasADi and numba: ~1.5 s), and ``duffsym COMMAND`` imports only
+#: the module of COMMAND.
+COMMANDS = (
+    ("models", "duffsym.model.command", "list the models"),
+    ("derive", "duffsym.derive.command", "the paper's derivations for a model: state space, Lyapunov, invariant "
+     "set, stability conditions, scaling symmetry"),
+    ("simulate", "duffsym.simulate_command", "simulate a model under an excitation; CSV (time, displacement, "
+     "velocity, force) and an optional loop plot"),
+    ("fit", "duffsym.identify.command", "identify a model's parameters from a measured record (collocation + IPOPT)"),
+    ("validate", "duffsym.identify.command", "free-run error of a saved fit on another record"),
+    ("reproduce", "duffsym.reproduce_command", "run the studies and regenerate every figure and number"),
+    ("effects", "duffsym.effects.command", "list the physical effects that can be added to a model (fit --add, "
+     "ladder)"),
+    ("diagnose", "duffsym.diagnose.command", "where the model fails on a record, and which catalogued effect is "
+     "missing"),
+    ("ladder", "duffsym.diagnose.command", "base fit, then add the best supported effect and refit, while the "
+     "evidence supports it; the error at each step"),
+    ("sample", "duffsym.uncertainty.command", "emcee posterior of a saved fit's free parameters (medians, 90 %% "
+     "intervals, tau, ESS, Laplace comparison)"),
+    ("sindy", "duffsym.sindy.command", "SINDy cross-check of the terms of the velocity equation (which terms the "
+     "data support)"),
+    ("convert", "duffsym.data.command", "turn a text/CSV/.mat data file into a duffsym CSV record (time, "
+     "displacement, velocity, force)"),
+    ("batch", "duffsym.campaign.command", "run fit, validate, diagnose, ladder or sample on many records (local "
+     "processes or a Dask cluster); one result file per record, resumable, with a summary table and figure"),
+    ("benchmark", "duffsym.benchmark.command", "score a public benchmark by its own protocol (silverbox, bouc-wen) "
+     "beside the published figures"),
+    ("invert", "duffsym.control.command", "the command (current/voltage) history that makes a fitted model produce "
+     "a desired force"),
+)
+
+
+def build_parser(argv=None) -> argparse.ArgumentParser:
+    """The parser. With ``argv`` (what :func:`main` parses) only the module of the command named in it is
+    imported, the others are listed by :data:`COMMANDS`; without, every command module registers its own."""
     from duffsym import __version__
 
     p = argparse.ArgumentParser(prog="duffsym", description="Continuous hysteresis models from one symbolic model "
@@ -56,9 +92,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
-
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)
+    if argv is None:
+        for name in COMMAND_MODULES:
+            importlib.import_module(name).register(sub)
+        return p
+    wanted = {module for name, module, _ in COMMANDS if name in argv}
+    for name, module, text in COMMANDS:
+        if module in wanted:
+            wanted.discard(module)
+            importlib.import_module(module).register(sub)
+        elif name not in sub.choices:
+            sub.add_parser(name, help=text)
     return p
 
 
@@ -66,7 +110,7 @@ def main(argv=None) -> int:
     from duffsym.errors import show_notes
 
     show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
-    parser = build_parser()
+    parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
