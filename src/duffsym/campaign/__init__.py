@@ -174,8 +174,7 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
     if out.exists() and not out.is_dir():
         raise DataError(f"--out {out} is a file; give a folder for the results")
     out.mkdir(parents=True, exist_ok=True)
-    for stale in out.glob(".*.tmp*"):  # left by a run killed while writing (never a result)
-        stale.unlink(missing_ok=True)
+    lock = _remove_stale_temporaries(out)
     digests = {j.name: j.input_hash(command) for j in jobs}
     done: dict[str, dict] = {}
     for j in jobs:
@@ -225,6 +224,8 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
         finally:
             if closing is not None:
                 closing.join()
+            if lock is not None:
+                lock.close()
     return _with_figure(res, out / "summary.png" if figure and not interrupted else None)
 
 
@@ -246,6 +247,30 @@ def _with_figure(res: BatchResult, fig: Path | None) -> BatchResult:
     from dataclasses import replace
 
     return replace(res, figure=fig if fig is not None and fig.is_file() else None)
+
+
+#: Lock file of the batches writing into one results folder (each holds a shared lock while it runs).
+LOCK_NAME = ".duffsym-batch.lock"
+
+
+def _remove_stale_temporaries(out: Path):
+    """Remove the temporary files a killed run left in ``out`` (a killed run's lock is released with it),
+    unless another batch is writing there right now: its temporary files are not stale. Returns the open
+    lock file, held (shared) until the batch ends."""
+    try:
+        import fcntl
+    except ImportError:  # no advisory locks (Windows): leave the temporary files (they never match *.json)
+        return None
+    lock = open(out / LOCK_NAME, "a")
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:  # another batch runs in this folder
+        fcntl.flock(lock, fcntl.LOCK_SH)
+        return lock
+    for stale in out.glob(".*.tmp*"):
+        stale.unlink(missing_ok=True)
+    fcntl.flock(lock, fcntl.LOCK_SH)
+    return lock
 
 
 def _write_summary(res: BatchResult, figure: bool) -> None:

@@ -119,8 +119,14 @@ def _label(value: Any) -> Any:
     return value
 
 
+#: Names of the batch's own outputs (``summary.json``, ``summary.csv``, ``summary.png``): a record of such a
+#: name gets a ``record_`` prefix, so that its ``<name>.json`` cannot be overwritten by the summary.
+RESERVED_NAMES = ("summary",)
+
+
 def _safe_name(name: str) -> str:
-    return re.sub(r"[^A-Za-z0-9._+=@-]+", "_", name).strip("._") or "record"
+    safe = re.sub(r"[^A-Za-z0-9._+=@-]+", "_", name).strip("._") or "record"
+    return f"record_{safe}" if safe.lower() in RESERVED_NAMES else safe
 
 
 def _resolve_fit(fit: Path | None, name: str, where: str) -> Path | None:
