@@ -101,3 +101,64 @@ def test_no_probe_file_is_written(tmp_path, monkeypatch):
     monkeypatch.setenv("DUFFSYM_CACHE", str(tmp_path / "c"))
     compiled.cache_dir()
     assert os.listdir(tmp_path / "c") == []
+
+
+_NUMBA_SOURCE = "from numba import njit\n\n\n@njit(cache=True)\ndef f(x):\n    return x + 1\n\n\nVALUE = f(1)\n"
+
+
+def _plant_pickle(index, marker) -> None:
+    """Prepend to numba's index a pickle that creates ``marker`` when loaded (numba unpickles the index)."""
+    import pickle
+
+    class Evil:
+        def __reduce__(self):
+            return (exec, (f"open({str(marker)!r}, 'w').write('ran')",))
+
+    index.write_bytes(pickle.dumps(Evil()) + index.read_bytes())
+
+
+@pytest.mark.parametrize("how", ["writable-by-others", "another-user"])
+def test_numba_index_files_not_safe_to_load_are_rebuilt_not_run(tmp_path, how):
+    """Issue 24: a world-writable (or foreign) .nbi with a pickle prepended ran during a normal fit."""
+    if how == "another-user" and os.getuid() != 0:
+        pytest.skip("making a file another user's needs root")
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    key = "duffsym_gen_numba_index_test"
+    code = f"""
+        from duffsym.codegen.compiled import load_generated
+        print(load_generated({key!r}, {_NUMBA_SOURCE!r}).VALUE)
+    """
+    first = _run(code, cache, tmp_path)
+    assert first.stdout.strip() == "2", first.stderr
+    indexes = sorted((cache / "__pycache__").glob(f"{key}.*.nbi"))
+    assert indexes, "numba wrote no index"
+    marker = tmp_path / "pwned"
+    for idx in indexes:
+        _plant_pickle(idx, marker)
+        if how == "writable-by-others":
+            os.chmod(idx, 0o666)
+        else:
+            os.chown(idx, 12345, 12345)
+    second = _run(code, cache, tmp_path)
+    assert second.stdout.strip() == "2", second.stderr
+    assert not marker.exists(), "the planted index ran"
+    for idx in sorted((cache / "__pycache__").glob(f"{key}.*.nbi")):  # rebuilt, this user's and private
+        st = os.stat(idx)
+        assert st.st_uid == os.getuid() and not st.st_mode & 0o022
+
+
+def test_remove_untrusted_names_only_the_unsafe_files(tmp_path):
+    pyc = tmp_path / "__pycache__"
+    pyc.mkdir()
+    ok, bad = pyc / "k.f-3.py311.nbi", pyc / "k.g-5.py311.nbc"
+    other = pyc / "other.f-3.py311.nbi"
+    for p in (ok, bad, other):
+        p.write_bytes(b"x")
+        os.chmod(p, 0o644)
+    os.chmod(bad, 0o664)
+    os.chmod(other, 0o666)  # another module's: left to its own load
+    (tmp_path / "k.py").symlink_to(tmp_path / "elsewhere.py")
+    removed = compiled.remove_untrusted(tmp_path, "k")
+    assert sorted(p.name for p in removed) == ["k.g-5.py311.nbc", "k.py"]
+    assert ok.exists() and other.exists() and not bad.exists()

@@ -225,6 +225,7 @@ def load_generated(key: str, source: str) -> ModuleType:
         if key in sys.modules:
             return sys.modules[key]
         path = cache_dir() / f"{key}.py"
+        remove_untrusted(path.parent, key)
         if not path.is_file() or path.is_symlink() or _read(path) != source:
             # atomic replace, so that concurrent processes never see a half-written file
             with atomic_write(path) as fh:
@@ -239,6 +240,31 @@ def load_generated(key: str, source: str) -> ModuleType:
             sys.modules.pop(key, None)
             raise
     return module
+
+
+def remove_untrusted(folder: Path, key: str) -> list[Path]:
+    """Remove the files of module ``key`` in the cache ``folder`` that this process may not trust: its
+    source and numba's index and machine code (``__pycache__/<key>.*.nbi``/``.nbc``; numba unpickles the
+    index, so a planted one would run code) when they are symbolic links, belong to another user or can
+    be written by others. Numba then rebuilds them. Returns the paths removed; raises OSError (naming the
+    file) if one cannot be removed."""
+    removed = []
+    for p in [folder / f"{key}.py", *sorted((folder / "__pycache__").glob(f"{key}.*"))]:
+        try:
+            st = os.lstat(p)
+        except FileNotFoundError:
+            continue
+        foreign = hasattr(os, "getuid") and st.st_uid != os.getuid()
+        if stat.S_ISLNK(st.st_mode) or foreign or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) \
+                or not stat.S_ISREG(st.st_mode):
+            try:
+                p.unlink()
+            except OSError as exc:
+                raise OSError(f"the code cache holds {p}, which is not safe to load (another user's, writable by "
+                              f"others, or a link) and cannot be removed ({exc.strerror or exc}); delete it or set "
+                              "DUFFSYM_CACHE to a private folder") from None
+            removed.append(p)
+    return removed
 
 
 def _read(path: Path) -> str | None:
