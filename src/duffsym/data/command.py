@@ -15,12 +15,28 @@ def cmd_convert(args) -> int:
     summary = {"input": str(args.input), "out": str(args.out), "n_samples": record.n_times, "dt": record.dt,
                "duration": record.duration, "columns": dict(record.metadata["columns"]),
                "format": record.metadata["format"], "velocity": record.d_dot is not None}
+    from duffsym.data.record import time_unit_note
+
+    notes = [n for n in (time_unit_note(record.t), _stamp_note(record)) if n]
+    if notes:
+        summary["notes"] = notes
     if args.json:
         _emit_json(summary)
     elif not args.quiet:
         _err(f"wrote {args.out}: {record.n_times} samples, dt {record.dt:g} s, {record.duration:g} s "
              f"(time, displacement{', velocity' if record.d_dot is not None else ''}, force)")
+    if not args.quiet:
+        for note in notes:
+            _err(f"duffsym convert: note: {note}")
     return 0
+
+
+def _stamp_note(record) -> str | None:
+    """The time column's non-uniform (or rebuilt) stamps, said once (the CSV keeps them as read)."""
+    info = record.metadata.get("sampling", {})
+    if info.get("uniform") and not info.get("rebuilt"):
+        return None
+    return f"time stamps: {info.get('rule', 'not uniform')}"
 
 
 def register(sub) -> None:

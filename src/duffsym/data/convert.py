@@ -45,13 +45,24 @@ def _split(line: str, fmt: str) -> list[str]:
     return [f.strip().strip('"') for f in line.rstrip("\n").split(delim)]
 
 
-def _read_text(path: Path, fmt: str) -> tuple[list[str] | None, np.ndarray]:
-    """(header or None, numeric matrix) of a text file; comment lines (# % //) and blank lines skipped."""
+def _number(text: str) -> float | None:
+    if text == "":
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _read_text(path: Path, fmt: str) -> tuple[list[str] | None, np.ndarray, dict[int, tuple[int, str]]]:
+    """(header or None, numeric matrix, {column: (line, text)} of the first field that is not a number in
+    each column that has one); comment lines (# % //) and blank lines skipped. A column of text (an ISO
+    date-time, a label) is NaN in the matrix: it is an error only if it is selected (:func:`read_table`)."""
     try:
         lines = path.read_text(encoding="utf-8", errors="strict").splitlines()
     except UnicodeDecodeError as exc:
         raise DataError(f"{path}: not UTF-8 text (byte {exc.start}); give a text file or --format mat") from None
-    header, rows = None, []
+    header, rows, text_cols = None, [], {}
     for number, line in enumerate(lines, start=1):
         text = line.strip()
         if not text or text.startswith(_COMMENT):
@@ -59,20 +70,23 @@ def _read_text(path: Path, fmt: str) -> tuple[list[str] | None, np.ndarray]:
         fields = _split(text, fmt)
         while fields and fields[-1] == "":
             fields.pop()
-        try:
-            rows.append([float(f) if f != "" else math.nan for f in fields])
-        except ValueError:
-            if header is None and not rows:
-                header = fields
-                continue
-            raise DataError(f"{path}: line {number}: cannot read {text[:60]!r} as numbers; fix or remove the line "
-                            "(comment lines start with # or %)") from None
+        values = [_number(f) for f in fields]
+        bad = [j for j, v in enumerate(values) if v is None]
+        if bad and header is None and not rows and 2 * len(bad) > len(values):
+            header = fields
+            continue
+        if bad and len(bad) == len(values):
+            raise DataError(f"{path}: line {number}: cannot read {text[:60]!r} as numbers; fix or remove the "
+                            "line (comment lines start with # or %)")
+        for j in bad:
+            text_cols.setdefault(j, (number, fields[j]))
+        rows.append([math.nan if v is None else v for v in values])
         if len(rows[-1]) != len(rows[0]):
             raise DataError(f"{path}: line {number} has {len(rows[-1])} fields, the first data line "
                             f"{len(rows[0])}; fix the row or remove it")
     if not rows:
         raise DataError(f"{path}: no numeric rows; give a file with one row of numbers per sample")
-    return header, np.array(rows, dtype=float)
+    return header, np.array(rows, dtype=float), text_cols
 
 
 def _read_mat(path: Path, variable: str | None) -> np.ndarray:
@@ -157,8 +171,14 @@ def read_table(path, *, fmt: str | None = None, columns: Mapping[str, str], dt: 
         if need not in roles:
             raise DataError(f"{path}: --columns must name the {'displacement' if need == 'input' else 'force'} "
                             f"column (e.g. --columns time=1,displacement=2,force=3)")
-    header, data = (None, _read_mat(path, variable)) if fmt == "mat" else _read_text(path, fmt)
+    header, data, text_cols = (None, _read_mat(path, variable), {}) if fmt == "mat" else _read_text(path, fmt)
     index = {role: _column(path, spec, role, header, data.shape[1]) for role, spec in roles.items()}
+    for role, j in index.items():
+        if j in text_cols:
+            line, field = text_cols[j]
+            raise DataError(f"{path}: line {line}: cannot read {field[:40]!r} in the {role} column ({j + 1}) as a "
+                            "number; fix the column" + (" or give --dt SECONDS instead of a time column"
+                                                        if role == "time" else ""))
     if "time" in index:
         if dt is not None:
             raise DataError(f"{path}: give either a time column or --dt, not both")

@@ -38,6 +38,10 @@ def cmd_fit(args) -> int:
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
     if record.metadata.get("sampling", {}).get("rebuilt") and not args.quiet:
         _err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
+    from duffsym.data.record import time_unit_note
+
+    if time_unit_note(record.t) and not args.quiet:
+        _err(f"duffsym fit: note: {time_unit_note(record.t)}")
     if result.flags:
         _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
