@@ -82,12 +82,21 @@ def atomic_path(path, *, keep_suffix: bool = True) -> Iterator[Path]:
     path.parent.mkdir(parents=True, exist_ok=True)
     prefix, suffix = ((f".{path.stem}.", f"{TMP_SUFFIX}{path.suffix}") if keep_suffix
                       else (f".{path.name}.", TMP_SUFFIX))
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
+    except OSError as exc:
+        raise OSError(exc.errno, f"cannot write {path} ({exc.strerror or exc})") from None
     os.close(fd)
     try:
         yield Path(tmp)
         _keep_mode(path, tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if exc.filename is None and str(path) not in str(exc):  # write() errors (disk full) name no file
+            raise OSError(exc.errno, f"cannot write {path} ({exc.strerror or exc})") from None
+        raise
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -144,7 +153,19 @@ def same_file(a, b) -> bool:
     try:
         return os.path.samefile(a, b)
     except OSError:
-        return a.resolve() == b.resolve()
+        try:
+            return a.resolve() == b.resolve()
+        except RuntimeError:  # a symbolic link loop (Python < 3.13 raises RuntimeError)
+            bad = a if _link_loop(a) else b
+            raise DataError(f"{bad}: a loop of symbolic links; give a real file path") from None
+
+
+def _link_loop(path: Path) -> bool:
+    try:
+        path.resolve()
+    except RuntimeError:
+        return True
+    return False
 
 
 def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
@@ -154,6 +175,8 @@ def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
     cannot be created or written to. The folder is created if missing.
     """
     path = Path(path)
+    if path.is_symlink() and _link_loop(path):
+        raise DataError(f"{option} {path}: a loop of symbolic links; give a real file path")
     for src in inputs:
         if src is not None and same_file(path, src):
             raise DataError(f"{option} {path} is also an input ({src}); writing it would destroy the input: choose "
@@ -169,6 +192,8 @@ def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
 def check_output_dir(folder, *, option: str = "--report") -> Path:
     """Check before the work that ``folder`` is (or can be made) a writable folder."""
     folder = Path(folder)
+    if folder.is_symlink() and _link_loop(folder):
+        raise DataError(f"{option} {folder}: a loop of symbolic links; give a real folder")
     if folder.exists() and not folder.is_dir():
         raise DataError(f"{option} {folder} is a file, not a folder; give a folder")
     _writable_folder(folder, f"{option} {folder}", "another folder")

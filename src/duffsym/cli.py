@@ -90,7 +90,8 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
                                 "(Tu, Lin & Cheng's Duffing-like equation).")
     p.add_argument("--version", action="version", version=f"duffsym {__version__}")
     p.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    # not "command": `batch --command fit` has an option of that name, which would rename the command
+    sub = p.add_subparsers(dest="subcommand", metavar="COMMAND")
     sub.required = True
     if argv is None:
         for name in COMMAND_MODULES:
@@ -112,15 +113,16 @@ def main(argv=None) -> int:
     show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
     parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
+    name = args.subcommand
     try:
         return int(args.func(args) or 0)
     except DuffsymError as exc:
-        _err(f"duffsym {args.command}: error: {exc}")
+        _err(f"duffsym {name}: error: {exc}")
         return EXIT_ERROR
     except (OSError, ValueError) as exc:
         if args.debug:
             raise
-        _err(f"duffsym {args.command}: error: {exc}")
+        _err(f"duffsym {name}: error: {_describe(exc)}")
         return EXIT_ERROR
     except KeyboardInterrupt:
         _err("interrupted")
@@ -128,19 +130,27 @@ def main(argv=None) -> int:
     except RecursionError:
         if args.debug:
             raise
-        _err(f"duffsym {args.command}: error: input nested too deeply to process; check the input files")
+        _err(f"duffsym {name}: error: input nested too deeply to process; check the input files")
         return EXIT_ERROR
     except MemoryError:
         if args.debug:
             raise
-        _err(f"duffsym {args.command}: error: out of memory; use a shorter or decimated record")
+        _err(f"duffsym {name}: error: out of memory; use a shorter or decimated record")
         return EXIT_ERROR
     except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
         if args.debug:
             raise
-        _err(f"duffsym {args.command}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
+        _err(f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
              "and please report it)")
         return 1
+
+
+def _describe(exc: Exception) -> str:
+    """One line for an OS error: the path it concerns (when it has one) and the system's reason."""
+    if isinstance(exc, OSError) and exc.strerror:
+        where = exc.filename if exc.filename is not None else None
+        return f"{where}: {exc.strerror}" if where is not None else exc.strerror
+    return str(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
 
-from duffsym._io import write_json_atomic
+from duffsym._io import check_output_dir, write_json_atomic
 from duffsym.campaign.manifest import COMMANDS, Job, collect_jobs
 from duffsym.campaign.summary import plot_summary, row, write_csv
 from duffsym.errors import DataError
@@ -173,7 +173,7 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise DataError(f"--out {out} is a file; give a folder for the results")
-    out.mkdir(parents=True, exist_ok=True)
+    check_output_dir(out, option="--out")  # up front, as fit checks its --out: created, and writable
     lock = _remove_stale_temporaries(out)
     digests = {j.name: j.input_hash(command) for j in jobs}
     done: dict[str, dict] = {}
