@@ -110,7 +110,7 @@ def cmd_validate(args) -> int:
     else:
         print(val.summary())
     if not val.success:
-        _err(f"duffsym validate: the free run failed: {val.message}")
+        _err(f"duffsym validate: the validation did not succeed: {val.message}")
         return 1
     return 0
 

@@ -20,7 +20,10 @@ class ValidationResult:
     ----------
     nrmse : RMS(y - yhat) / RMS(y - mean y). ``rmse`` in the output's units; ``r2 = 1 - nrmse**2``.
     y_sim : (n_times,) the simulated output. ``x0`` the initial state used.
-    success, message : whether the simulation completed.
+    success, message : judged as :func:`~duffsym.identify.fit` judges a fit: the free run completed and
+        predicts better than the record's mean (R² >= 0); the message says why not, or notes an initial
+        state that had to be kept in range.
+    effects : the effects added to the base ``model``.
     """
 
     record: str
@@ -33,19 +36,24 @@ class ValidationResult:
     x0: tuple = ()
     y_sim: np.ndarray = field(default_factory=lambda: np.zeros(0))
     integrator: dict = field(default_factory=dict)
+    effects: tuple = ()
 
     def to_dict(self) -> dict:
-        return {"record": self.record, "model": self.model, "nrmse": finite_or_none(self.nrmse),
+        return {"record": self.record, "model": self.model, "effects": list(self.effects),
+                "nrmse": finite_or_none(self.nrmse),
                 "rmse": finite_or_none(self.rmse), "r2": finite_or_none(self.r2), "success": bool(self.success), "message": self.message,
                 "x0": [float(v) for v in self.x0], "integrator": dict(self.integrator)}
 
     def summary(self) -> str:
-        head = f"validation of {self.model} on {self.record}: "
+        name = self.model + "".join(f" + {e}" for e in self.effects)
+        head = f"validation of {name} on {self.record}: "
+        scores = f"free-run NRMSE {self.nrmse:.4g}, RMSE {self.rmse:.4g}, R2 {self.r2:.5g}"
         if not self.success:
-            return head + f"FAILED: {self.message}"
+            return head + f"FAILED: {self.message}" + (f" ({scores})" if math.isfinite(self.nrmse) else "")
         how = self.integrator.get("method", "rk4")
         note = "" if how == "rk4" else f" (integrated by {how}: {self.integrator.get('reason', '')})"
-        return head + f"free-run NRMSE {self.nrmse:.4g}, RMSE {self.rmse:.4g}, R2 {self.r2:.5g}" + note
+        extra = "" if self.message == "ok" else f"; {self.message}"
+        return head + scores + note + extra
 
 
 def model_from_result(result: IdentificationResult):
@@ -101,16 +109,45 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
                 group = f"{value:g}{unit}"
     p = model.param_vector(result.params_for(group))
     U = _input_matrix(model, record)
-    x0 = _estimate_x0(model, p, record, U, initial_states(model, record, p)[0])
+    X = initial_states(model, record, p)
+    x0, note = _bounded_x0(_estimate_x0(model, p, record, U, X[0]), X)
     tr = free_run_trajectory(model, p, record, U, x0)
     y_sim = np.asarray(tr.y, dtype=float)
+    effects = tuple(model.effects)
     if not tr.success:
-        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False, tr.message,
-                                tuple(map(float, x0)), y_sim, tr.integrator)
+        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False,
+                                f"the free run failed: {tr.message}", tuple(map(float, x0)), y_sim, tr.integrator,
+                                effects)
     rmse = float(np.sqrt(np.mean((np.asarray(record.y) - y_sim) ** 2)))
     err = nrmse(record.y, y_sim)
-    return ValidationResult(record.name, model.name, err, rmse, 1 - err**2, True, "ok",
-                            tuple(map(float, x0)), y_sim, tr.integrator)
+    r2 = 1 - err**2
+    ok = r2 >= 0
+    message = note or "ok"
+    if not ok:
+        message = (f"the prediction is worse than the record's mean (R2 {r2:.3g} < 0): the fit does not describe "
+                   "this record (another operating point, a level or unit difference, or a missing effect)"
+                   + (f"; {note}" if note else ""))
+    return ValidationResult(record.name, model.name, err, rmse, r2, ok, message, tuple(map(float, x0)), y_sim,
+                            tr.integrator, effects)
+
+
+#: The estimated initial state may lie this many times the range of the data-based states beyond that range.
+X0_RANGE = 2.0
+
+
+def _bounded_x0(x0, X) -> tuple[np.ndarray, str]:
+    """``x0`` if every state lies within :data:`X0_RANGE` times the range of its data-based trajectory ``X``
+    around it; else the data-based start ``X[0]`` and a note (an initial state far outside what the record's
+    states span fits a level difference, not a start-up: measured, -5.7e6 made the prediction the flat mean)."""
+    x0 = np.asarray(x0, dtype=float)
+    lo, hi = np.min(X, axis=0), np.max(X, axis=0)
+    span = hi - lo  # a state the data say nothing about (started at 0) is not bounded
+    out = (span > 0) & ((x0 < lo - X0_RANGE * span) | (x0 > hi + X0_RANGE * span))
+    if not np.any(out):
+        return x0, ""
+    return np.asarray(X[0], dtype=float), (
+        f"the initial state estimated from the first period ({', '.join(f'{v:.3g}' for v in x0[out])}) lay far outside "
+        "the range of the record's states (it would absorb a level difference): the free run starts from the data")
 
 
 def _estimate_x0(model, p, record, U, guess):
