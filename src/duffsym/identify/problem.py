@@ -26,9 +26,26 @@ REASON_AF = ("fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leave
              "and the gains are not identifiable together (the paper sets A_f to the force peak)")
 REASON_K3 = ("fixed at 0: under a single-amplitude sine k3 trades against k1 and k2 along a ridge of equal fit "
              "(Table 2 has k3 = 0); free it (free=[..., 'k3']) with records at several amplitudes")
+REASON_K3_OTHER = ("fixed at 0 (Table 2 has k3 = 0): at one excitation level k3 trades against k1 and k2 along a "
+                   "ridge of equal fit; free it (free=[..., 'k3']) with records that span several amplitudes")
+#: A record is a single-amplitude sine when this share of its input's variance lies at one frequency.
+SINE_SHARE = 0.995
 REASON_AF_ELEMENT = ("fixed at {value:.6g}: the element's scaling symmetry x -> s*x leaves its force, hence the "
                      "structure's output, unchanged, so A_f and the element's gains are not identifiable together")
 REASON_HELD = "not listed in free; held at the model default {value:.6g}"
+
+
+def single_sine(d) -> bool:
+    """Whether the input ``d`` is one sine at one amplitude: :data:`SINE_SHARE` of its variance within
+    two bins of its spectral peak (Hann window). A triangle wave (98.6 % at its fundamental), a multisine or
+    a robot trajectory are not."""
+    d = np.asarray(d, dtype=float)
+    d = (d - np.mean(d)) * np.hanning(d.size)
+    p = np.abs(np.fft.rfft(d)) ** 2
+    if p.size < 5 or not np.sum(p[1:]) > 0:
+        return False
+    k = int(np.argmax(p[1:])) + 1
+    return float(np.sum(p[max(1, k - 2): k + 3]) / np.sum(p[1:])) >= SINE_SHARE
 
 
 def _as_records(records) -> tuple[Record, ...]:
@@ -301,7 +318,7 @@ class Problem:
                     + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
         if "k3" in names and "k3" not in requested:
             fixed_vals["k3"] = 0.0
-            defaults["k3"] = REASON_K3
+            defaults["k3"] = REASON_K3 if all(single_sine(r.d) for r in recs) else REASON_K3_OTHER
         if free is None:
             free_t = tuple(n for n in names if n not in fixed_vals)
         else:

@@ -112,7 +112,7 @@ class IdentificationResult:
         for n, v in self.params.items():
             if n in self.stderr:
                 se = self.stderr[n]
-                rel = f" ({abs(se / v):.2%})" if v != 0 and math.isfinite(se) else ""
+                rel = f" ({_percent(abs(se / v))})" if v != 0 and math.isfinite(se) else ""
                 lines.append(f"  {n:>6} = {v:12.6g} +/- {se:.3g}{rel}")
             else:
                 why = self.defaults_applied.get(n.split("[")[0], "fixed by the user")
@@ -365,3 +365,8 @@ def load_result(path) -> IdentificationResult:
     if not isinstance(data, dict):
         raise DataError(f"{path}: expected a JSON object (a duffsym fit)")
     return IdentificationResult.from_dict(data, source=str(path))
+
+
+def _percent(r: float) -> str:
+    """A relative standard error as a percentage with two significant digits (``0.0031%``, not ``0.00%``)."""
+    return f"{r:.2%}" if r >= 1e-3 else f"{100 * r:.2g}%"
