@@ -108,6 +108,26 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Run the command line; Ctrl-C at any point (imports, a cluster starting) is one line and exit 130."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        _quiet_dask_shutdown()
+        _err("interrupted")
+        return 130
+
+
+def _quiet_dask_shutdown() -> None:
+    """After Ctrl-C, a Dask cluster interrupted while starting logs its shutdown (tracebacks of
+    ``Status.init``): silence its loggers if it was imported."""
+    import logging
+
+    if "distributed" in sys.modules:
+        for name in ("distributed", "tornado", "asyncio"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
+def _main(argv=None) -> int:
     from duffsym.errors import show_notes
 
     show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
@@ -125,6 +145,7 @@ def main(argv=None) -> int:
         _err(f"duffsym {name}: error: {_describe(exc)}")
         return EXIT_ERROR
     except KeyboardInterrupt:
+        _quiet_dask_shutdown()
         _err("interrupted")
         return 130
     except RecursionError:
