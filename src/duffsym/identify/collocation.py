@@ -360,7 +360,8 @@ def fit(
         + "; free run and standard errors")
 
     slot_values, x0s = nlp.unscale(best.w)
-    fitted = _evaluate(problem, nlp, slot_values, x0s, compute_stderr)
+    # a solve the time limit stopped is not an optimum: no standard errors (they would cost more time)
+    fitted = _evaluate(problem, nlp, slot_values, x0s, compute_stderr and best.status != "Wall_Time_Exceeded")
     settings = {"method": "direct collocation", "scheme": "legendre", "degree": int(degree),
                 "expand": bool(expand) and derivatives == "casadi", "derivatives": derivatives,
                 "param_stride": nlp.stride, "tol": tol, "acceptable_tol": acceptable_tol, "max_iter": int(max_iter),
