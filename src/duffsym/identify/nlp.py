@@ -70,7 +70,10 @@ class _Block:
     X_init: np.ndarray
 
 
-#: MUMPS' extra workspace, % of its estimate (IPOPT's default 1000).
+#: MUMPS' extra workspace, % of its estimate: IPOPT's default, stated here so that it is one setting. Not
+#: raised: MUMPS ran out of it (INFO(1) = -9, raised 1000 -> 2000 -> 4000 -> 8000 %) only in iterations whose
+#: Hessian regularisation had reached 1e11-1e17 (3000 Silverbox samples in mV and ms), which the bound
+#: restart's guard and the time limit now bound; a larger start would only move the cost of those iterations.
 MUMPS_MEM_PERCENT = 1000
 
 
@@ -82,8 +85,6 @@ def ipopt_settings(*, tol: float = 1e-10, acceptable_tol: float = 1e-7, max_iter
         "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
         "ipopt.print_level": int(print_level), "print_time": False, "ipopt.sb": "yes",
         "ipopt.linear_solver": linear_solver, "error_on_fail": False,
-        # MUMPS' workspace is estimated, then raised 1000 -> 2000 -> 4000 % of the estimate on INFO(1) = -9,
-        # each time refactorising: start at the level the ill-conditioned iterations needed (measured)
         "ipopt.mumps_mem_percent": MUMPS_MEM_PERCENT,
     }
     for k, v in (ipopt_options or {}).items():
