@@ -74,7 +74,8 @@ sphinx_gallery_conf = {
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"duffsym {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["duffsym.css"]
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
