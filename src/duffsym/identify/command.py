@@ -18,21 +18,16 @@ from duffsym._cli_common import (
 
 
 def cmd_fit(args) -> int:
-    from duffsym.identify import Problem, fit
+    from duffsym.identify import fit
 
-    _check_outputs(args, [args.data, None if args.mask in (None, "none", "auto") else args.mask])
-    record = _read_record(args, args.data)
+    if args.manifest or len(args.data) != 1:  # a campaign: one parameter set for several records
+        return _cmd_fit_campaign(args)
+    _check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
+    record = _read_record(args, args.data[0])
     model = _fit_model(args)
-    fixed = _parse_assignments(args.fix, "--fix")
-    if args.af != "max":
-        try:
-            fixed["A_f"] = float(args.af)
-        except ValueError:
-            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
-    mask, mask_info = _mask_from_args(args.mask, record)
-    problem = Problem(model, record, fixed=fixed, mask=mask, mask_info=mask_info)
+    problem = _problem(args, model, [record], [_mask_from_args(args.mask, record)])
     if not args.quiet:
-        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
+        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data[0]} "
              f"({record.t.size} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed,
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
@@ -44,6 +39,35 @@ def cmd_fit(args) -> int:
         _save_fit(result, args.out, "fit")
     if args.plot:
         _plot_fit(result, record, model, args.plot, transient=args.plot_transient)
+    return _report_fit(args, result)
+
+
+def _fixed_from_args(args) -> dict:
+    fixed = _parse_assignments(args.fix, "--fix")
+    if args.af != "max":
+        try:
+            fixed["A_f"] = float(args.af)
+        except ValueError:
+            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
+    return fixed
+
+
+def _problem(args, model, records, masks, fixed=None):
+    """The Problem of ``records`` (one or several) with the options' fixed values and masks."""
+    from duffsym.identify import Problem
+
+    fixed = _fixed_from_args(args) if fixed is None else fixed
+    if len(records) == 1:
+        (mask, info), = masks
+        return Problem(model, records[0], fixed=fixed, mask=mask, mask_info=info)
+    use = any(m is not None for m, _ in masks)
+    full = [m if m is not None else [False] * r.n_times for (m, _), r in zip(masks, records)]
+    return Problem(model, records, fixed=fixed, mask=full if use else None,
+                   mask_info=next((i for _, i in masks if i), None))
+
+
+def _report_fit(args, result) -> int:
+    """Print the fit (summary or JSON) and turn its success into the exit code."""
     if args.json:
         _emit_json(_contract_fields(result.to_dict()))
     else:
@@ -52,6 +76,33 @@ def cmd_fit(args) -> int:
         _err(f"duffsym fit: the fit did not succeed: {result.status}: {result.message}")
         return 1
     return 0
+
+
+def _cmd_fit_campaign(args) -> int:
+    """``duffsym fit A.csv B.csv ...`` or ``--manifest``: one parameter set for every record."""
+    from duffsym.identify import fit
+    from duffsym.identify.campaign_command import campaign_records, hold_unseen_rates, plot_campaign
+
+    if args.mask not in (None, "none", "auto"):
+        raise CLIError("--mask FILE is for one record; a campaign takes --mask none or auto (found per record)")
+    pairs = campaign_records(args, _read_record)
+    _check_outputs(args, [p for p, _ in pairs] + [args.manifest])
+    records = [r for _, r in pairs]
+    model = _fit_model(args)
+    fixed = hold_unseen_rates(model, records, _fixed_from_args(args), args.quiet)
+    problem = _problem(args, model, records, [_mask_from_args(args.mask, r) for r in records], fixed)
+    if not args.quiet:
+        _err(f"fitting one {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} parameter set to "
+             f"{len(records)} records ({sum(r.n_times for r in records)} samples)")
+    result = fit(problem, n_starts=args.starts, rng=args.seed,
+                 progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling(records)
+    if result.flags:
+        _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
+    if args.out:
+        _save_fit(result, args.out, "fit")
+    if args.plot:
+        plot_campaign(result, records, args.plot)
+    return _report_fit(args, result)
 
 
 def _contract_fields(d: dict) -> dict:
@@ -113,7 +164,11 @@ def cmd_validate(args) -> int:
 
 def register(sub) -> None:
     s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
-    s.add_argument("data", help="CSV with a header: time, displacement, force (+ velocity, current); see --columns")
+    s.add_argument("data", nargs="*", help="CSV with a header: time, displacement, force (+ velocity, current); see "
+                   "--columns. Several files (or --manifest): one parameter set fitted to all of them, each record "
+                   "with its own initial state and its labels (a constant current/voltage column)")
+    s.add_argument("--manifest", help="a CSV/JSON manifest of the records to fit together (as for duffsym batch: file, "
+                   "name, columns, and labels such as current or voltage)")
     _add_model_arguments(s)
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed (repeat or "
                    "comma-separate); k3 = 0 by default (not identifiable from one sine amplitude)")
