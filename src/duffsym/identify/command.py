@@ -112,20 +112,23 @@ def _contract_fields(d: dict) -> dict:
 
 
 def _plot_fit(result, record, model, path, transient: bool = False) -> None:
-    """Measured and fitted loops: one steady full-stroke cycle (``duffsym.plot.loops.steady_window``), or the
-    whole record, start-up included, with ``transient``."""
+    """Measured and fitted loops: one steady full-stroke cycle where the input repeats, else one window
+    (``duffsym.plot.windows.loop_windows``), or the whole record, start-up included, with ``transient``."""
     import numpy as np
 
-    from duffsym.plot.loops import plot_loops, save_figure, steady_window
+    from duffsym.plot.loops import plot_loops, save_figure
+    from duffsym.plot.windows import loop_windows
     from duffsym.simulate import Trajectory, input_matrix
 
     names = tuple(c.name for c in model.inputs)
     u = input_matrix(model, record.t, record.inputs_for(model))
     y_sim = np.asarray(result.y_sim[0], dtype=float)
-    window = None if transient else steady_window(record.d)
-    sl = window or slice(0, record.n_times)
+    windows = None if transient else loop_windows(record.d, count=1)
+    sl = windows.slices[0] if windows else slice(0, record.n_times)
     t = np.asarray(record.t)
-    shown = "whole record" if window is None else f"one steady cycle, t = {t[sl][0]:.3g}-{t[sl][-1]:.3g} s"
+    shown = "whole record" if windows is None else (
+        f"one steady {windows.describe(t, 0)}" if windows.whole_cycles else
+        f"one {windows.describe(t, 0)} (the input does not repeat, so no loop closes)")
     common = dict(model=model.name, t=t[sl], x=np.zeros((t[sl].size, 0)), u=u[sl], params=result.params,
                   success=True, status="ok", message="ok", method="data", input_names=names)
     measured = Trajectory(y=np.asarray(record.y, dtype=float)[sl], **common)
@@ -133,7 +136,7 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
     name = f"{record.name or 'record'}{f' ({record.current:g} A)' if record.current is not None else ''}"
     fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g}, whole record)"],
                      styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)],
-                     units=record.units, title=f"{name}: measured vs fitted {model.name}, {shown}")
+                     units=record.units, title=f"{name}: measured vs fitted {model.name}\n{shown}")
     if result.mask and np.any(result.mask[0]):
         m = np.zeros(record.n_times, dtype=bool)
         m[sl] = np.asarray(result.mask[0], dtype=bool)[sl]
@@ -148,10 +151,13 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 def cmd_validate(args) -> int:
     from duffsym.identify import load_result, validate
 
+    _check_outputs(args, [args.fit, args.data], options=("plot",))
     result = load_result(args.fit)
     _require_success(result, args)
     record = _read_record(args, args.data)
     val = validate(result, record)
+    if args.plot and val.success:
+        _plot_validation(val, record, args.plot)
     if args.json:
         _emit_json(val.to_dict())
     else:
@@ -160,6 +166,17 @@ def cmd_validate(args) -> int:
         _err(f"duffsym validate: the free run failed: {val.message}")
         return 1
     return 0
+
+
+def _plot_validation(val, record, path) -> None:
+    """Measured vs predicted over the record, a zoom on the largest error, loops of cycles or windows."""
+    from duffsym.plot import save_figure
+    from duffsym.plot.prediction import plot_prediction
+
+    level = f" ({record.current:g} A)" if record.current is not None else ""
+    fig = plot_prediction(record.t, record.d, record.velocity(), record.y, val.y_sim, units=record.units,
+                          title=f"{val.model} fit predicting {record.name or 'the record'}{level}")
+    save_figure(fig, path)
 
 
 def register(sub) -> None:
@@ -181,7 +198,8 @@ def register(sub) -> None:
     s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
     _add_file_arguments(s)
     s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
-    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle")
+    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle where the "
+                   "input repeats, else one window (a sweep, a random record); several records: one panel each")
     s.add_argument("--plot-transient", action="store_true", help="plot the whole record, start-up included")
     s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
@@ -192,5 +210,7 @@ def register(sub) -> None:
     s.add_argument("data", help="CSV record to validate on")
     s.add_argument("--force", action="store_true", help="use a fit marked success: false")
     _add_file_arguments(s)
+    s.add_argument("--plot", help="figure (PNG/PDF): measured vs predicted over time, a zoom on the largest error, "
+                   "and loops of whole cycles (or of windows, where the input does not repeat)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_validate)
