@@ -7,7 +7,7 @@ Subpackages hold the rest: ``duffsym.model``, ``duffsym.derive``, ``duffsym.code
 ``duffsym.simulate``, ``duffsym.excitation``, ``duffsym.effects``, ``duffsym.data``,
 ``duffsym.identify``, ``duffsym.loops``, ``duffsym.plot``.
 """
-from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError
+from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError, show_notes
 from duffsym.excitation import Sine
 from duffsym.model import SymbolicModel, duffing, duffing_like, get_model, mr_damper, state_space
 from duffsym.simulate import Trajectory, simulate
@@ -31,6 +31,10 @@ def __getattr__(name):
 
 
 __version__ = "0.1.0"
+
+# duffsym's own warnings (expected numerical conditions) print as one line, "note: ...", from the API too;
+# other packages' warnings keep Python's form (duffsym.errors.show_notes)
+show_notes()
 
 __all__ = [
     "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",

@@ -86,19 +86,23 @@ def campaign_records(args, read_record) -> list[tuple[str, object]]:
     return out
 
 
-def hold_unseen_rates(model, records, fixed: dict, quiet: bool) -> dict:
-    """Hold the field rate ``eta`` of a command model when no record's command varies (its lag is unseen)."""
+def hold_unseen_rates(model, records, fixed: dict, quiet: bool) -> tuple[dict, str]:
+    """Hold the field rate ``eta`` of a command model when no record's command varies (its lag is unseen).
+
+    Returns the fixed values and the reason ("" when nothing was held), for the fit's ``defaults_applied``.
+    """
     if "eta" not in model.param_names or "eta" in fixed:
-        return fixed
+        return fixed, ""
     import numpy as np
 
     if any(r.command is not None and np.ptp(np.asarray(r.command)) > 0 for r in records):
-        return fixed
+        return fixed, ""
     eta = float(model.defaults()["eta"])
+    reason = (f"held at {eta:g} 1/s: the commands are constant in every record, so the field's lag does not show "
+              "(--fix eta=VALUE to choose it)")
     if not quiet:
-        _err(f"duffsym fit: note: eta held at {eta:g} 1/s: the commands are constant in every record, so the "
-             "field's lag does not show (--fix eta=VALUE to choose it)")
-    return {**fixed, "eta": eta}
+        _err(f"duffsym fit: note: eta {reason}")
+    return {**fixed, "eta": eta}, reason
 
 
 def plot_campaign(result, records, path: str) -> None:

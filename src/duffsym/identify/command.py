@@ -1,6 +1,8 @@
 """``duffsym fit`` and ``duffsym validate``: identify a model from a record, and score a saved fit on another."""
 from __future__ import annotations
 
+import dataclasses
+
 from duffsym._cli_common import (
     CLIError,
     _add_file_arguments,
@@ -89,13 +91,15 @@ def _cmd_fit_campaign(args) -> int:
     _check_outputs(args, [p for p, _ in pairs] + [args.manifest])
     records = [r for _, r in pairs]
     model = _fit_model(args)
-    fixed = hold_unseen_rates(model, records, _fixed_from_args(args), args.quiet)
+    fixed, held = hold_unseen_rates(model, records, _fixed_from_args(args), args.quiet)
     problem = _problem(args, model, records, [_mask_from_args(args.mask, r) for r in records], fixed)
     if not args.quiet:
         _err(f"fitting one {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} parameter set to "
              f"{len(records)} records ({sum(r.n_times for r in records)} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed,
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling(records)
+    if held:
+        result = dataclasses.replace(result, defaults_applied={**result.defaults_applied, "eta": held})
     if result.flags:
         _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
