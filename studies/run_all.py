@@ -167,6 +167,8 @@ def run_group(task: tuple) -> list[tuple[str, bool, float, float]]:
             if not script.is_file():
                 fh.write(f"no study {script}\n")
         out.append((name, rc == 0, start, time.perf_counter() - t0))
+        done = log.with_suffix(".done")  # the parent reports the study from this as soon as it is there
+        done.write_text(json.dumps(out[-1]))
     return out
 
 
@@ -284,15 +286,66 @@ def _run_parallel(todo, study_argv, report, keys, workers: int) -> None:
     print(f"running {len(todo)} studies on {workers} worker processes, longest first: "
           + "; ".join(" then ".join(g) for g in groups), file=sys.stderr, flush=True)
     root = str(paths.output_root())
+    folder = paths.derived_dir() / ".reproduce"
+    for name in todo:
+        (folder / f"{name}.done").unlink(missing_ok=True)
+    watcher = _Watcher(folder, todo, lambda *r: _finished(report, *r, keys[r[0]]))
     with Engine(workers=workers) as engine:
-        for outcome in engine.as_completed(run_group, [(g, study_argv, root) for g in groups]):
-            if not outcome.ok:
-                for name in groups[outcome.index]:
-                    report.line(name, f"FAILED: the worker raised {type(outcome.error).__name__}: {outcome.error}",
-                                ok=False)
-                continue
-            for name, ok, start, seconds in outcome.value:
-                _finished(report, name, ok, start, seconds, keys[name])
+        watcher.start()
+        try:
+            for outcome in engine.as_completed(run_group, [(g, study_argv, root) for g in groups]):
+                watcher.poll()
+                if not outcome.ok:
+                    for name in groups[outcome.index]:
+                        watcher.reported.add(name)
+                        report.line(name, f"FAILED: the worker raised {type(outcome.error).__name__}: "
+                                    f"{outcome.error}", ok=False)
+                    continue
+                for name, ok, start, seconds in outcome.value:
+                    watcher.report(name, ok, start, seconds)
+        finally:
+            watcher.stop()
+
+
+class _Watcher:
+    """Reports each study of a parallel run as soon as its worker writes ``<name>.done`` (every 2 s)."""
+
+    def __init__(self, folder: Path, names: list[str], on_done):
+        import threading
+
+        self.folder, self.names, self.on_done = folder, names, on_done
+        self.reported: set[str] = set()
+        self.lock = threading.Lock()
+        self.stopped = threading.Event()
+        self.thread = threading.Thread(target=self._loop, daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def stop(self) -> None:
+        self.stopped.set()
+        self.thread.join(timeout=5)
+
+    def _loop(self) -> None:
+        while not self.stopped.wait(2.0):
+            self.poll()
+
+    def poll(self) -> None:
+        for name in self.names:
+            done = self.folder / f"{name}.done"
+            if name not in self.reported and done.is_file():
+                try:
+                    _, ok, start, seconds = json.loads(done.read_text())
+                except (OSError, ValueError):
+                    continue  # being written: next time
+                self.report(name, ok, start, seconds)
+
+    def report(self, name: str, ok: bool, start: float, seconds: float) -> None:
+        with self.lock:
+            if name in self.reported:
+                return
+            self.reported.add(name)
+            self.on_done(name, ok, start, seconds)
 
 
 if __name__ == "__main__":
