@@ -28,7 +28,7 @@ def _run(args, cwd) -> subprocess.CompletedProcess:
     env_bin = str(Path(sys.executable).parent)
     proc = subprocess.run([*args], cwd=cwd, capture_output=True, text=True, timeout=600,
                           env={**__import__("os").environ, "PATH": env_bin + ":" + __import__("os").environ["PATH"],
-                               "MPLBACKEND": "Agg", "PYTHONWARNINGS": "default"})
+                               "MPLBACKEND": "Agg"})
     return proc
 
 
