@@ -10,7 +10,7 @@ Subpackages hold the rest: ``duffsym.model``, ``duffsym.derive``, ``duffsym.code
 import sys
 import types
 
-from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError
+from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError, show_notes
 
 #: The facade's names and where they live: imported on first use, so that ``import duffsym`` (and with
 #: it every ``duffsym`` command, ``duffsym --help`` included) does not pay for SymPy, NumPy or CasADi
@@ -53,6 +53,10 @@ class _Package(types.ModuleType):
 sys.modules[__name__].__class__ = _Package
 
 __version__ = "0.1.0"
+
+# duffsym's own warnings (expected numerical conditions) print as one line, "note: ...", from the API too;
+# other packages' warnings keep Python's form (duffsym.errors.show_notes)
+show_notes()
 
 __all__ = [
     "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",

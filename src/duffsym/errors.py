@@ -40,7 +40,8 @@ def show_notes(stream=None) -> None:
     Python's default shows a warning as two lines with the file, line number and source line of the
     ``warnings.warn`` call: noise for a user, for whom a :class:`ConvergenceWarning` is an expected
     numerical condition the package reports. Other packages' warnings keep the default form. Called
-    by the command line and the studies; idempotent.
+    when ``duffsym`` is imported (so API users see the same notes), by the command line and the
+    studies; idempotent.
     """
     import sys
     import warnings

@@ -6,25 +6,25 @@ import the fitting code).
 
 The catalogue, in the order ``duffsym effects`` lists it:
 
-=================  ===========================================================  ===============
-effect             form                                                         parameters
-=================  ===========================================================  ===============
-force-offset       y += off_y0                                                  off_y0
-gas-accumulator    y += off_y0 + gas_k d (preload = the force offset)           off_y0, gas_k
-inertia            y += inertia_m d''                                           inertia_m
-parallel-damping   y += (pd_c + pd_c_u u) d' (pd_c_u on command models)         pd_c, pd_c_u
-coulomb-friction   x'' += -fric_mu tanh(x'/0.01) (inside the fluid model)           fric_mu
-seal-friction      y += seal_F tanh(d'/seal_eps) (on the piston velocity)           seal_F, seal_eps
-asymmetry          y += asym_a F tanh(x'/0.05)                                  asym_a
-output-lag         z' = (y - z)/lag_tau, output z                               lag_tau
-field-asymmetry    u' = -eta (1 + fa_a tanh((i-u)/fa_eps)) (u - i) (command models) fa_a, fa_eps
-input-delay        Pade all-pass state q; d -> 2q - d                           delay_tau
-input-shift        d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)  shift_tau
-backlash           smooth play state b; d -> b                                  bl_h
-quadratic-stiffness x'' += -quad_k x^2 (polynomial.py)                           quad_k
-cubic-damping      x'' += -cdamp_c x'^3 (polynomial.py)                         cdamp_c
-input-curvature    d -> d + curv_k d'' (polynomial.py; reconstruction, even part)  curv_k
-=================  ===========================================================  ===============
+===================  ================================================================  ================
+effect               form                                                              parameters
+===================  ================================================================  ================
+force-offset         y += off_y0                                                       off_y0
+gas-accumulator      y += off_y0 + gas_k d (preload = the force offset)                off_y0, gas_k
+inertia              y += inertia_m d''                                                inertia_m
+parallel-damping     y += (pd_c + pd_c_u u) d' (pd_c_u on command models)              pd_c, pd_c_u
+coulomb-friction     x'' += -fric_mu tanh(x'/0.01) (inside the fluid model)            fric_mu
+seal-friction        y += seal_F tanh(d'/seal_eps) (on the piston velocity)            seal_F, seal_eps
+asymmetry            y += asym_a F tanh(x'/0.05)                                       asym_a
+output-lag           z' = (y - z)/lag_tau, output z                                    lag_tau
+field-asymmetry      u' = -eta (1 + fa_a tanh((i-u)/fa_eps)) (u - i) (command models)  fa_a, fa_eps
+input-delay          Pade all-pass state q; d -> 2q - d                                delay_tau
+input-shift          d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)       shift_tau
+backlash             smooth play state b; d -> b                                       bl_h
+quadratic-stiffness  x'' += -quad_k x^2 (polynomial.py)                                quad_k
+cubic-damping        x'' += -cdamp_c x'^3 (polynomial.py)                              cdamp_c
+input-curvature      d -> d + curv_k d'' (polynomial.py; reconstruction, even part)    curv_k
+===================  ================================================================  ================
 
 Outside the catalogue: ``directional-damping`` (:class:`duffsym.effects.mechanical.DirectionalDamping`,
 x'' += -dir_c d' |x'|, for path-time elements inside a structure; ``duffsym benchmark bouc-wen`` applies it to

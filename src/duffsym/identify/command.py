@@ -1,6 +1,8 @@
 """``duffsym fit`` and ``duffsym validate``: identify a model from a record, and score a saved fit on another."""
 from __future__ import annotations
 
+import dataclasses
+
 from duffsym._cli_common import (
     CLIError,
     _add_file_arguments,
@@ -18,21 +20,16 @@ from duffsym._cli_common import (
 
 
 def cmd_fit(args) -> int:
-    from duffsym.identify import Problem, fit
+    from duffsym.identify import fit
 
-    _check_outputs(args, [args.data, None if args.mask in (None, "none", "auto") else args.mask])
-    record = _read_record(args, args.data)
+    if args.manifest or len(args.data) != 1:  # a campaign: one parameter set for several records
+        return _cmd_fit_campaign(args)
+    _check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
+    record = _read_record(args, args.data[0])
     model = _fit_model(args)
-    fixed = _parse_assignments(args.fix, "--fix")
-    if args.af != "max":
-        try:
-            fixed["A_f"] = float(args.af)
-        except ValueError:
-            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
-    mask, mask_info = _mask_from_args(args.mask, record)
-    problem = Problem(model, record, fixed=fixed, mask=mask, mask_info=mask_info)
+    problem = _problem(args, model, [record], [_mask_from_args(args.mask, record)])
     if not args.quiet:
-        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data} "
+        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data[0]} "
              f"({record.t.size} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
@@ -48,6 +45,35 @@ def cmd_fit(args) -> int:
         _save_fit(result, args.out, "fit")
     if args.plot:
         _plot_fit(result, record, model, args.plot, transient=args.plot_transient)
+    return _report_fit(args, result)
+
+
+def _fixed_from_args(args) -> dict:
+    fixed = _parse_assignments(args.fix, "--fix")
+    if args.af != "max":
+        try:
+            fixed["A_f"] = float(args.af)
+        except ValueError:
+            raise CLIError(f"--af must be 'max' or a number; got {args.af!r}") from None
+    return fixed
+
+
+def _problem(args, model, records, masks, fixed=None):
+    """The Problem of ``records`` (one or several) with the options' fixed values and masks."""
+    from duffsym.identify import Problem
+
+    fixed = _fixed_from_args(args) if fixed is None else fixed
+    if len(records) == 1:
+        (mask, info), = masks
+        return Problem(model, records[0], fixed=fixed, mask=mask, mask_info=info)
+    use = any(m is not None for m, _ in masks)
+    full = [m if m is not None else [False] * r.n_times for (m, _), r in zip(masks, records)]
+    return Problem(model, records, fixed=fixed, mask=full if use else None,
+                   mask_info=next((i for _, i in masks if i), None))
+
+
+def _report_fit(args, result) -> int:
+    """Print the fit (summary or JSON) and turn its success into the exit code."""
     if args.json:
         _emit_json(_contract_fields(result.to_dict()))
     else:
@@ -58,6 +84,35 @@ def cmd_fit(args) -> int:
     return 0
 
 
+def _cmd_fit_campaign(args) -> int:
+    """``duffsym fit A.csv B.csv ...`` or ``--manifest``: one parameter set for every record."""
+    from duffsym.identify import fit
+    from duffsym.identify.campaign_command import campaign_records, hold_unseen_rates, plot_campaign
+
+    if args.mask not in (None, "none", "auto"):
+        raise CLIError("--mask FILE is for one record; a campaign takes --mask none or auto (found per record)")
+    pairs = campaign_records(args, _read_record)
+    _check_outputs(args, [p for p, _ in pairs] + [args.manifest])
+    records = [r for _, r in pairs]
+    model = _fit_model(args)
+    fixed, held = hold_unseen_rates(model, records, _fixed_from_args(args), args.quiet)
+    problem = _problem(args, model, records, [_mask_from_args(args.mask, r) for r in records], fixed)
+    if not args.quiet:
+        _err(f"fitting one {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} parameter set to "
+             f"{len(records)} records ({sum(r.n_times for r in records)} samples)")
+    result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
+                 progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling(records)
+    if held:
+        result = dataclasses.replace(result, defaults_applied={**result.defaults_applied, "eta": held})
+    if result.flags:
+        _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
+    if args.out:
+        _save_fit(result, args.out, "fit")
+    if args.plot:
+        plot_campaign(result, records, args.plot)
+    return _report_fit(args, result)
+
+
 def _contract_fields(d: dict) -> dict:
     """The fit JSON with the contract's keys first (model, effects, params, stderr, nrmse, status, success)."""
     head = ("model", "effects", "params", "stderr", "nrmse", "status", "success")
@@ -65,20 +120,23 @@ def _contract_fields(d: dict) -> dict:
 
 
 def _plot_fit(result, record, model, path, transient: bool = False) -> None:
-    """Measured and fitted loops: one steady full-stroke cycle (``duffsym.plot.loops.steady_window``), or the
-    whole record, start-up included, with ``transient``."""
+    """Measured and fitted loops: one steady full-stroke cycle where the input repeats, else one window
+    (``duffsym.plot.windows.loop_windows``), or the whole record, start-up included, with ``transient``."""
     import numpy as np
 
-    from duffsym.plot.loops import plot_loops, save_figure, steady_window
+    from duffsym.plot.loops import plot_loops, save_figure
+    from duffsym.plot.windows import loop_windows
     from duffsym.simulate import Trajectory, input_matrix
 
     names = tuple(c.name for c in model.inputs)
     u = input_matrix(model, record.t, record.inputs_for(model))
     y_sim = np.asarray(result.y_sim[0], dtype=float)
-    window = None if transient else steady_window(record.d)
-    sl = window or slice(0, record.n_times)
+    windows = None if transient else loop_windows(record.d, count=1)
+    sl = windows.slices[0] if windows else slice(0, record.n_times)
     t = np.asarray(record.t)
-    shown = "whole record" if window is None else f"one steady cycle, t = {t[sl][0]:.3g}-{t[sl][-1]:.3g} s"
+    shown = "whole record" if windows is None else (
+        f"one steady {windows.describe(t, 0)}" if windows.whole_cycles else
+        f"one {windows.describe(t, 0)} (the input does not repeat, so no loop closes)")
     common = dict(model=model.name, t=t[sl], x=np.zeros((t[sl].size, 0)), u=u[sl], params=result.params,
                   success=True, status="ok", message="ok", method="data", input_names=names)
     measured = Trajectory(y=np.asarray(record.y, dtype=float)[sl], **common)
@@ -86,7 +144,7 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
     name = f"{record.name or 'record'}{f' ({record.current:g} A)' if record.current is not None else ''}"
     fig = plot_loops([measured, fitted], labels=["measured", f"fit, free run (NRMSE {result.nrmse:.3g}, whole record)"],
                      styles=[dict(color="0.55", ls="none", marker=".", ms=2.5), dict(color="k", lw=0.9)],
-                     units=record.units, title=f"{name}: measured vs fitted {model.name}, {shown}")
+                     units=record.units, title=f"{name}: measured vs fitted {model.name}\n{shown}")
     if result.mask and np.any(result.mask[0]):
         m = np.zeros(record.n_times, dtype=bool)
         m[sl] = np.asarray(result.mask[0], dtype=bool)[sl]
@@ -101,10 +159,13 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 def cmd_validate(args) -> int:
     from duffsym.identify import load_result, validate
 
+    _check_outputs(args, [args.fit, args.data], options=("plot",))
     result = load_result(args.fit)
     _require_success(result, args)
     record = _read_record(args, args.data)
     val = validate(result, record)
+    if args.plot and val.success:
+        _plot_validation(val, record, args.plot)
     if args.json:
         _emit_json(val.to_dict())
     else:
@@ -128,9 +189,24 @@ def _positive_seconds(text: str) -> float:
     return value
 
 
+def _plot_validation(val, record, path) -> None:
+    """Measured vs predicted over the record, a zoom on the largest error, loops of cycles or windows."""
+    from duffsym.plot import save_figure
+    from duffsym.plot.prediction import plot_prediction
+
+    level = f" ({record.current:g} A)" if record.current is not None else ""
+    fig = plot_prediction(record.t, record.d, record.velocity(), record.y, val.y_sim, units=record.units,
+                          title=f"{val.model} fit predicting {record.name or 'the record'}{level}")
+    save_figure(fig, path)
+
+
 def register(sub) -> None:
     s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
-    s.add_argument("data", help="CSV with a header: time, displacement, force (+ velocity, current); see --columns")
+    s.add_argument("data", nargs="*", help="CSV with a header: time, displacement, force (+ velocity, current); see "
+                   "--columns. Several files (or --manifest): one parameter set fitted to all of them, each record "
+                   "with its own initial state and its labels (a constant current/voltage column)")
+    s.add_argument("--manifest", help="a CSV/JSON manifest of the records to fit together (as for duffsym batch: file, "
+                   "name, columns, and labels such as current or voltage)")
     _add_model_arguments(s)
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed (repeat or "
                    "comma-separate); k3 = 0 by default (not identifiable from one sine amplitude)")
@@ -146,7 +222,8 @@ def register(sub) -> None:
                    "out keeps the converged fit it started from); default none")
     _add_file_arguments(s)
     s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
-    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle")
+    s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle where the "
+                   "input repeats, else one window (a sweep, a random record); several records: one panel each")
     s.add_argument("--plot-transient", action="store_true", help="plot the whole record, start-up included")
     s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
@@ -157,5 +234,7 @@ def register(sub) -> None:
     s.add_argument("data", help="CSV record to validate on")
     s.add_argument("--force", action="store_true", help="use a fit marked success: false")
     _add_file_arguments(s)
+    s.add_argument("--plot", help="figure (PNG/PDF): measured vs predicted over time, a zoom on the largest error, "
+                   "and loops of whole cycles (or of windows, where the input does not repeat)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.set_defaults(func=cmd_validate)

@@ -74,8 +74,8 @@ def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float
     axes : two matplotlib axes ``(ax_d, ax_ddot)`` to draw into (one axis is enough for a single-input
         model); default: a new figure with two panels.
     styles : optional keyword dicts passed to ``Axes.plot`` per trajectory (colour, line style ...).
-    units : unit of each signal, as in :attr:`~duffsym.data.Record.units` (``{"t": "s", "d": "mm",
-        "y": "N"}``), shown in the axis labels; the velocity's unit is d's over t's.
+    units : unit of each signal, as in :attr:`~duffsym.data.Record.units`
+        (``{"t": "s", "d": "mm", "y": "N"}``), shown in the axis labels; the velocity's unit is d's over t's.
     title : the figure title (say what is drawn: record, model, which cycles).
 
     Returns

@@ -54,6 +54,8 @@ VERDICTS = ("consistent", "missing-terms", "disagrees", "inconclusive")
 class Thresholds:
     """The numbers behind the verdict (documented defaults; see the module docstring).
 
+    Attributes
+    ----------
     tolerance : fraction of the target's energy (|b|^2) a dropped set of terms may leave
         unexplained, on top of the noise allowance (see ``_select``).
     stlsq_threshold : coefficient threshold on the normalised system for ``selection="stlsq"``.
@@ -268,8 +270,9 @@ class SindyCrossCheck:
     ----------
     model : name of the model (with its effects). method : ``"weak"`` or ``"smoothed"``.
     gain : output gain used to rebuild the velocity (``A_f``); ``gain_source`` where it came from.
-    terms : one dict per candidate: ``name, source, effect, in_model, expected, inclusion,
-        coefficient, coefficient_std, model_coefficient, model_stderr, agrees``.
+    terms : one dict per candidate, with the keys ``name``, ``source``, ``effect``, ``in_model``,
+        ``expected``, ``inclusion``, ``coefficient``, ``coefficient_std``, ``model_coefficient``,
+        ``model_stderr``, ``agrees``.
     selected : names with inclusion >= ``thresholds.include``; ``expected`` the model terms with a
         non-zero coefficient at the reference parameters; ``missing`` selected terms the model lacks;
         ``absent`` expected terms not selected; ``ambiguous`` the others in between.
