@@ -113,6 +113,16 @@ class Effect:
         """The output ``y`` with this effect's own output term removed (identity if it has none)."""
         return y
 
+    def record_bounds(self, record) -> dict[str, tuple[float, float]]:
+        """Bounds of the effect's parameters scaled to ``record`` (e.g. a smoothing velocity tied to the
+        record's velocity range), tighter than the static ``ParamSpec`` bounds; {} when none."""
+        return {}
+
+    def activity(self, record, params: Mapping[str, float]) -> str:
+        """Why the fitted effect does nothing on ``record`` (its size negligible, or its smoothing run off so
+        that its switch is flat or linear over the record), in words; "" when it acts (or cannot be told)."""
+        return ""
+
     def describe(self) -> dict:
         """Everything ``duffsym effects --json`` shows about the effect."""
         return {

@@ -1,0 +1,125 @@
+"""The ladder that finishes and keeps what it did (issue 22): a time budget, steps written as they complete, the
+end product never a failed fit, inactive effects flagged, the joint refit of several effects, the play of a real
+friction damper. Records come from the independent generator (tests/independent_sim.py, no duffsym code) and
+from the real friction damper in ../shared/data/external (skipped when absent)."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+import independent_sim as gen
+from _external import external_file
+from duffsym.data.record import Record
+from duffsym.errors import DataError
+
+BRFD = "friction_damper_brfd_artslab"
+
+
+def record(effects, seed, **kw):
+    g = gen.scenario(effects, seed, **kw)
+    return Record(t=g.t, d=g.d, y=g.y, name=f"{effects}-{seed}", source="independent_sim"), g
+
+
+# ------------------------------------------------------------------------------------------- JSON loader
+def test_friction_damper_json_is_read_with_its_columns_and_rate(tmp_path):
+    from duffsym.data.loaders import load_friction_damper_json
+
+    t = np.arange(50) / 1024.0
+    rows = np.column_stack([t, np.sin(t), 2 * np.cos(t), np.cos(t), 0 * t, 0 * t]).tolist()
+    p = tmp_path / "rec.json"
+    p.write_text(json.dumps({"data": rows, "dt": 1 / 1024, "displacement units": "in", "friction force units": "kip"}))
+    rec = load_friction_damper_json(p)
+    assert rec.n_times == 50 and rec.dt == pytest.approx(1 / 1024)
+    assert rec.y[3] == pytest.approx(2 * math.cos(t[3])) and rec.d_dot[3] == pytest.approx(math.cos(t[3]))
+    assert rec.units["d"] == "in" and rec.units["y"] == "kip"
+    (tmp_path / "bad.json").write_text(json.dumps({"rows": [[1, 2]]}))
+    with pytest.raises(DataError, match="'data' is a list of rows"):
+        load_friction_damper_json(tmp_path / "bad.json")
+
+
+def test_real_friction_damper_json_loads_at_1024_hz():
+    from duffsym.data.loaders import load_friction_damper_json
+
+    rec = load_friction_damper_json(external_file(BRFD, "0.5Hz30lbtension1amplitude.json"))
+    assert rec.n_times == 14337 and 1 / rec.dt == pytest.approx(1024.0)
+    assert 1.9 < np.ptp(rec.d) < 2.1  # a 1 in amplitude sine (SOURCE.md)
+
+
+# ------------------------------------------------------------------------------------------- inactive effects
+def test_seal_friction_added_to_a_record_without_it_is_flagged_inactive_and_kept_when_present():
+    from duffsym.diagnose import diagnose
+    from duffsym.diagnose.search import inactive_effects
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.model.library import mr_damper
+
+    model = apply_effects(mr_damper(), [CATALOGUE["seal-friction"]])
+    rec, _ = record("force-offset", 3)  # no friction in the generator's device
+    dg = diagnose(rec, model, candidates=[], sindy=False)
+    flagged = inactive_effects(model, rec, dg.base_fit.params)
+    assert "seal-friction" in flagged
+    # the switch cannot run off: seal_eps stays within the record's velocity range
+    vmax = float(np.max(np.abs(rec.velocity())))
+    assert dg.base_fit.params["seal_eps"] <= vmax * (1 + 1e-6)
+    rec2, g2 = record("seal-friction", 0)
+    dg2 = diagnose(rec2, model, candidates=[], sindy=False)
+    assert inactive_effects(model, rec2, dg2.base_fit.params) == {}
+    assert dg2.base_fit.params["seal_F"] == pytest.approx(g2.truth["physics"]["seal_friction"], rel=0.25)
+
+
+# ------------------------------------------------------------------------------------------- budget
+def test_a_tiny_budget_stops_the_ladder_with_its_finished_steps_written(tmp_path):
+    from duffsym.cli import main
+    from duffsym.data import write_csv
+
+    rec, _ = record(("force-offset", "output-lag"), 1)
+    csv = tmp_path / "rec.csv"
+    write_csv(rec, csv)
+    out, rep = tmp_path / "fit.json", tmp_path / "report"
+    code = main(["ladder", str(csv), "--budget", "4", "--no-sindy", "--candidates", "force-offset,output-lag",
+                 "--report", str(rep), "--out", str(out), "--quiet", "--json"])
+    doc = json.loads((rep / "ladder.json").read_text())
+    assert len(doc["steps"]) >= 1 and (rep / "step0" / "diagnosis.md").is_file()
+    assert doc["budget"] == 4.0
+    assert doc["final"]["success"] and code == 0 and out.is_file()  # never a failed fit as the end product
+    if not doc["complete"]:  # stopped by the budget: said so, honestly
+        assert doc["stopped"].startswith("stopped at step") and "time budget" in doc["stopped"]
+    # every fit had its share: nothing ran longer than the budget plus the final fit's reserve by much
+    assert doc["timings"]["total"] < 60
+
+
+def test_budget_argument_is_checked():
+    from duffsym.cli import main
+
+    assert main(["ladder", "no-such.csv", "--budget", "soon"]) != 0
+
+
+# ------------------------------------------------------------------------------------------- joint refit
+@pytest.mark.slow
+def test_play_and_seal_friction_together_end_within_twice_the_noise():
+    from duffsym.diagnose import ladder
+
+    rec, g = record(("seal-friction", "backlash"), 0)
+    lad = ladder(rec, sindy=False)
+    k = lad.steps[-1].diagnosis.split["n_fit"]
+    noise = g.noise_std / float(np.std(rec.y[k:]))
+    assert {"seal-friction", "backlash"} <= set(lad.effects)
+    assert lad.steps[-1].nrmse_heldout < 2 * noise
+
+
+# ------------------------------------------------------------------------------------------- real play
+@pytest.mark.slow
+def test_play_of_the_real_friction_damper_matches_its_plateaus():
+    from duffsym.data.loaders import load_friction_damper_json
+    from duffsym.diagnose import diagnose
+    from duffsym.identify.initial import auto_mask
+
+    rec = load_friction_damper_json(external_file(BRFD, "0.5Hz30lbtension1amplitude.json"))
+    mask, info = auto_mask(rec)
+    dg = diagnose(rec, candidates=["backlash"], mask=mask, sindy=False, deadline=None)
+    c = dg.candidates[0]
+    assert c.success, c.message
+    h, se = c.params["bl_h"], c.stderr["bl_h"]
+    width = info["median_displacement_width"]  # the masked stretch: the gap 2h plus the force's rise
+    assert 0.25 * width < h < 0.6 * width and se < 0.2 * h
+    assert c.nrmse_after < dg.nrmse_heldout
