@@ -235,3 +235,48 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
             ax.legend(fontsize="x-small", loc="center")
     fig.suptitle(title or ladder_outcome(lad), fontsize="large")
     return fig
+
+
+def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | None = None):
+    """The play candidate against the plateaus: the d–y loop over one steady cycle and the force after one
+    reversal against the actuator travel from it, measured, base model and with the fitted play (free runs).
+    The flat low-force stretch after the reversal is the gap ``2h`` the play's piston crosses; its fitted
+    half-width (± standard error) is in the title. None when the candidate has no result."""
+    plt = _plt()
+    c = next((c for c in diag.candidates if c.effect == effect and c.success), None)
+    if c is None or effect not in diag.y_candidates:
+        return None
+    y, d = np.asarray(record.y), np.asarray(record.d)
+    v = np.asarray(record.velocity())
+    yp = diag.y_candidates[effect]
+    sl = _steady(record)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), layout="constrained")
+    ax = axes[0]
+    ax.plot(d[sl], y[sl], ".", color="0.7", ms=1.5, label="measured")
+    ax.plot(d[sl], diag.y_base[sl], color="tab:red", lw=0.8, label=f"base model (held-out {diag.nrmse_heldout:.3g})")
+    ax.plot(d[sl], yp[sl], color="k", lw=0.8, label=f"+ {effect} (held-out {c.nrmse_after:.3g})")
+    ax.set_xlabel("d" + _u(record, "d"))
+    ax.set_ylabel("y" + _u(record, "y"))
+    ax.set_title(f"d–y loop, {_steady_label(record, sl)}", fontsize="medium")
+    ax.legend(fontsize="x-small")
+    ax = axes[1]
+    idx = np.arange(record.n_times)[sl]
+    s = np.sign(v[idx])
+    flips = idx[1:][(s[1:] != s[:-1]) & (s[1:] != 0)]
+    r = int(flips[0]) if flips.size else int(idx[0])
+    stop = int(flips[1]) if flips.size > 1 else int(idx[-1])
+    travel = np.abs(d[r:stop] - d[r])
+    ax.plot(travel, y[r:stop], ".", color="0.6", ms=2, label="measured")
+    ax.plot(travel, diag.y_base[r:stop], color="tab:red", lw=0.9, label="base model")
+    ax.plot(travel, yp[r:stop], color="k", lw=0.9, label=f"+ {effect}")
+    h = c.params.get("bl_h")
+    if h is not None:
+        ax.axvspan(0, 2 * h, color="tab:blue", alpha=0.12, label=f"gap 2h = {2 * h:.3g}")
+    ax.set_xlabel("actuator travel since the reversal |d - d(reversal)|" + _u(record, "d"))
+    ax.set_ylabel("y" + _u(record, "y"))
+    ax.set_title(f"after the reversal at t = {float(record.t[r]):.3g} s: the plateau", fontsize="medium")
+    ax.legend(fontsize="x-small")
+    se = c.stderr.get("bl_h", float("nan"))
+    fig.suptitle(title or (f"play fitted: half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect),
+                 fontsize="large")
+    return fig

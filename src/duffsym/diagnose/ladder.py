@@ -237,7 +237,8 @@ def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
     params = dict(dg.base_fit.params)
     return Step(effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
                 nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=params, stderr=dict(dg.base_fit.stderr),
-                diagnosis=dg, discovered=found, inactive=inactive_effects(model, record, params), joint=jinfo,
+                diagnosis=dg, discovered=found, joint=jinfo,
+                inactive=inactive_effects(model, record, params, dg.base_fit.stderr),
                 seconds=seconds)
 
 

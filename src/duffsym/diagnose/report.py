@@ -31,7 +31,7 @@ def _candidates_table(diag) -> list[str]:
 def write_diagnosis_report(diag, record: Record, folder) -> Path:
     """``folder/diagnosis.md`` with the figures of where the model fails and of the candidates."""
     from duffsym._json import jsonable
-    from duffsym.diagnose.figures import plot_candidates, plot_where
+    from duffsym.diagnose.figures import plot_candidates, plot_play, plot_where
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -50,6 +50,9 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
               "is the free-run error on data the fit never saw.", ""]
     lines += _candidates_table(diag)
     lines += ["", f"![candidates]({f2})", ""]
+    fig = plot_play(diag, record)
+    if fig is not None:  # the play candidate against the plateaus after the reversals
+        lines += ["## The play candidate", "", f"![the play and the plateaus]({_save(fig, folder / 'play.png')})", ""]
     if diag.sindy is not None:
         lines += ["## SINDy cross-check", "", f"{diag.sindy.get('verdict')}: {diag.sindy.get('message', '')}", ""]
     write_json_atomic(folder / "diagnosis.json", jsonable(diag.to_dict()), default=str)

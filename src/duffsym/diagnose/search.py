@@ -288,16 +288,18 @@ def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = Non
     return {k: v for k, v in out.items() if k in model.param_names and k not in (fixed or {})}
 
 
-def inactive_effects(model, record: Record, params: Mapping[str, float]) -> dict:
-    """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`), for the catalogued
-    effects of ``model`` that are flagged; {} when every effect acts."""
+def inactive_effects(model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None,
+                     effects=None) -> dict:
+    """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
+    standard errors), for the catalogued effects of ``model`` (or those in ``effects``) that are flagged; {}
+    when every effect acts."""
     from duffsym.effects import CATALOGUE
 
     out = {}
-    for name in model.effects:
+    for name in model.effects if effects is None else effects:
         if name in CATALOGUE:
             try:
-                why = CATALOGUE[name].activity(record, {**model.defaults(), **dict(params)})
+                why = CATALOGUE[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
             except (KeyError, ValueError, ArithmeticError):
                 why = ""
             if why:

@@ -369,7 +369,7 @@ class Backlash(Effect):
         h = max(h, plateau_half_width(record))
         return {name: self._clip(name, min(max(h, floor), 0.25 * float(np.ptp(d))))}
 
-    def activity(self, record, params) -> str:
+    def activity(self, record, params, stderr=None) -> str:
         h = float(params[f"{self.prefix}h"])
         stroke = float(np.ptp(np.asarray(record.d, dtype=float))) or 1.0
         if h < 0.002 * stroke:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.base import Effect, lstsq_coeffs, residual
+from duffsym.effects.base import Effect, _not_significant, lstsq_coeffs, residual
 from duffsym.errors import ModelError
 from duffsym.model.core import InputChannel, SymbolicModel
 from duffsym.model.symbols import ParamSpec
@@ -502,7 +502,7 @@ class SealFriction(Effect):
         lo, hi = SEAL_EPS_RANGE
         return {f"{self.prefix}eps": (lo * vmax, hi * vmax)}
 
-    def activity(self, record, params) -> str:
+    def activity(self, record, params, stderr=None) -> str:
         v = np.asarray(record.velocity(), dtype=float)
         F, eps = float(params[f"{self.prefix}F"]), float(params[f"{self.prefix}eps"])
         vmax = float(np.max(np.abs(v))) or 1.0
@@ -513,4 +513,4 @@ class SealFriction(Effect):
         if eps >= 0.5 * vmax:
             return (f"its switch is flat over the record (seal_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
                     "the tanh is nearly linear there, a viscous term rather than a friction")
-        return ""
+        return _not_significant(f"{self.prefix}F", params, stderr or {})
