@@ -595,10 +595,7 @@ def diagnose(
     out = _mark_stability(_rank(out), exts)
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
-    if sindy and time_left(deadline) < 0.1 * t_budget:
-        say("  SINDy cross-check skipped: the time budget is nearly spent")
-        sindy = False
-    evidence = _sindy_evidence(record, base, model, say) if sindy else None
+    evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
     verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
                + _sindy_sentence(evidence, out) + _base_sentence(base_check))
     return Diagnosis(
@@ -807,6 +804,14 @@ def _rank(cands: list[Candidate]) -> list[Candidate]:
         tie = [c for c in ok if c.nrmse_after <= ok[0].nrmse_after * (1 + TIE)]
         ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie):]
     return ok + rest
+
+
+def _sindy_wanted(sindy: bool, deadline, t_budget: float, say) -> bool:
+    """Whether to run the SINDy cross-check: asked for, and more than a tenth of the diagnosis's time left."""
+    if sindy and time_left(deadline) < 0.1 * t_budget:
+        say("  SINDy cross-check skipped: the time budget is nearly spent")
+        return False
+    return sindy
 
 
 def _sindy_evidence(record, base_fit, model, say) -> dict:
