@@ -46,6 +46,8 @@ from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_eff
 DEFAULT_BUDGET = 600.0
 #: share of the budget kept for the backward pass and the final fit on the whole record
 FINAL_RESERVE = 0.15
+#: share of the time left for the steps that one step's diagnosis may take (see _step_deadline)
+STEP_SHARE = 0.6
 
 
 @dataclass(frozen=True)
@@ -182,7 +184,8 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
             t_step = time.perf_counter()
             try:
                 dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise,
-                              mask=mask, start=start, progress=progress, deadline=steps_end, **rules)
+                              mask=mask, start=start, progress=progress, deadline=_step_deadline(steps_end, steps,
+                                                                                               max_steps), **rules)
             except (ModelError, DataError) as exc:
                 if not steps:
                     raise
@@ -221,6 +224,15 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
     if complete:
         model = _simplify(record, base_model, model, steps, say, {**kw, "deadline": end})
     return _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say)
+
+
+def _step_deadline(steps_end, steps, max_steps: int):
+    """A step's diagnosis may take ``STEP_SHARE`` of the time left for the steps (all of it for the last
+    step ``max_steps`` allows), so that a first step on a slow machine leaves time for the next."""
+    if steps_end is None:
+        return None
+    left = time_left(steps_end)
+    return steps_end if len(steps) >= max_steps else time.monotonic() + STEP_SHARE * left
 
 
 def _left_text(end) -> str:

@@ -63,7 +63,7 @@ BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
 OUT_OF_TIME = ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded")
 #: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
 #: computed at the record's rate); a 10 000-sample fitting part at 1 kHz otherwise costs minutes per fit
-BUDGET_SAMPLES = 3000
+BUDGET_SAMPLES = 2000
 #: the message of a candidate that was not fitted because the time budget ran out
 NOT_TRIED = "not tried: the time budget ran out"
 
@@ -154,6 +154,7 @@ class Diagnosis:
     base_check: dict = field(default_factory=dict)
     prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
     noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
+    inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
 
     @property
     def best(self) -> Candidate | None:
@@ -169,6 +170,7 @@ class Diagnosis:
             sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
             prepare=self.prepare.to_dict() if self.prepare is not None else None,
             noise_estimate=self.noise_estimate.to_dict() if self.noise_estimate is not None else None,
+            inactive=self.inactive,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
@@ -596,15 +598,17 @@ def diagnose(
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
     evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
+    inactive = inactive_effects(model, record, base.params, base.stderr)
     verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
-               + _sindy_sentence(evidence, out) + _base_sentence(base_check))
+               + _sindy_sentence(evidence, out) + _base_sentence(base_check)
+               + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
         y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
         y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
-        noise_estimate=est,
+        noise_estimate=est, inactive=inactive,
     )
 
 
