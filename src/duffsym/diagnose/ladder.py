@@ -202,6 +202,10 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
                 if found is not None:
                     continue
                 dg = _with_note(dg, note)
+            if chosen is None and _out_of_time(dg):
+                stopped, complete = (f"stopped at step {len(steps) - 1}: the time budget ran out before every "
+                                     f"candidate was fitted ({_out_of_time(dg)}): {dg.verdict}"), False
+                break
             if chosen is None:
                 stopped = "no further effect is supported by the evidence: " + dg.verdict
                 break
@@ -235,6 +239,15 @@ def _step_deadline(steps_end, steps, max_steps: int):
     return steps_end if len(steps) >= max_steps else time.monotonic() + STEP_SHARE * left
 
 
+def _out_of_time(dg: Diagnosis) -> str:
+    """Which candidates of ``dg`` the time budget left unfitted or unconverged, in words ("" when none)."""
+    from duffsym.diagnose.search import NOT_TRIED
+
+    missed = [c.effect for c in dg.candidates if not c.success and (c.message.startswith(NOT_TRIED)
+                                                                   or "Time_Exceeded" in c.message)]
+    return f"{len(missed)} of {len(dg.candidates)} not tried or not converged: {', '.join(missed)}" if missed else ""
+
+
 def _left_text(end) -> str:
     left = time_left(end)
     return "" if not math.isfinite(left) else f" (budget: {max(left, 0):.0f} s left)"
@@ -258,7 +271,7 @@ def _report(on_step, steps, t0, budget, record) -> None:
     """``on_step`` with the ladder so far (no final fit yet)."""
     if on_step is not None:
         on_step(Ladder(steps=tuple(steps), final_fit=None, stopped=f"running: {len(steps)} step(s) done",
-                       timings={"total": time.perf_counter() - t0}, budget=budget, complete=False,
+                       timings=_timings(t0), budget=budget, complete=False,
                        final_note="the run has not finished; the last step's fit is on the fitting part"))
 
 
@@ -282,13 +295,19 @@ def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rule
                 "fit on the fitting part" + ("" if last.diagnosis.base_fit.success else " (itself not converged)"))
         say(note)
         final = last.diagnosis.base_fit
-    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0},
-                  prepare=prep, final_note=note, budget=budget, complete=complete)
+    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings=_timings(t0), prepare=prep,
+                  final_note=note, budget=budget, complete=complete)
+
+
+def _timings(t0: float) -> dict:
+    """Wall seconds since ``t0`` and this process's CPU seconds (on a shared machine the CPU time is the
+    measure that does not depend on the load)."""
+    return {"total": time.perf_counter() - t0, "cpu_process": time.process_time()}
 
 
 def _finish(record, steps, final, stopped, complete, t0, budget, prep, note) -> Ladder:
     return Ladder(steps=tuple(steps), final_fit=final if final is not None else steps[-1].diagnosis.base_fit,
-                  stopped=stopped, timings={"total": time.perf_counter() - t0}, prepare=prep, final_note=note,
+                  stopped=stopped, timings=_timings(t0), prepare=prep, final_note=note,
                   budget=budget, complete=complete)
 
 

@@ -705,7 +705,7 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
             continue
         ss, fr, y_ext, secs = got
         runs.append([ss, name, CATALOGUE[name], ext, fr, y_ext, secs])
-    if second_start:
+    if second_start and time_left(deadline) > 1.0:
         # lost to a local optimum (failed, diverged, or worse than the base it extends): a second start
         # at the base solution itself, the effect's parameters at their neutral defaults
         lost = [r for r in runs if not r[4].success or r[0] > ss_base]
@@ -719,7 +719,11 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
             if (fr2.success or not run[4].success) and (ss2 < run[0] or (fr2.success and not run[4].success)):
                 fr2.settings["candidate_start"] = 2
                 run[0], run[4], run[5] = ss2, fr2, y2
-    if screen is not None:
+    if screen is not None and time_left(deadline) <= 1.0:
+        for run in runs:
+            if not run[4].success and run[4].status == "Maximum_Iterations_Exceeded":
+                run[4], run[5] = None, f"{NOT_TRIED} after its screening fit ({budget} IPOPT iterations)"
+    elif screen is not None:
         # only the candidates still being fitted compete for continuation: a fit stopped half-way is not
         # ranked against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the
         # ladder lost it on an offset + lag record; it converges to the true lag when continued)
