@@ -179,6 +179,11 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
 def ladder_outcome(lad) -> str:
     """The ladder's result in words, from its numbers: what was added and how the held-out error moved."""
     steps = lad.steps
+    if not getattr(lad, "complete", True) or getattr(lad, "final_fit", True) is None:  # stopped, or still running
+        where = "running" if lad.final_fit is None else ("stopped by the time budget" if "time budget" in lad.stopped
+                                                         else "stopped")
+        return (f"{where} after {len(steps)} step(s): held-out NRMSE "
+                + " -> ".join(f"{s.nrmse_heldout:.3g}" for s in steps))
     if len(steps) == 1:
         return f"nothing added: no effect is supported (held-out NRMSE {steps[0].nrmse_heldout:.3g})"
     a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
