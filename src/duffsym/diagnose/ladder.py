@@ -47,7 +47,7 @@ DEFAULT_BUDGET = 600.0
 #: share of the budget kept for the backward pass and the final fit on the whole record
 FINAL_RESERVE = 0.15
 #: share of the time left for the steps that one step's diagnosis may take (see _step_deadline)
-STEP_SHARE = 0.6
+STEP_SHARE = 0.75
 
 
 @dataclass(frozen=True)
