@@ -215,6 +215,8 @@ class InputShift(Effect):
         return {name: self._clip(name, _best_shift(record, y_model, signed=True, limit=0.05, fraction=8))}
 
 
+#: ``bl_h`` may range over these fractions of the record's stroke (``Backlash.record_bounds``)
+PLAY_RANGE = (1e-4, 0.3)
 #: the low-force band of :func:`plateau_half_width`, a fraction of max|y|
 PLATEAU_BAND = 0.2
 
@@ -368,6 +370,13 @@ class Backlash(Effect):
         h = float(np.median(widths)) if widths.size else floor
         h = max(h, plateau_half_width(record))
         return {name: self._clip(name, min(max(h, floor), 0.25 * float(np.ptp(d))))}
+
+    def record_bounds(self, record) -> dict[str, tuple[float, float]]:
+        """``bl_h`` within ``PLAY_RANGE`` of the record's stroke: a play wider than that leaves the piston
+        nearly still (a fit on a poor base model can run there, e.g. h = 1.03 in on a 2 in stroke of the real
+        friction damper, whose plateaus show h = 0.10 in)."""
+        stroke = float(np.ptp(np.asarray(record.d, dtype=float))) or 1.0
+        return {f"{self.prefix}h": (PLAY_RANGE[0] * stroke, PLAY_RANGE[1] * stroke)}
 
     def activity(self, record, params, stderr=None) -> str:
         h = float(params[f"{self.prefix}h"])
