@@ -419,7 +419,7 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
     y = np.asarray(record.y, dtype=float)
     k = split_record(record, holdout)
     rec_fit = _part(record, k)
-    mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
+    mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
     _, rec_q, mask_q = _prepare_fit(record, rec_fit, mask_fit, decimate, BUDGET_SAMPLES if deadline else None)
     fixed_m = with_default_af(model, fixed, rec_fit)
 

@@ -278,6 +278,17 @@ def smooth_form(model, name: str):
         return None
 
 
+#: effects that explain the stretches a deadzone mask (``--mask auto``) leaves out: a model with one of them is
+#: fitted on every sample (masked, the flat force after each reversal, the play's only evidence, is not seen and
+#: the play's half-width ran to its lower bound on the real friction damper)
+EXPLAINS_MASK = ("backlash",)
+
+
+def unmasked(model, mask):
+    """``mask``, or None when ``model`` has an effect that explains the masked stretches (``EXPLAINS_MASK``)."""
+    return None if any(e in EXPLAINS_MASK for e in model.effects) else mask
+
+
 def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = None) -> dict:
     """The bounds of ``model``'s effect parameters scaled to ``record`` (:meth:`Effect.record_bounds`, e.g.
     a friction's smoothing velocity within a range of the record's velocities), for the free parameters."""
@@ -359,7 +370,8 @@ class _CandidateFit:
         if soft is None:
             return start
         half = None if self.cpu_time is None else 0.5 * self.cpu_time
-        fs = _fit(soft, self.rec_fit, self.fixed, start, mask=self.mask_fit, max_iter=budget, max_cpu_time=half,
+        fs = _fit(soft, self.rec_fit, self.fixed, start, mask=unmasked(soft, self.mask_fit), max_iter=budget,
+                  max_cpu_time=half,
                   max_wall_time=None if wall is None else 0.5 * wall, flags=False)
         ok = fs.success or fs.status in ("Maximum_Iterations_Exceeded",) + OUT_OF_TIME
         return {**start, **dict(fs.params)} if ok and all(np.isfinite(list(fs.params.values()))) else start
@@ -379,7 +391,7 @@ class _CandidateFit:
                                        fixed=self.fixed)
                 start = self._smooth_first(name, ext, start, budget, wall)
             # no fit-level flags: the diagnosis judges its candidates itself, stability included (_mark_stability)
-            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=self.mask_fit, max_iter=budget,
+            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=unmasked(ext, self.mask_fit), max_iter=budget,
                       max_cpu_time=self.cpu_time, max_wall_time=wall, flags=False)
         except (ModelError, DataError) as exc:
             return str(exc), time.perf_counter() - t0
@@ -632,6 +644,7 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     """
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
+    mask, mask_fit = unmasked(model, mask), unmasked(model, mask_fit)
     base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True,
                 max_wall_time=_time_share(deadline, BASE_SHARE))
     out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
