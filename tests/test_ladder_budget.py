@@ -126,18 +126,37 @@ def test_play_and_seal_friction_together_end_within_twice_the_noise():
 
 
 # ------------------------------------------------------------------------------------------- real play
+@pytest.mark.parametrize("name", ["0.5Hz30lbtension1amplitude", "0.5Hz36lbtension1amplitude",
+                                  "0.5Hz30lbtension0.5amplitude", "0.25Hz30lbtension1amplitude"])
+def test_plateau_half_width_of_the_real_friction_damper_matches_its_deadzone_mask(name):
+    from duffsym.data.loaders import load_friction_damper_json
+    from duffsym.effects import CATALOGUE
+    from duffsym.effects.inputs import plateau_half_width
+    from duffsym.identify.initial import auto_mask
+
+    rec = load_friction_damper_json(external_file(BRFD, f"{name}.json"))
+    h = plateau_half_width(rec)
+    width = auto_mask(rec)[1]["median_displacement_width"]  # the masked stretch: the gap 2h plus the force's rise
+    # measured: h = 0.101-0.113 in, mask widths 0.302-0.354 in, whatever the amplitude (0.5 or 1 in) or frequency
+    assert 0.25 * width < h < 0.5 * width and 0.08 < h < 0.13
+    # the play candidate starts there (not at the 1 % floor the quarter-range rule alone gives on these loops)
+    guess = CATALOGUE["backlash"].initial_guess(rec, np.zeros(rec.n_times))["bl_h"]
+    assert guess == pytest.approx(h, rel=0.5)
+
+
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured: the mr-damper base holds its hysteretic force while the piston "
+                   "crosses the gap, so base + play cannot make the zero-force plateau; h fixed at the plateau value "
+                   "0.10 in fits worse (held-out 0.50 vs 0.23), free h runs to its range limits (issue 22 report)")
 def test_play_of_the_real_friction_damper_matches_its_plateaus():
     from duffsym.data.loaders import load_friction_damper_json
     from duffsym.diagnose import diagnose
-    from duffsym.identify.initial import auto_mask
+    from duffsym.effects.inputs import plateau_half_width
 
     rec = load_friction_damper_json(external_file(BRFD, "0.5Hz30lbtension1amplitude.json"))
-    mask, info = auto_mask(rec)
-    dg = diagnose(rec, candidates=["backlash"], mask=mask, sindy=False, deadline=None)
+    dg = diagnose(rec, candidates=["backlash"], sindy=False, deadline=None)
     c = dg.candidates[0]
     assert c.success, c.message
     h, se = c.params["bl_h"], c.stderr["bl_h"]
-    width = info["median_displacement_width"]  # the masked stretch: the gap 2h plus the force's rise
-    assert 0.25 * width < h < 0.6 * width and se < 0.2 * h
+    assert abs(h - plateau_half_width(rec)) < 0.3 * h and se < 0.2 * h
     assert c.nrmse_after < dg.nrmse_heldout
