@@ -257,7 +257,7 @@ def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | No
     sl = _steady(record)
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), layout="constrained")
     ax = axes[0]
-    ax.plot(d[sl], y[sl], ".", color="0.7", ms=1.5, label="measured")
+    ax.plot(d[sl], y[sl], "o", color="0.55", ms=3, label="measured")
     ax.plot(d[sl], diag.y_base[sl], color="tab:red", lw=0.8, label=f"base model (held-out {diag.nrmse_heldout:.3g})")
     ax.plot(d[sl], yp[sl], color="k", lw=0.8, label=f"+ {effect} (held-out {c.nrmse_after:.3g})")
     ax.set_xlabel("d" + _u(record, "d"))
@@ -271,7 +271,7 @@ def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | No
     r = int(flips[0]) if flips.size else int(idx[0])
     stop = int(flips[1]) if flips.size > 1 else int(idx[-1])
     travel = np.abs(d[r:stop] - d[r])
-    ax.plot(travel, y[r:stop], ".", color="0.6", ms=2, label="measured")
+    ax.plot(travel, y[r:stop], "o", color="0.55", ms=3, label="measured")
     ax.plot(travel, diag.y_base[r:stop], color="tab:red", lw=0.9, label="base model")
     ax.plot(travel, yp[r:stop], color="k", lw=0.9, label=f"+ {effect}")
     h = c.params.get("bl_h")
