@@ -65,6 +65,10 @@ def _parse_mapping(text: str | None, what: str) -> dict[str, str]:
 def _read_record(args, path):
     from duffsym.data import read_csv
 
+    if str(path).lower().endswith(".json"):  # the friction damper's JSON layout (data/loaders.py)
+        from duffsym.data.loaders import load_friction_damper_json
+
+        return load_friction_damper_json(path)
     return read_csv(path, columns=_parse_mapping(args.columns, "--columns") or None,
                     units=_parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy,
                     sampling=getattr(args, "sampling", "strict"))

@@ -586,3 +586,37 @@ def load_bouc_wen(folder=None, *, part: str = "multisine", unit: str = "m") -> R
     return Record(t=k / BOUC_WEN_FS, d=u, y=y * scale, units={"t": "s", "d": "N", "y": unit},
                   metadata={"dataset": "bouc_wen", "part": part, "fs": BOUC_WEN_FS},
                   source=str(path), name=f"bouc_wen[{part}]")
+
+
+# ---------------------------------------------------------------------------- friction damper (JSON)
+#: Columns of the BRFD friction damper's JSON ``data`` rows (ARTS Lab, SOURCE.md of friction_damper_brfd_artslab).
+BRFD_COLUMNS = ("time", "displacement", "friction force", "velocity", "actuator force 1", "actuator force 2")
+
+
+def load_friction_damper_json(path) -> Record:
+    """A record from the friction damper's JSON (``data`` rows: time s, displacement in, friction force kip,
+    velocity in/s, two actuator forces lb; ``dt``): displacement -> ``d``, friction force -> ``y``, the file's
+    velocity -> ``d_dot``. One-line :class:`DataError` on a file that is not of this layout.
+    ``duffsym diagnose``/``ladder``/``fit`` read such a file directly (a ``.json`` data argument)."""
+    import json
+
+    path = Path(path)
+    _check_file(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DataError(f"{path}: not a JSON record ({exc}); give the friction damper's JSON or a CSV") from None
+    rows = doc.get("data") if isinstance(doc, dict) else None
+    try:
+        arr = np.asarray(rows, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.empty((0, 0))
+    if arr.ndim != 2 or arr.shape[0] < 2 or arr.shape[1] < 4:
+        raise DataError(f"{path}: expected a JSON object whose 'data' is a list of rows [time, displacement, "
+                        "friction force, velocity, ...]; give the friction damper's JSON or a CSV")
+    units = {"t": str(doc.get("time units", "s")), "d": str(doc.get("displacement units", "")),
+             "y": str(doc.get("friction force units", ""))}
+    return Record(t=arr[:, 0], d=arr[:, 1], y=arr[:, 2], d_dot=arr[:, 3], units={k: v for k, v in units.items() if v},
+                  metadata={"dataset": "friction_damper_brfd_artslab", "format": "json",
+                            "columns": dict(zip(("time", "input", "output", "velocity"), BRFD_COLUMNS))},
+                  source=str(path), name=path.stem)

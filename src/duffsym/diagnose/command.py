@@ -1,6 +1,8 @@
 """``duffsym diagnose`` and ``duffsym ladder`` (``docs/contract.md``)."""
 from __future__ import annotations
 
+import time
+
 
 def _common(args):
     """Record, model, candidates, mask and fixed values from the shared options."""
@@ -87,10 +89,11 @@ def cmd_diagnose(args) -> int:
         model = model_from_result(fit_result)
     else:
         model = _fit_model(args)
+    budget = _budget(args.budget)
     with _engine(args) as engine:
         dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
                       noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                      decimate=args.decimate_opt,
+                      decimate=args.decimate_opt, deadline=None if budget is None else time.monotonic() + budget,
                       progress=_progress(args), engine=engine)
     from duffsym.diagnose.report import write_diagnosis_report
 
@@ -112,16 +115,49 @@ def _output(args, obj, record, write_report) -> None:
         print(obj.summary())
 
 
+def _budget(text: str) -> float | None:
+    """``--budget SECONDS|none`` -> seconds or None."""
+    from duffsym._cli_common import CLIError
+
+    if text.strip().lower() in ("none", "off", "0"):
+        return None
+    try:
+        b = float(text)
+    except ValueError:
+        b = -1.0
+    if not b > 0 or b != b:
+        raise CLIError(f"--budget must be a positive number of seconds or 'none'; got {text!r}")
+    return b
+
+
+def _writer(args, record):
+    """``on_step`` of the ladder: the report folder (new steps only) and ``--out`` (the last step's fit) after every
+    step, so that a stopped run keeps what it did (atomic writes)."""
+    from duffsym.diagnose.report import write_ladder_report
+
+    written: set = set()
+
+    def on_step(partial) -> None:
+        if args.report:
+            write_ladder_report(partial, record, args.report, written=written)
+        if args.out and partial.steps[-1].diagnosis.base_fit.success:
+            partial.steps[-1].diagnosis.base_fit.with_sampling([record]).save(args.out)
+
+    return on_step, written
+
+
 def cmd_ladder(args) -> int:
     from duffsym._cli_common import _err, _fit_model
     from duffsym.diagnose import ladder
 
     record, cands, mask, fixed = _common(args)
     model = _fit_model(args)
+    budget = _budget(args.budget)
+    on_step, written = _writer(args, record)
     with _engine(args) as engine:
         lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
                      holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                     decimate=args.decimate_opt,
+                     decimate=args.decimate_opt, budget=budget, on_step=on_step,
                      progress=_progress(args), engine=engine, discover=args.discover)
     if args.out:
         from duffsym._cli_common import _save_fit
@@ -129,7 +165,11 @@ def cmd_ladder(args) -> int:
         _save_fit(lad.final_fit.with_sampling([record]), args.out, "ladder")
     from duffsym.diagnose.report import write_ladder_report
 
-    _output(args, lad, record, write_ladder_report)
+    _output(args, lad, record, lambda obj, rec, folder: write_ladder_report(obj, rec, folder, written=written))
+    if not lad.complete:
+        _err(f"duffsym ladder: {lad.stopped}; every finished step is kept")
+    if lad.final_note:
+        _err(f"duffsym ladder: {lad.final_note}")
     if not lad.final_fit.success:
         _err(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
         return 1
@@ -155,6 +195,9 @@ def _shared(s) -> None:
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     _add_file_arguments(s)
     s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")
+    s.add_argument("--budget", default="600", metavar="SECONDS", help="time budget of the whole run (default 600; "
+                   "'none': no limit): each fit gets its share and what ran out is said; a ladder stopped by it "
+                   "(or by Ctrl-C) keeps every finished step, written to --report and --out as each completes")
     s.add_argument("--workers", type=int, default=None, metavar="N", help="fit the candidates on N local worker "
                    "processes (the same fits, in parallel; default: one after the other here)")
     s.add_argument("--scheduler", metavar="ADDRESS", help="fit the candidates on the workers of this Dask scheduler")
@@ -179,6 +222,7 @@ def register(sub) -> None:
                    "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
                    "held-out error)")
     s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
+
     s.add_argument("--discover", action="store_true", help="when no catalogued effect is needed, try a term found by "
                    "sparse regression of the residual (added only if it passes the same held-out evidence)")
     s.set_defaults(func=cmd_ladder)

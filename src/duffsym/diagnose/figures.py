@@ -179,6 +179,11 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
 def ladder_outcome(lad) -> str:
     """The ladder's result in words, from its numbers: what was added and how the held-out error moved."""
     steps = lad.steps
+    if not getattr(lad, "complete", True) or getattr(lad, "final_fit", True) is None:  # stopped, or still running
+        where = "running" if lad.final_fit is None else ("stopped by the time budget" if "time budget" in lad.stopped
+                                                         else "stopped")
+        return (f"{where} after {len(steps)} step(s): held-out NRMSE "
+                + " -> ".join(f"{s.nrmse_heldout:.3g}" for s in steps))
     if len(steps) == 1:
         return f"nothing added: no effect is supported (held-out NRMSE {steps[0].nrmse_heldout:.3g})"
     a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
@@ -234,4 +239,49 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
         if j == 0:
             ax.legend(fontsize="x-small", loc="center")
     fig.suptitle(title or ladder_outcome(lad), fontsize="large")
+    return fig
+
+
+def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | None = None):
+    """The play candidate against the plateaus: the d–y loop over one steady cycle and the force after one
+    reversal against the actuator travel from it, measured, base model and with the fitted play (free runs).
+    The flat low-force stretch after the reversal is the gap ``2h`` the play's piston crosses; its fitted
+    half-width (± standard error) is in the title. None when the candidate has no result."""
+    plt = _plt()
+    c = next((c for c in diag.candidates if c.effect == effect and c.success), None)
+    if c is None or effect not in diag.y_candidates:
+        return None
+    y, d = np.asarray(record.y), np.asarray(record.d)
+    v = np.asarray(record.velocity())
+    yp = diag.y_candidates[effect]
+    sl = _steady(record)
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.4), layout="constrained")
+    ax = axes[0]
+    ax.plot(d[sl], y[sl], "o", color="0.55", ms=3, label="measured")
+    ax.plot(d[sl], diag.y_base[sl], color="tab:red", lw=0.8, label=f"base model (held-out {diag.nrmse_heldout:.3g})")
+    ax.plot(d[sl], yp[sl], color="k", lw=0.8, label=f"+ {effect} (held-out {c.nrmse_after:.3g})")
+    ax.set_xlabel("d" + _u(record, "d"))
+    ax.set_ylabel("y" + _u(record, "y"))
+    ax.set_title(f"d–y loop, {_steady_label(record, sl)}", fontsize="medium")
+    ax.legend(fontsize="x-small")
+    ax = axes[1]
+    idx = np.arange(record.n_times)[sl]
+    s = np.sign(v[idx])
+    flips = idx[1:][(s[1:] != s[:-1]) & (s[1:] != 0)]
+    r = int(flips[0]) if flips.size else int(idx[0])
+    stop = int(flips[1]) if flips.size > 1 else int(idx[-1])
+    travel = np.abs(d[r:stop] - d[r])
+    ax.plot(travel, y[r:stop], "o", color="0.55", ms=3, label="measured")
+    ax.plot(travel, diag.y_base[r:stop], color="tab:red", lw=0.9, label="base model")
+    ax.plot(travel, yp[r:stop], color="k", lw=0.9, label=f"+ {effect}")
+    h = c.params.get("bl_h")
+    if h is not None:
+        ax.axvspan(0, 2 * h, color="tab:blue", alpha=0.12, label=f"gap 2h = {2 * h:.3g}")
+    ax.set_xlabel("actuator travel since the reversal |d - d(reversal)|" + _u(record, "d"))
+    ax.set_ylabel("y" + _u(record, "y"))
+    ax.set_title(f"after the reversal at t = {float(record.t[r]):.3g} s: the plateau", fontsize="medium")
+    ax.legend(fontsize="x-small")
+    se = c.stderr.get("bl_h", float("nan"))
+    fig.suptitle(title or (f"play fitted: half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect),
+                 fontsize="large")
     return fig

@@ -14,6 +14,20 @@ subset, e.g. ``force-offset`` in ``gas-accumulator``) is tried in its place, and
 tried without (an effect taken early can become idle once a later one is in: on the same record an input
 delay taken for part of the lag); the simpler model is kept when it predicts the held-out tail as well
 (within ``TIE``) and its BIC is lower, and the step says so (backward elimination after the forward steps).
+
+Several effects fitted together: after each accepted step the extended model is refitted jointly
+(:func:`joint_refit`) from several starts — the candidate's own solution, the first base fit with every added
+effect's data-based guess, and a continuation from smooth to sharp nonlinearities (a softer play operator,
+a wider friction switch) — and the best on the fitting part starts the next diagnosis.
+
+A ladder that finishes: ``budget`` (seconds) bounds the whole run. Each step's diagnosis gets its share (its
+base fit, its plain-fit reference and every candidate theirs, see :func:`~duffsym.diagnose.diagnose`), a
+reserve is kept for the backward pass and the final fit, and a run stopped by the budget or by Ctrl-C keeps
+every finished step and says where it stopped (``stopped``). ``on_step`` is called with the ladder so far
+after every step (``duffsym ladder --report`` writes the report then). The end product is never a failed
+fit: when the final fit on the whole record does not succeed, the last step's fit (on the fitting part) is
+kept and ``final_note`` says so. An added effect whose fitted size is negligible or whose smoothing runs
+off is flagged in its step (``inactive``).
 """
 from __future__ import annotations
 
@@ -26,7 +40,14 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError, ModelError
-from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, with_default_af
+from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_effects, time_left, with_default_af
+
+#: default time budget of a ladder run (seconds): the issue's bound for any real record
+DEFAULT_BUDGET = 600.0
+#: share of the budget kept for the backward pass and the final fit on the whole record
+FINAL_RESERVE = 0.15
+#: share of the time left for the steps that one step's diagnosis may take (see _step_deadline)
+STEP_SHARE = 0.75
 
 
 @dataclass(frozen=True)
@@ -43,6 +64,9 @@ class Step:
     diagnosis: Diagnosis
     discovered: dict | None = None  # the discovered term this step added (see diagnose.discover)
     simplified: str = ""  # "a -> b" when this step replaced an effect by a nested simpler one
+    inactive: dict = field(default_factory=dict)  # effect -> why it does nothing at the fitted values
+    joint: dict | None = None  # the joint refit that started this step (see joint_refit)
+    seconds: float = math.nan
 
     def to_dict(self) -> dict:
         out = dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
@@ -53,6 +77,7 @@ class Step:
             out.update(term=self.discovered["term"], latex=self.discovered["latex"], discovered=self.discovered)
         if self.simplified:
             out["simplified"] = self.simplified
+        out.update(inactive=self.inactive, joint=self.joint, seconds=self.seconds)
         return out
 
 
@@ -65,16 +90,21 @@ class Ladder:
     stopped: str
     timings: dict = field(default_factory=dict)
     prepare: object = None  # the decimation of the final fit's data (duffsym.diagnose.prepare.Preparation)
+    final_note: str = ""  # when the final fit is not a refit on the whole record, why
+    budget: float | None = None
+    complete: bool = True  # False: stopped by the budget or an interruption before its natural end
 
     @property
     def effects(self) -> tuple[str, ...]:
         return self.steps[-1].effects
 
     def to_dict(self) -> dict:
+        final = None if self.final_fit is None else dict(
+            params=self.final_fit.params, stderr=self.final_fit.stderr, nrmse=self.final_fit.nrmse,
+            success=self.final_fit.success, status=self.final_fit.status, note=self.final_note)
         return dict(steps=[s.to_dict() for s in self.steps], effects=list(self.effects), stopped=self.stopped,
-                    final=dict(params=self.final_fit.params, stderr=self.final_fit.stderr, nrmse=self.final_fit.nrmse,
-                               success=self.final_fit.success, status=self.final_fit.status),
-                    timings=self.timings, prepare=self.prepare.to_dict() if self.prepare is not None else None)
+                    final=final, timings=self.timings, budget=self.budget, complete=self.complete,
+                    prepare=self.prepare.to_dict() if self.prepare is not None else None)
 
     def summary(self) -> str:
         lines = ["ladder (free-run NRMSE over the whole record / held-out tail, BIC on the fitting part):"]
@@ -85,8 +115,14 @@ class Ladder:
                   f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
         lines += [f"  step {i}: {s.simplified} (as good on the held-out tail, lower BIC)"
                   for i, s in enumerate(self.steps) if s.simplified]
+        lines += [f"  step {i}: {e} is inactive: {why}" for i, s in enumerate(self.steps) for e, why in s.inactive.items()]
         lines.append(f"stopped: {self.stopped}")
-        lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
+        if self.final_fit is None:
+            lines.append("no final fit: " + self.final_note)
+        elif self.final_note:
+            lines.append(f"final fit: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status}); {self.final_note}")
+        else:
+            lines.append(f"final fit on the whole record: NRMSE {self.final_fit.nrmse:.4g} ({self.final_fit.status})")
         if self.prepare is not None:
             lines.append("final " + self.prepare.summary())
         return "\n".join(lines)
@@ -94,7 +130,8 @@ class Ladder:
 
 def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
            fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           accept: str = "needed", discover: bool = False, progress=None, **rules) -> Ladder:
+           accept: str = "needed", discover: bool = False, progress=None, budget: float | None = None,
+           joint: bool = True, on_step=None, **rules) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
 
     Parameters
@@ -110,62 +147,168 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
     discover : when no catalogued effect is needed, try a term outside the catalogue
         (:func:`~duffsym.diagnose.discover.discover_term`); it is added only when it passes the same
         evidence as a needed catalogued effect, and the step says so (``"term"``, ``"latex"``).
-    rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose`.
+    budget : seconds for the whole run (None: no limit; ``duffsym ladder`` defaults to ``DEFAULT_BUDGET``).
+        ``FINAL_RESERVE`` of it is kept for the backward pass and the final fit; each step's diagnosis
+        gets the rest of the time left (its fits their shares, see :func:`diagnose`'s ``deadline``).
+    joint : after each accepted step, refit all accepted effects jointly from several starts
+        (:func:`joint_refit`) and start the next diagnosis from the best.
+    on_step : called with the :class:`Ladder` so far (``complete=False``, no final fit) after each step.
+    rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose` (and its other
+        keywords: ``screen``, ``sindy``, ``decimate``, ``engine``, ...).
     """
     from duffsym.effects import CATALOGUE, apply_effects
-    from duffsym.identify.result import nrmse as _nrmse
 
+    if accept not in ("needed", "supported"):
+        raise ValueError(f"accept must be 'needed' or 'supported'; got {accept!r}")
     t0 = time.perf_counter()
+    end = None if budget is None else time.monotonic() + float(budget)
+    steps_end = None if end is None else end - FINAL_RESERVE * float(budget)
     say = progress or (lambda msg: None)
     if model is None:
         from duffsym.model.library import mr_damper
 
         model = mr_damper()
-    y = np.asarray(record.y, dtype=float)
     base_model = model
     steps: list[Step] = []
     start = None
     stopped = ""
+    complete = True
     found = None  # the discovered term of the next step
-    while True:
-        say(f"step {len(steps)}: {' + '.join(('base',) + tuple(model.effects))}")
-        dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise, mask=mask,
-                      start=start, progress=progress, **rules)
-        k = dg.split["n_fit"]
-        steps.append(Step(
-            effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
-            nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
-            stderr=dict(dg.base_fit.stderr), diagnosis=dg, discovered=found))
-        found = None
-        if accept not in ("needed", "supported"):
-            raise ValueError(f"accept must be 'needed' or 'supported'; got {accept!r}")
-        chosen = dg.needed[0] if dg.needed else None
-        if chosen is None and accept == "supported":
-            chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
-        if chosen is None and discover and len(steps) <= max_steps and not dg.residuals.at_noise_level:  # discovery
-            found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
-            if found is not None:
-                continue
-            dg = _with_note(dg, note)
-        if chosen is None:
-            stopped = "no further effect is supported by the evidence: " + dg.verdict
-            break
-        if len(steps) > max_steps:
-            stopped = f"reached max_steps={max_steps}; the last diagnosis still supported {chosen}"
-            break
-        best = next(c for c in dg.candidates if c.effect == chosen)
-        model = apply_effects(model, [CATALOGUE[best.effect]])
-        start = dict(best.all_params)
+    jinfo = None  # the joint refit that starts the next step
+    try:
+        while True:
+            if steps and time_left(steps_end) <= 0:
+                stopped, complete = f"stopped at step {len(steps)}: the time budget ({budget:g} s) ran out", False
+                break
+            say(f"step {len(steps)}: {' + '.join(('base',) + tuple(model.effects))}" + _left_text(end))
+            t_step = time.perf_counter()
+            try:
+                dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise,
+                              mask=mask, start=start, progress=progress, deadline=_step_deadline(steps_end, steps,
+                                                                                               max_steps), **rules)
+            except (ModelError, DataError) as exc:
+                if not steps:
+                    raise
+                stopped, complete = f"stopped at step {len(steps)}: its diagnosis failed: {exc}", False
+                break
+            steps.append(_step(record, model, dg, found, jinfo, time.perf_counter() - t_step))
+            found = jinfo = None
+            _report(on_step, steps, t0, budget, record)
+            chosen = dg.needed[0] if dg.needed else None
+            if chosen is None and accept == "supported":
+                chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
+            if chosen is None and discover and len(steps) <= max_steps and not dg.residuals.at_noise_level:  # discovery
+                found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
+                if found is not None:
+                    continue
+                dg = _with_note(dg, note)
+            if chosen is None and _out_of_time(dg):
+                stopped, complete = (f"stopped at step {len(steps) - 1}: the time budget ran out before every "
+                                     f"candidate was fitted ({_out_of_time(dg)}): {dg.verdict}"), False
+                break
+            if chosen is None:
+                stopped = "no further effect is supported by the evidence: " + dg.verdict
+                break
+            if len(steps) > max_steps:
+                stopped = f"reached max_steps={max_steps}; the last diagnosis still supported {chosen}"
+                break
+            best = next(c for c in dg.candidates if c.effect == chosen)
+            model = apply_effects(model, [CATALOGUE[best.effect]])
+            start = dict(best.all_params)
+            if joint:
+                start, jinfo = joint_refit(record, base_model, model, steps, start, fixed=fixed, holdout=holdout,
+                                           mask=mask, deadline=steps_end, say=say, decimate=rules.get("decimate", True))
+    except KeyboardInterrupt:
+        if not steps:
+            raise
+        stopped, complete = f"stopped at step {len(steps)}: interrupted (Ctrl-C)", False
+        return _finish(record, steps, None, stopped, complete, t0, budget, None, "interrupted before the final fit: "
+                       "the last finished step's fit (on the fitting part) is the result")
     kw = dict(fixed=fixed, holdout=holdout, noise=noise, mask=mask, progress=progress, **rules)
-    model = _simplify(record, base_model, model, steps, say, kw)
-    say("final fit on the whole record")
-    last = steps[-1]
-    from duffsym.diagnose.prepare import prepare_record
+    if complete:
+        model = _simplify(record, base_model, model, steps, say, {**kw, "deadline": end})
+    return _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say)
 
-    prep, rec_final = prepare_record(record, rules.get("decimate", True))
-    final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params)
-    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings={"total": time.perf_counter() - t0},
-                  prepare=prep)
+
+def _step_deadline(steps_end, steps, max_steps: int):
+    """A step's diagnosis may take ``STEP_SHARE`` of the time left for the steps (all of it for the last
+    step ``max_steps`` allows), so that a first step on a slow machine leaves time for the next."""
+    if steps_end is None:
+        return None
+    left = time_left(steps_end)
+    return steps_end if len(steps) >= max_steps else time.monotonic() + STEP_SHARE * left
+
+
+def _out_of_time(dg: Diagnosis) -> str:
+    """Which candidates of ``dg`` the time budget left unfitted or unconverged, in words ("" when none)."""
+    from duffsym.diagnose.search import NOT_TRIED
+
+    missed = [c.effect for c in dg.candidates if not c.success and (c.message.startswith(NOT_TRIED)
+                                                                   or "Time_Exceeded" in c.message)]
+    return f"{len(missed)} of {len(dg.candidates)} not tried or not converged: {', '.join(missed)}" if missed else ""
+
+
+def _left_text(end) -> str:
+    left = time_left(end)
+    return "" if not math.isfinite(left) else f" (budget: {max(left, 0):.0f} s left)"
+
+
+def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
+    """A :class:`Step` from a diagnosis, with its inactive effects flagged."""
+    from duffsym.identify.result import nrmse as _nrmse
+
+    y = np.asarray(record.y, dtype=float)
+    k = dg.split["n_fit"]
+    params = dict(dg.base_fit.params)
+    return Step(effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
+                nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=params, stderr=dict(dg.base_fit.stderr),
+                diagnosis=dg, discovered=found, joint=jinfo,
+                inactive=inactive_effects(model, record, params, dg.base_fit.stderr),
+                seconds=seconds)
+
+
+def _report(on_step, steps, t0, budget, record) -> None:
+    """``on_step`` with the ladder so far (no final fit yet)."""
+    if on_step is not None:
+        on_step(Ladder(steps=tuple(steps), final_fit=None, stopped=f"running: {len(steps)} step(s) done",
+                       timings=_timings(t0), budget=budget, complete=False,
+                       final_note="the run has not finished; the last step's fit is on the fitting part"))
+
+
+def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say) -> Ladder:
+    """The last step's model refitted on the whole record (on what is left of the budget); when that fit does
+    not succeed, the last step's own fit (a converged fit on the fitting part) is kept and the note says so."""
+    from duffsym.diagnose.prepare import prepare_record
+    from duffsym.diagnose.search import BUDGET_SAMPLES, _prepare_fit
+    last = steps[-1]
+    say("final fit on the whole record" + _left_text(end))
+    if end is None:
+        prep, rec_final = prepare_record(record, rules.get("decimate", True))
+    else:
+        prep, rec_final, _ = _prepare_fit(record, record, None, rules.get("decimate", True), BUDGET_SAMPLES)
+    left = time_left(end)
+    wall = None if not math.isfinite(left) else max(left, 5.0)
+    final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params, max_wall_time=wall)
+    note = ""
+    if not final.success:
+        note = (f"the final fit on the whole record did not succeed ({final.status}); kept instead: the last step's "
+                "fit on the fitting part" + ("" if last.diagnosis.base_fit.success else " (itself not converged)"))
+        say(note)
+        final = last.diagnosis.base_fit
+    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings=_timings(t0), prepare=prep,
+                  final_note=note, budget=budget, complete=complete)
+
+
+def _timings(t0: float) -> dict:
+    """Wall seconds since ``t0`` and this process's CPU seconds (on a shared machine the CPU time is the
+    measure that does not depend on the load)."""
+    return {"total": time.perf_counter() - t0, "cpu_process": time.process_time()}
+
+
+def _finish(record, steps, final, stopped, complete, t0, budget, prep, note) -> Ladder:
+    return Ladder(steps=tuple(steps), final_fit=final if final is not None else steps[-1].diagnosis.base_fit,
+                  stopped=stopped, timings=_timings(t0), prepare=prep, final_note=note,
+                  budget=budget, complete=complete)
 
 
 def _nested(name: str, present) -> list[str]:
@@ -194,6 +337,9 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
         for simpler in _nested(name, model.effects) + [None]:
             if name not in model.effects:
                 break
+            if time_left(kw.get("deadline")) <= 0:
+                say("simplify: skipped, the time budget has run out")
+                return model
             last = steps[-1]
             added = [e for e in model.effects if e not in base_model.effects]
             effects = [e for e in (simpler if e == name else e for e in added) if e is not None]
@@ -204,7 +350,7 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
             except (ModelError, DataError) as exc:  # the simpler model cannot even be fitted: keep the richer one
                 say(f"  not simpler: {exc}")
                 continue
-            if dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
+            if dg.base_fit.success and dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
                 k = dg.split["n_fit"]
                 steps.append(Step(
                     effects=tuple(trial.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
@@ -242,3 +388,78 @@ def error_fell(lad: Ladder) -> float:
     """Held-out NRMSE of the last step over the first (< 1 when the error fell)."""
     a, b = lad.steps[0].nrmse_heldout, lad.steps[-1].nrmse_heldout
     return b / a if a > 0 else math.nan
+
+
+#: IPOPT CPU seconds of each fit of the joint refit (without a budget; with one, a share of the time left)
+JOINT_CPU_TIME = 60.0
+
+
+def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, float], *, fixed=None,
+                holdout: float = 0.3, mask=None, deadline: float | None = None, say=None, decimate=True):
+    """All effects the ladder has added to ``base_model`` (now ``model``) refitted together on the fitting part,
+    from several starts; returns (the best start for the next diagnosis, what each start reached).
+
+    Starts: ``"candidate"``, the accepted candidate's own fit (``start``, not refitted); ``"guesses"`` (with two
+    or more added effects), the first base fit with every added effect's data-based guess made from that base
+    fit's free run; ``"continuation"`` (when an added effect has a smoother form, ``SMOOTH_FORMS``, or a
+    friction switch), the model with the smoother forms (and the friction switches wide, ``seal_eps`` at a fifth
+    of the largest piston speed) fitted from the guesses, then the sharp model from there. The best by the
+    free-run error on the fitting part (never the held-out tail) is kept.
+    """
+    import dataclasses
+
+    from duffsym.diagnose.search import (BUDGET_SAMPLES, SMOOTH_FORMS, _time_share, _fit, _free_run, _part,
+                                         _prepare_fit, _within_range, split_record)
+    from duffsym.effects import CATALOGUE, apply_effects
+
+    say = say or (lambda msg: None)
+    added = [e for e in model.effects if e not in base_model.effects]
+    if any(e not in CATALOGUE for e in added):
+        return dict(start), None
+    y = np.asarray(record.y, dtype=float)
+    k = split_record(record, holdout)
+    rec_fit = _part(record, k)
+    mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
+    _, rec_q, mask_q = _prepare_fit(record, rec_fit, mask_fit, decimate, BUDGET_SAMPLES if deadline else None)
+    fixed_m = with_default_af(model, fixed, rec_fit)
+
+    def score(m, params, x0):
+        yy = _free_run(m, params, record, x0)
+        return math.inf if not _within_range(yy, y) else float(np.sqrt(np.mean((y[:k] - yy[:k]) ** 2)) / np.std(y[:k]))
+
+    def run(m, p0, label):
+        if time_left(deadline) <= 1.0:
+            return None
+        say(f"  joint refit of {' + '.join(added)}: {label}")
+        fr = _fit(m, rec_q, fixed_m, p0, mask=mask_q, max_iter=300, flags=False, max_cpu_time=JOINT_CPU_TIME,
+                  max_wall_time=_time_share(deadline, 0.1))
+        return fr
+
+    y_cand = steps[-1].diagnosis.y_candidates.get(added[-1])
+    e_cand = math.inf if y_cand is None else float(np.sqrt(np.mean((y[:k] - y_cand[:k]) ** 2)) / np.std(y[:k]))
+    tried = {"candidate": (e_cand, dict(start))}
+    y0 = np.asarray(steps[0].diagnosis.y_base, dtype=float)[:k]
+    guess = {**model.defaults(), **dict(steps[0].params)}
+    for e in added:
+        guess.update(CATALOGUE[e].initial_guess(rec_fit, y0))
+    guess.update({n: v for n, v in fixed_m.items() if n in guess})
+    smooth = {e: SMOOTH_FORMS[e] for e in added if e in SMOOTH_FORMS}
+    if len(added) >= 2:
+        fr = run(model, guess, "from every effect's own guess")
+        if fr is not None:
+            tried["guesses"] = (score(model, fr.params, fr.x0[0]), dict(fr.params))
+    if smooth or "seal-friction" in added:
+        soft = apply_effects(base_model, [dataclasses.replace(CATALOGUE[e], **smooth[e]) if e in smooth
+                                          else CATALOGUE[e] for e in added])
+        g = dict(guess)
+        if "seal_eps" in g:
+            g["seal_eps"] = 0.2 * float(np.max(np.abs(np.asarray(record.velocity(), dtype=float))))
+        fr = run(soft, g, "smooth forms first")
+        fr = run(model, dict(fr.params), "then the sharp forms") if fr is not None else None
+        if fr is not None:
+            tried["continuation"] = (score(model, fr.params, fr.x0[0]), dict(fr.params))
+    best = min(tried, key=lambda n: tried[n][0])
+    info = {"starts": {n: v[0] for n, v in tried.items()}, "chosen": best}
+    say(f"  joint refit: {best} start kept (fitting-part NRMSE " +
+        ", ".join(f"{n} {v[0]:.4g}" for n, v in tried.items()) + ")")
+    return tried[best][1], info

@@ -31,7 +31,7 @@ def _candidates_table(diag) -> list[str]:
 def write_diagnosis_report(diag, record: Record, folder) -> Path:
     """``folder/diagnosis.md`` with the figures of where the model fails and of the candidates."""
     from duffsym._json import jsonable
-    from duffsym.diagnose.figures import plot_candidates, plot_where
+    from duffsym.diagnose.figures import plot_candidates, plot_play, plot_where
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -50,6 +50,9 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
               "is the free-run error on data the fit never saw.", ""]
     lines += _candidates_table(diag)
     lines += ["", f"![candidates]({f2})", ""]
+    fig = plot_play(diag, record)
+    if fig is not None:  # the play candidate against the plateaus after the reversals
+        lines += ["## The play candidate", "", f"![the play and the plateaus]({_save(fig, folder / 'play.png')})", ""]
     if diag.sindy is not None:
         lines += ["## SINDy cross-check", "", f"{diag.sindy.get('verdict')}: {diag.sindy.get('message', '')}", ""]
     write_json_atomic(folder / "diagnosis.json", jsonable(diag.to_dict()), default=str)
@@ -57,8 +60,10 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
     return path
 
 
-def write_ladder_report(lad, record: Record, folder) -> Path:
-    """``folder/ladder.md``: the steps, the error falling, and a diagnosis section per step."""
+def write_ladder_report(lad, record: Record, folder, written: set | None = None) -> Path:
+    """``folder/ladder.md``: the steps, the error falling, and a diagnosis section per step. ``written``: the
+    steps whose sections are already in ``folder`` from this run (not rewritten; updated here), so that a
+    ladder can write its report after every step (``duffsym ladder --report``)."""
     from duffsym._json import jsonable
     from duffsym.diagnose.figures import plot_ladder
 
@@ -70,13 +75,22 @@ def write_ladder_report(lad, record: Record, folder) -> Path:
     for i, s in enumerate(lad.steps):
         lines.append(f"| {i} | {' + '.join(('base',) + s.effects)} | {s.nrmse:.4g} | {s.nrmse_heldout:.4g} | {s.bic:.1f} |")
     lines += ["", f"Stopped: {lad.stopped}", "", f"![the error falls]({f1})", ""]
+    written = set() if written is None else written
     for i, s in enumerate(lad.steps):
         sub = folder / f"step{i}"
-        write_diagnosis_report(s.diagnosis, record, sub)
+        if i not in written:
+            write_diagnosis_report(s.diagnosis, record, sub)
+            written.add(i)
         lines.append(f"- step {i} ({' + '.join(('base',) + s.effects)}): [diagnosis](step{i}/diagnosis.md) — "
                      f"{s.diagnosis.verdict}")
+        lines += [f"  - **{e} is inactive**: {why}" for e, why in s.inactive.items()]
     final = lad.final_fit
-    lines += ["", "## Final model, refitted on the whole record", "",
+    if final is None:  # a ladder still running (written after each step)
+        lines += ["", f"**Not finished.** {lad.final_note}"]
+        write_json_atomic(folder / "ladder.json", jsonable(lad.to_dict()), default=str)
+        return write_text_atomic(folder / "ladder.md", "\n".join(lines) + "\n")
+    title = "refitted on the whole record" if not lad.final_note else "(" + lad.final_note + ")"
+    lines += ["", f"## Final model, {title}", "",
               f"NRMSE {final.nrmse:.4g}, status {final.status}.", "", "| parameter | value | standard error |",
               "|---|---|---|"]
     for k in final.free:

@@ -55,6 +55,31 @@ DIVERGED = 10.0
 STABILITY_CHECKED = 4
 #: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
 EXACT_FIT = 1e-3
+#: with a time budget (``deadline``), the shares of the time left that the base fit and the plain-fit
+#: reference may take (IPOPT CPU seconds); the candidates share the rest equally, each at most
+#: ``candidate_cpu_time``
+BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
+#: IPOPT statuses of a fit stopped by a time limit
+OUT_OF_TIME = ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded")
+#: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
+#: computed at the record's rate); a 10 000-sample fitting part at 1 kHz otherwise costs minutes per fit
+BUDGET_SAMPLES = 2000
+#: the message of a candidate that was not fitted because the time budget ran out
+NOT_TRIED = "not tried: the time budget ran out"
+
+
+def time_left(deadline: float | None) -> float:
+    """Seconds until ``deadline`` (a ``time.monotonic()`` instant); inf without one."""
+    return math.inf if deadline is None else deadline - time.monotonic()
+
+
+def _time_share(deadline: float | None, fraction: float, cap: float | None = None) -> float | None:
+    """Wall-clock seconds for a fit that may take ``fraction`` of the time left (at least 2 s), at most ``cap``
+    (IPOPT's ``max_wall_time``: on a shared machine a fit's CPU time is a fraction of its wall time)."""
+    if deadline is None:
+        return cap
+    t = max(2.0, fraction * time_left(deadline))
+    return t if cap is None else min(cap, t)
 
 
 @dataclass(frozen=True)
@@ -129,6 +154,7 @@ class Diagnosis:
     base_check: dict = field(default_factory=dict)
     prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
     noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
+    inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
 
     @property
     def best(self) -> Candidate | None:
@@ -144,6 +170,7 @@ class Diagnosis:
             sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
             prepare=self.prepare.to_dict() if self.prepare is not None else None,
             noise_estimate=self.noise_estimate.to_dict() if self.noise_estimate is not None else None,
+            inactive=self.inactive,
             rules=dict(bic_threshold=BIC_THRESHOLD, min_improvement=MIN_IMPROVEMENT, min_explained=MIN_EXPLAINED),
         )
 
@@ -170,7 +197,9 @@ class Diagnosis:
 
 def _why_not(message: str) -> str:
     """Why a candidate has no result: screened out, its free run diverged, or its fit failed."""
-    return message if message.startswith(("screened out", "free run")) else f"fit failed: {message}"
+    if "WallTime_Exceeded" in message:
+        return f"not converged: its share of the time budget ran out ({message})"
+    return message if message.startswith(("screened out", "free run", "not tried")) else f"fit failed: {message}"
 
 
 # ---------------------------------------------------------------------------------------------- split
@@ -224,13 +253,80 @@ def _n_estimated(result, model) -> int:
     return len(result.free) + model.n_states
 
 
+#: effects whose nonlinearity is first fitted in a smoother form (continuation from smooth to sharp): the
+#: catalogue effect with these fields replaced (a play operator with a switch 2.5x wider, engaging later)
+SMOOTH_FORMS = {"backlash": dict(kappa=2.0, offset=0.5)}
+
+
+def smooth_form(model, name: str):
+    """``model`` (whose last effect is ``name``) with that effect in its smoother form (``SMOOTH_FORMS``);
+    None when it has none or the model's chain is not known."""
+    import dataclasses
+
+    from duffsym.effects import CATALOGUE, effect_chain
+
+    if name not in SMOOTH_FORMS or not model.effects or model.effects[-1] != name:
+        return None
+    chain = effect_chain(model)
+    if chain is None:
+        return None
+    base, steps = chain
+    parent = steps[-2][1] if len(steps) >= 2 else base
+    try:
+        return dataclasses.replace(CATALOGUE[name], **SMOOTH_FORMS[name]).apply(parent)
+    except ModelError:
+        return None
+
+
+#: effects that explain the stretches a deadzone mask (``--mask auto``) leaves out: a model with one of them is
+#: fitted on every sample (masked, the flat force after each reversal, the play's only evidence, is not seen and
+#: the play's half-width ran to its lower bound on the real friction damper)
+EXPLAINS_MASK = ("backlash",)
+
+
+def unmasked(model, mask):
+    """``mask``, or None when ``model`` has an effect that explains the masked stretches (``EXPLAINS_MASK``)."""
+    return None if any(e in EXPLAINS_MASK for e in model.effects) else mask
+
+
+def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = None) -> dict:
+    """The bounds of ``model``'s effect parameters scaled to ``record`` (:meth:`Effect.record_bounds`, e.g.
+    a friction's smoothing velocity within a range of the record's velocities), for the free parameters."""
+    from duffsym.effects import CATALOGUE
+
+    out = {}
+    for name in model.effects:
+        if name in CATALOGUE:
+            out.update(CATALOGUE[name].record_bounds(record))
+    return {k: v for k, v in out.items() if k in model.param_names and k not in (fixed or {})}
+
+
+def inactive_effects(model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None,
+                     effects=None) -> dict:
+    """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
+    standard errors), for the catalogued effects of ``model`` (or those in ``effects``) that are flagged; {}
+    when every effect acts."""
+    from duffsym.effects import CATALOGUE
+
+    out = {}
+    for name in model.effects if effects is None else effects:
+        if name in CATALOGUE:
+            try:
+                why = CATALOGUE[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
+            except (KeyError, ValueError, ArithmeticError):
+                why = ""
+            if why:
+                out[name] = why
+    return out
+
+
 def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
          n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None,
-         bound_restart: bool = False, flags: bool = True):
+         bound_restart: bool = False, flags: bool = True, max_wall_time: float | None = None):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in fixed.items() if k in model.param_names}
-    problem = Problem(model, record, fixed=fixed, mask=mask)
+    problem = Problem(model, record, fixed=fixed, mask=mask, bounds=record_bounds(model, record, fixed))
     start = None
     if x0 is not None:
         start = {k: v for k, v in x0.items() if k in problem.free}
@@ -238,7 +334,8 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
             lo, hi = problem.bounds[k]
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
-    options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else None
+    options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else {}
+    options = {**options, "max_wall_time": float(max_wall_time)} if max_wall_time else (options or None)
     # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
     # by design); the base fit restarts as a plain ``fit`` does
     return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
@@ -253,9 +350,31 @@ class _CandidateFit:
     from the base optimum); returns ``(ss_fit, fit, y_free_run, seconds)``, or ``(message, seconds)``
     when the fit raised on bad input."""
 
-    def __init__(self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time):
+    def __init__(self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time, deadline=None,
+                 n_tasks=1):
         self.record, self.k, self.rec_fit, self.base_params, self.y_base_fit = record, k, rec_fit, base_params, y_base_fit
         self.fixed, self.mask_fit, self.cpu_time = fixed, mask_fit, cpu_time
+        self.deadline, self.n_tasks, self.calls = deadline, max(int(n_tasks), 1), 0
+
+    def _wall(self) -> float | None:
+        """This fit's wall seconds with a deadline: an equal share of the time left among the fits still to come
+        (counted in this process; on workers each sees the whole time left); None without one."""
+        self.calls += 1
+        return _time_share(self.deadline, 1.0 / max(self.n_tasks - self.calls + 1, 1))
+
+    def _smooth_first(self, name, ext, start, budget, wall):
+        """Continuation from smooth to sharp: an effect with a smoother form (``SMOOTH_FORMS``, e.g. a softer
+        play operator) is first fitted in it; its parameters then start the sharp fit (the start is kept
+        when the smooth fit fails)."""
+        soft = smooth_form(ext, name)
+        if soft is None:
+            return start
+        half = None if self.cpu_time is None else 0.5 * self.cpu_time
+        fs = _fit(soft, self.rec_fit, self.fixed, start, mask=unmasked(soft, self.mask_fit), max_iter=budget,
+                  max_cpu_time=half,
+                  max_wall_time=None if wall is None else 0.5 * wall, flags=False)
+        ok = fs.success or fs.status in ("Maximum_Iterations_Exceeded",) + OUT_OF_TIME
+        return {**start, **dict(fs.params)} if ok and all(np.isfinite(list(fs.params.values()))) else start
 
     def __call__(self, task):
         from duffsym.effects import CATALOGUE
@@ -263,13 +382,17 @@ class _CandidateFit:
 
         name, ext, budget, start = task
         t0 = time.perf_counter()
+        wall = self._wall()
+        if time_left(self.deadline) < 1.0:
+            return NOT_TRIED, 0.0
         try:
             if start is None:
                 start = extended_start(ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit,
                                        fixed=self.fixed)
+                start = self._smooth_first(name, ext, start, budget, wall)
             # no fit-level flags: the diagnosis judges its candidates itself, stability included (_mark_stability)
-            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=self.mask_fit, max_iter=budget,
-                      max_cpu_time=self.cpu_time, flags=False)
+            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=unmasked(ext, self.mask_fit), max_iter=budget,
+                      max_cpu_time=self.cpu_time, max_wall_time=wall, flags=False)
         except (ModelError, DataError) as exc:
             return str(exc), time.perf_counter() - t0
         y_ext = _free_run(ext, fr.params, self.record, fr.x0[0])
@@ -325,6 +448,7 @@ def diagnose(
     progress=None,
     engine=None,
     second_start: bool = True,
+    deadline: float | None = None,
 ) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
 
@@ -371,6 +495,12 @@ def diagnose(
         base it extends (a local optimum: it contains the base model) is fitted again from the base
         solution itself with the effect's parameters at their neutral defaults; the better is kept
         (``settings["candidate_start"] = 2`` when the second won). Measured in ``bench_diagnose.py``.
+    deadline : a ``time.monotonic()`` instant by which the diagnosis should be done (None: no limit). The
+        base fit may take ``BASE_SHARE`` of the time left, the plain-fit reference ``REFERENCE_SHARE``,
+        and the candidates share the rest (IPOPT CPU seconds; a fit stopped by it is reported as not
+        converged); candidates left when it has passed are reported as ``"not tried: the time budget ran
+        out"``; the fitting data are decimated to at most ``BUDGET_SAMPLES`` samples (the factor and why
+        are in ``prepare``); the SINDy cross-check is skipped when less than a tenth of the time is left.
     """
     from duffsym.effects import CATALOGUE
 
@@ -405,14 +535,17 @@ def diagnose(
 
     fixed = with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
-    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, decimate)
+    cap = BUDGET_SAMPLES if deadline is not None else None
+    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, decimate, cap)
     q = prep.factor
 
     say(f"base fit of {model.name} on {k} of {record.n_times} samples" + (f" (decimated by {q})" if q > 1 else ""))
     if start is None and fit_result is not None:
         start = dict(fit_result.params)
+    t_budget = time_left(deadline)
     base, y_work, base_check = _base_fit(model, work, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=k,
-                                         rec_plain=_prepare_fit(work, work, mask, decimate)[1:] if q > 1 else None)
+                                         rec_plain=_prepare_fit(work, work, mask, q if cap else decimate, cap and -(-work.n_times // q))[1:]
+                                         if q > 1 else None, deadline=deadline)
     y_base = through(y_work)
     r_base = y - y_base
     mse_held = float(np.mean(r_base[held] ** 2))
@@ -423,7 +556,7 @@ def diagnose(
 
     y_cands = {}
     runs = _candidate_runs(names, model, rec_fit, work, base, y_work[:k], fixed, mask_fit, candidate_max_iter,
-                           candidate_cpu_time, screen, say, second_start, engine, q=q)
+                           candidate_cpu_time, screen, say, second_start, engine, q=q, deadline=deadline)
     failed = [r for r in runs if isinstance(r, Candidate)]
     runs = [r for r in runs if not isinstance(r, Candidate)]
     for r in runs:
@@ -476,16 +609,18 @@ def diagnose(
     out = _mark_stability(_rank(out), exts)
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
-    evidence = _sindy_evidence(record, base, model, say) if sindy else None
+    evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
+    inactive = inactive_effects(model, record, base.params, base.stderr)
     verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
-               + _sindy_sentence(evidence, out) + _base_sentence(base_check))
+               + _sindy_sentence(evidence, out) + _base_sentence(base_check)
+               + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
         y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
         noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
         y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
-        noise_estimate=est,
+        noise_estimate=est, inactive=inactive,
     )
 
 
@@ -493,7 +628,8 @@ def _within_range(y_run, y) -> bool:
     return y_run is not None and float(np.max(np.abs(y_run))) <= DIVERGED * float(np.max(np.abs(y)))
 
 
-def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None):
+def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None,
+              deadline=None):
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
@@ -503,19 +639,28 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     base is as good as the reference (within 5 %); the verdict says so when it is not. ``k``: the
     fitting part's length at the record's rate (default ``rec_fit``'s, when not decimated);
     ``rec_plain``: (record, mask) of the plain fit (default ``record``, ``mask``; a decimated copy).
+    ``deadline``: the base fit may take ``BASE_SHARE`` of the time left, the reference and the refit from
+    it ``REFERENCE_SHARE`` each (``check["budget"]`` says which stopped on it).
     """
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
-    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True)
-    y_base = _free_run(model, base.params, record, base.x0[0]) if base.success else None
+    mask, mask_fit = unmasked(model, mask), unmasked(model, mask_fit)
+    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True,
+                max_wall_time=_time_share(deadline, BASE_SHARE))
+    out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
+    # a base fit stopped by its share of the time budget is still used when its free run holds (the verdict
+    # says it was not converged)
+    y_base = _free_run(model, base.params, record, base.x0[0]) if base.success or out_of_time else None
     y_base = y_base if _within_range(y_base, y) else None
     if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
         plain, plain_src = fit_result, "the given fit"
     else:
         say("  reference: a plain fit of the whole record")
         rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
-        plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True)
+        plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True,
+                     max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)))
         plain_src = "a plain fit of the record"
+        out_of_time += ["plain-fit reference"] if plain.status in OUT_OF_TIME else []
     x0p = plain.x0[0] if plain.x0 and len(plain.x0[0]) == model.n_states else None
     y_plain = _free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
     y_plain = y_plain if _within_range(y_plain, y) else None
@@ -526,7 +671,8 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     won = "tuning guess" if start is None else "given start"
     if err(y_plain) < 0.99 * err(y_base):
         say("  base refit from the reference's parameters")
-        alt = _fit(model, rec_fit, fixed, dict(plain.params), mask=mask_fit, bound_restart=True)
+        alt = _fit(model, rec_fit, fixed, dict(plain.params), mask=mask_fit, bound_restart=True,
+                   max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE - REFERENCE_SHARE)))
         y_alt = _free_run(model, alt.params, record, alt.x0[0]) if alt.success else None
         y_alt = y_alt if _within_range(y_alt, y) else None
         if err(y_alt) < err(y_base):
@@ -539,12 +685,13 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
                          "model")
     e_base, e_plain = err(y_base), err(y_plain)
     check = dict(reference=plain_src, nrmse_fit_part=e_base, reference_nrmse_fit_part=e_plain, start=won,
-                 as_good=bool(e_base <= 1.05 * e_plain))
+                 as_good=bool(e_base <= 1.05 * e_plain), budget=out_of_time)
     return base, y_base, check
 
 
 def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, candidate_max_iter,
-                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None, q: int = 1) -> list:
+                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None, q: int = 1,
+                    deadline: float | None = None) -> list:
     """Each candidate fitted (with screening, see :func:`diagnose`; a second start, see ``second_start``;
     on ``engine``'s workers when given): rows ``[ss, name, effect, ext, fit, y_ext, seconds]`` (``y_ext``
     None when the free run diverged; ``fit`` None when screened out, with the reason in place of
@@ -557,7 +704,7 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
     out: list = []
     budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
     job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit)[::q], fixed, mask_fit,
-                        candidate_cpu_time)
+                        candidate_cpu_time, deadline, len(names) + (screen or 0))
     tasks = []
     for name in names:
         try:
@@ -571,7 +718,7 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
             continue
         ss, fr, y_ext, secs = got
         runs.append([ss, name, CATALOGUE[name], ext, fr, y_ext, secs])
-    if second_start:
+    if second_start and time_left(deadline) > 1.0:
         # lost to a local optimum (failed, diverged, or worse than the base it extends): a second start
         # at the base solution itself, the effect's parameters at their neutral defaults
         lost = [r for r in runs if not r[4].success or r[0] > ss_base]
@@ -585,13 +732,17 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
             if (fr2.success or not run[4].success) and (ss2 < run[0] or (fr2.success and not run[4].success)):
                 fr2.settings["candidate_start"] = 2
                 run[0], run[4], run[5] = ss2, fr2, y2
-    if screen is not None:
+    if screen is not None and time_left(deadline) <= 1.0:
+        for run in runs:
+            if not run[4].success and run[4].status == "Maximum_Iterations_Exceeded":
+                run[4], run[5] = None, f"{NOT_TRIED} after its screening fit ({budget} IPOPT iterations)"
+    elif screen is not None:
         # only the candidates still being fitted compete for continuation: a fit stopped half-way is not
         # ranked against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the
         # ladder lost it on an offset + lag record; it converges to the true lag when continued)
         runs.sort(key=lambda item: item[0])
         open_runs = [r for r in runs if not r[4].success
-                     and r[4].status in ("Maximum_Iterations_Exceeded", "Maximum_CpuTime_Exceeded")]
+                     and r[4].status in ("Maximum_Iterations_Exceeded",) + OUT_OF_TIME]
         go_on = []
         for rank, run in enumerate(open_runs):
             if rank >= screen:
@@ -643,13 +794,23 @@ def _mark_stability(cands: list[Candidate], exts: Mapping) -> list[Candidate]:
     return out
 
 
-def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate):
+def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate, max_samples: int | None = None):
     """(preparation, fitting data, their mask): ``rec_fit`` decimated on its own (no held-out sample
-    enters its anti-aliasing filter) by the factor chosen from the whole record's spectrum."""
+    enters its anti-aliasing filter) by the factor chosen from the whole record's spectrum; with
+    ``max_samples`` (a time budget) at least by the factor that leaves at most that many samples (unless
+    decimation is off)."""
+    import dataclasses
+
     from duffsym.diagnose.prepare import choose_decimation, decimate_mask, decimate_record
 
     cap = 1 if decimate is False else (None if decimate is True else int(decimate))
     prep = choose_decimation(record, n_fit=rec_fit.n_times, max_factor=cap)
+    need = -(-rec_fit.n_times // max_samples) if max_samples and cap != 1 else 1
+    if need > prep.factor and prep.rate_in == prep.rate_in:  # uniform sampling (rate_in not NaN)
+        q = need if cap is None else min(need, cap)
+        prep = dataclasses.replace(prep, factor=q, rate=prep.rate_in / q, n_out=-(-prep.n_in // q),
+                                   reason=f"the time budget: at most {max_samples} fitting samples (the spectrum alone "
+                                   f"asked for a factor {prep.factor})")
     rec = decimate_record(rec_fit, prep.factor)
     return prep, rec, decimate_mask(mask_fit, prep.factor, rec.n_times)
 
@@ -664,6 +825,14 @@ def _rank(cands: list[Candidate]) -> list[Candidate]:
         tie = [c for c in ok if c.nrmse_after <= ok[0].nrmse_after * (1 + TIE)]
         ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie):]
     return ok + rest
+
+
+def _sindy_wanted(sindy: bool, deadline, t_budget: float, say) -> bool:
+    """Whether to run the SINDy cross-check: asked for, and more than a tenth of the diagnosis's time left."""
+    if sindy and time_left(deadline) < 0.1 * t_budget:
+        say("  SINDy cross-check skipped: the time budget is nearly spent")
+        return False
+    return sindy
 
 
 def _sindy_evidence(record, base_fit, model, say) -> dict:
@@ -724,6 +893,9 @@ def _smoothing_sentence(w: int) -> str:
 
 def _base_sentence(check: Mapping) -> str:
     s = ""
+    if check.get("budget"):
+        s += (f" Time budget: the {' and the '.join(check['budget'])} stopped on {'its' if len(check['budget']) == 1 else 'their'}"
+              " share of the budget before converging (give more with --budget).")
     if check and not check.get("as_good", True):
         s += (f" Caution: the diagnosis's base fit (free-run NRMSE {check['nrmse_fit_part']:.3g} on the fitting part) "
               f"is worse than {check['reference']} ({check['reference_nrmse_fit_part']:.3g}): every candidate is "

@@ -40,6 +40,14 @@ _PARENTS: dict[str, tuple[SymbolicModel, "Effect"]] = {}
 _PARENTS_MAX = 512
 
 
+def _not_significant(name: str, params: Mapping[str, float], stderr: Mapping[str, float]) -> str:
+    """``name``'s fitted value within two standard errors of zero, in words; "" otherwise (or unknown SE)."""
+    v, se = float(params.get(name, math.nan)), float(stderr.get(name, math.nan))
+    if math.isfinite(v) and math.isfinite(se) and abs(v) < 2 * se:
+        return f"its size is not distinguishable from zero ({name} = {v:.3g} ± {se:.2g})"
+    return ""
+
+
 def sigmoid(u: sp.Expr) -> sp.Expr:
     """Smooth step from 0 to 1: :math:`(1 + \\tanh u)/2` (infinitely differentiable, for IPOPT)."""
     return (1 + sp.tanh(u)) / 2
@@ -112,6 +120,20 @@ class Effect:
     def base_output(self, y: np.ndarray, record, params: Mapping[str, float]) -> np.ndarray:
         """The output ``y`` with this effect's own output term removed (identity if it has none)."""
         return y
+
+    def record_bounds(self, record) -> dict[str, tuple[float, float]]:
+        """Bounds of the effect's parameters scaled to ``record`` (e.g. a smoothing velocity tied to the
+        record's velocity range), tighter than the static ``ParamSpec`` bounds; {} when none."""
+        return {}
+
+    def activity(self, record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None) -> str:
+        """Why the fitted effect does nothing on ``record`` (its size negligible or not distinguishable from zero,
+        or its smoothing run off so that its switch is flat or linear over the record), in words; "" when it acts
+        (or cannot be told). Default: an effect of one parameter whose value is within two standard errors of 0."""
+        specs = self.parameters()
+        if len(specs) != 1 or not stderr:
+            return ""
+        return _not_significant(specs[0].name, params, stderr)
 
     def describe(self) -> dict:
         """Everything ``duffsym effects --json`` shows about the effect."""

@@ -215,6 +215,41 @@ class InputShift(Effect):
         return {name: self._clip(name, _best_shift(record, y_model, signed=True, limit=0.05, fraction=8))}
 
 
+#: ``bl_h`` may range over these fractions of the record's stroke (``Backlash.record_bounds``)
+PLAY_RANGE = (1e-4, 0.3)
+#: the low-force band of :func:`plateau_half_width`, a fraction of max|y|
+PLATEAU_BAND = 0.2
+
+
+def plateau_half_width(record, band: float = PLATEAU_BAND) -> float:
+    """Half the input travel over the flat low-force stretch after each reversal (median over reversals; 0 when
+    there is none): the play's half-width as the data show it (the deadzone that ``--mask auto`` finds).
+
+    After a reversal of ``d`` the force of a device with play falls into the band ``|y| < band max|y|`` and
+    stays there while the actuator crosses the gap (travel ``2h``), then rises with the new sign. The travel of
+    ``d`` over the first contiguous stretch inside the band, halved, estimates ``h``; a device without play
+    crosses the band near the reversal, where ``d`` hardly moves, so the estimate is small there."""
+    d = np.asarray(record.d, dtype=float)
+    y = np.asarray(record.y, dtype=float)
+    v = np.asarray(record.velocity(), dtype=float)
+    nz = np.flatnonzero(v != 0)
+    sv = np.sign(v[nz])
+    rev = nz[1:][sv[1:] != sv[:-1]]
+    low = np.abs(y) < band * (float(np.max(np.abs(y))) or 1.0)
+    out = []
+    for k, r in enumerate(rev):
+        stop = rev[k + 1] if k + 1 < rev.size else d.size
+        inside = np.flatnonzero(low[r:stop])
+        if inside.size == 0:
+            continue
+        a = r + int(inside[0])
+        outside = np.flatnonzero(~low[a:stop])
+        b = a + (int(outside[0]) if outside.size else stop - a)
+        if b < stop:  # the force left the band again before the next reversal: a complete plateau
+            out.append(0.5 * abs(d[b - 1] - d[a]))
+    return float(np.median(out)) if out else 0.0
+
+
 @dataclass(frozen=True)
 class Backlash(Effect):
     r"""Joint backlash (play) between the actuator and the piston: the deadzone of the paper's Fig. 8.
@@ -268,7 +303,10 @@ class Backlash(Effect):
 
     Initial guess: the half-width from the flat force after reversals: after each reversal of
     ``d``, the travel of ``d`` until the measured force has changed by a quarter of its range,
-    minus the same travel for ``y_model``, halved; the median over reversals.
+    minus the same travel for ``y_model``, halved; the median over reversals; at least the half-width
+    of the flat low-force plateaus (:func:`plateau_half_width`: on a real friction damper the force
+    drops to zero at each reversal and a quarter of its range is crossed before the plateau, so the
+    first rule alone finds almost no play there).
     Initial state trajectory: the exact play operator applied to the record's ``d``.
     """
 
@@ -330,7 +368,24 @@ class Backlash(Effect):
         name = f"{self.prefix}h"
         floor = 0.005 * float(np.ptp(d))
         h = float(np.median(widths)) if widths.size else floor
+        h = max(h, plateau_half_width(record))
         return {name: self._clip(name, min(max(h, floor), 0.25 * float(np.ptp(d))))}
+
+    def record_bounds(self, record) -> dict[str, tuple[float, float]]:
+        """``bl_h`` within ``PLAY_RANGE`` of the record's stroke: a play wider than that leaves the piston
+        nearly still (a fit on a poor base model can run there, e.g. h = 1.03 in on a 2 in stroke of the real
+        friction damper, whose plateaus show h = 0.10 in)."""
+        stroke = float(np.ptp(np.asarray(record.d, dtype=float))) or 1.0
+        return {f"{self.prefix}h": (PLAY_RANGE[0] * stroke, PLAY_RANGE[1] * stroke)}
+
+    def activity(self, record, params, stderr=None) -> str:
+        h = float(params[f"{self.prefix}h"])
+        stroke = float(np.ptp(np.asarray(record.d, dtype=float))) or 1.0
+        if h < 0.002 * stroke:
+            return f"its play is negligible (half-width {h:.3g}, {100 * h / stroke:.2g} % of the stroke)"
+        if h > 0.45 * stroke:
+            return f"its play spans the stroke (half-width {h:.3g} of a stroke {stroke:.3g}): the piston barely moves"
+        return ""
 
     def initial_states(self, X_base, record, params) -> np.ndarray:
         from duffsym.data.synthetic import apply_backlash

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.base import Effect, lstsq_coeffs, residual
+from duffsym.effects.base import Effect, _not_significant, lstsq_coeffs, residual
 from duffsym.errors import ModelError
 from duffsym.model.core import InputChannel, SymbolicModel
 from duffsym.model.symbols import ParamSpec
@@ -433,6 +433,10 @@ def piston_path(model: SymbolicModel) -> tuple[sp.Expr, sp.Expr]:
 #: The seal friction's switching velocity as a fraction of the largest piston speed of the record:
 #: the start of the fit of ``seal_eps`` (the parameter is fitted).
 SEAL_EPS_FRACTION = 0.02
+#: ``seal_eps`` may range over these fractions of the record's largest piston speed (``record_bounds``).
+SEAL_EPS_RANGE = (1e-4, 1.0)
+#: an added effect whose output term's RMS is below this fraction of the force's spread is called inactive
+NEGLIGIBLE = 0.005
 
 
 @dataclass(frozen=True)
@@ -489,3 +493,24 @@ class SealFriction(Effect):
     def base_output(self, y, record, params):
         v = np.asarray(record.velocity(), dtype=float)
         return y - params[f"{self.prefix}F"] * np.tanh(v / params[f"{self.prefix}eps"])
+
+    def record_bounds(self, record) -> dict[str, tuple[float, float]]:
+        """``seal_eps`` between ``SEAL_EPS_RANGE`` of the record's largest piston speed: above it the tanh is
+        a straight line over the record (a viscous term, which ``parallel-damping`` is), below it a step
+        sharper than the sampling resolves; ``seal_eps`` can then not run off (5e7 on a real seal record)."""
+        vmax = float(np.max(np.abs(np.asarray(record.velocity(), dtype=float)))) or 1.0
+        lo, hi = SEAL_EPS_RANGE
+        return {f"{self.prefix}eps": (lo * vmax, hi * vmax)}
+
+    def activity(self, record, params, stderr=None) -> str:
+        v = np.asarray(record.velocity(), dtype=float)
+        F, eps = float(params[f"{self.prefix}F"]), float(params[f"{self.prefix}eps"])
+        vmax = float(np.max(np.abs(v))) or 1.0
+        size = float(np.sqrt(np.mean((F * np.tanh(v / eps)) ** 2)))
+        scale = float(np.std(np.asarray(record.y, dtype=float))) or 1.0
+        if size < NEGLIGIBLE * scale:
+            return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
+        if eps >= 0.5 * vmax:
+            return (f"its switch is flat over the record (seal_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
+                    "the tanh is nearly linear there, a viscous term rather than a friction")
+        return _not_significant(f"{self.prefix}F", params, stderr or {})

@@ -458,11 +458,16 @@ def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] 
                 fixed_i = {k: problem.fixed_value(i, k) for k in problem.fixed}
                 guesses[i] = initial_guess(problem.records[i], model, fixed=fixed_i)
             start[sn] = guesses[i][n]
+    from duffsym.identify.problem import effect_record_bounds
+
+    scaled = set(effect_record_bounds(model, problem.records))
     for sn, (n, lab) in zip(slot_names, slots):
         lo, hi = problem.bounds[n]
         v = start[sn]
         if not math.isfinite(v):
             raise ModelError(f"x0: initial value of {sn} must be finite; got {v}")
+        if not lo <= v <= hi and n in scaled:  # a bound scaled to the record (Effect.record_bounds): moved inside
+            v = start[sn] = min(max(v, lo), hi)
         if not lo <= v <= hi:
             raise ModelError(f"x0: initial value of {sn} = {v:g} is outside its bounds [{lo:g}, {hi:g}]; move it inside")
     return start

@@ -48,6 +48,23 @@ def single_sine(d) -> bool:
     return float(np.sum(p[max(1, k - 2): k + 3]) / np.sum(p[1:])) >= SINE_SHARE
 
 
+def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
+    """Default bounds of the catalogued effects' parameters scaled to the records (``Effect.record_bounds``, e.g.
+    a seal friction's switching velocity within the records' velocity range, so that it cannot run off to a
+    flat switch); over several records the widest range. Explicit ``bounds`` override them."""
+    from duffsym.effects import CATALOGUE
+
+    out: dict[str, tuple[float, float]] = {}
+    for name in getattr(model, "effects", ()):
+        if name not in CATALOGUE:
+            continue
+        for rec in records:
+            for k, (lo, hi) in CATALOGUE[name].record_bounds(rec).items():
+                a, b = out.get(k, (lo, hi))
+                out[k] = (min(a, lo), max(b, hi))
+    return {k: v for k, v in out.items() if k in model.param_names}
+
+
 def _as_records(records) -> tuple[Record, ...]:
     if isinstance(records, Record):
         return (records,)
@@ -340,6 +357,7 @@ class Problem:
         slots = [(n, None) for n in free_t if n not in per_group]
         slots += [(n, lab) for n in free_t if n in per_group for lab in order]
         bnds: dict[str, tuple[float, float]] = {}
+        bounds = {**effect_record_bounds(model, recs), **dict(bounds or {})}
         for n in free_t:
             spec = model.param(n)
             lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))

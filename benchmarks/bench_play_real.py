@@ -1,0 +1,81 @@
+"""The play of the real friction damper (issue 22): the backlash candidate on each BRFD record.
+
+For every record in ``$DUFFSYM_EXTERNAL_DATA/friction_damper_brfd_artslab`` (read by
+:func:`duffsym.data.loaders.load_friction_damper_json`): the diagnosis with the play candidate (and
+``--mask auto``'s deadzone mask), the fitted half-width with its standard error, the plateau half-width
+the data show (:func:`duffsym.effects.inputs.plateau_half_width`) and the masked stretch's width
+(:func:`duffsym.identify.auto_mask`), held-out NRMSE before (base model) and after (with the play), time.
+
+    python benchmarks/bench_play_real.py [--budget 600] [--files 0.5Hz30lbtension1amplitude ...] [--report DIR]
+
+Writes ``benchmarks/results/play_real.json``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def run(path: Path, budget: float | None, candidates, report: Path | None) -> dict:
+    import numpy as np
+
+    from duffsym.data.loaders import load_friction_damper_json
+    from duffsym.diagnose import diagnose
+    from duffsym.effects.inputs import plateau_half_width
+    from duffsym.identify.initial import auto_mask
+
+    rec = load_friction_damper_json(path)
+    mask, info = auto_mask(rec)
+    t0 = time.perf_counter()
+    dg = diagnose(rec, candidates=candidates, mask=mask, sindy=False,
+                  deadline=None if budget is None else time.monotonic() + budget, progress=print)
+    secs = time.perf_counter() - t0
+    if report is not None:
+        from duffsym.diagnose.report import write_diagnosis_report
+
+        write_diagnosis_report(dg, rec, report / path.stem)
+    c = next((c for c in dg.candidates if c.effect == "backlash"), None)
+    return dict(record=path.stem, n=rec.n_times, seconds=secs, nrmse_heldout_base=dg.nrmse_heldout,
+                nrmse_heldout_play=c.nrmse_after if c else None, success=bool(c and c.success),
+                message=c.message if c else "", h=c.params.get("bl_h") if c else None,
+                h_se=c.stderr.get("bl_h") if c else None, plateau_half_width=plateau_half_width(rec),
+                mask_width=info["median_displacement_width"], needed=list(dg.needed), verdict=dg.verdict,
+                prepare=dg.prepare.summary() if dg.prepare else "", base_check=dg.base_check,
+                candidates=[dict(effect=x.effect, nrmse_after=x.nrmse_after, params=x.params, stderr=x.stderr,
+                                 success=x.success, message=x.message, seconds=x.seconds) for x in dg.candidates],
+                noise=dg.noise, load=os.getloadavg()[0], stroke=float(np.ptp(rec.d)))
+
+
+def main(argv=None) -> int:
+    from duffsym.data import external_data_dir
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--budget", type=float, default=600.0)
+    ap.add_argument("--files", nargs="*", default=None)
+    ap.add_argument("--candidates", default="backlash")
+    ap.add_argument("--report", default=None)
+    ap.add_argument("--out", default=str(HERE / "results" / "play_real.json"))
+    args = ap.parse_args(argv)
+    folder = external_data_dir() / "friction_damper_brfd_artslab"
+    files = sorted(folder.glob("*.json")) if not args.files else [folder / f"{f}.json" for f in args.files]
+    rows = []
+    for p in files:
+        r = run(p, args.budget, args.candidates.split(","), Path(args.report) if args.report else None)
+        rows.append(r)
+        print(f"{r['record']}: held-out {r['nrmse_heldout_base']:.4g} -> {r['nrmse_heldout_play']}  h = {r['h']} ± "
+              f"{r['h_se']} (plateau {r['plateau_half_width']:.3g}, mask width {r['mask_width']:.3g})  "
+              f"{r['seconds']:.0f} s  {r['message']}", flush=True)
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(dict(runs=rows, budget=args.budget), indent=1, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
