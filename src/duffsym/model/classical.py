@@ -361,3 +361,17 @@ CLASSICAL_MODELS = {
 }
 #: Models that take the structural exponent ``n``.
 WITH_EXPONENT = ("bouc-wen", "bouc-wen-current", "spencer")
+
+#: The tuning order of each classical model for :func:`duffsym.identify.initial_guess` (the paper's Fig. 4
+#: procedure: pairs scanned over factors of the current values; the first step, A_f there, is empty here).
+TUNING_STEPS = {
+    "bouc-wen": ((), ("c0", "k0"), ("A", "gamma"), ("beta",)),
+    "bouc-wen-current": ((), ("c0", "k0"), ("A", "gamma"), ("beta",)),
+    "spencer": ((), ("alpha", "c1"), ("c0", "k0"), ("gamma", "beta"), ("alpha_u", "c1_u")),
+    "dahl": ((), ("sigma0", "Fc"), ("sigma2",)),
+    "lugre": ((), ("sigma0", "Fc"), ("Fs", "vs"), ("sigma1", "sigma2")),
+    "bingham": ((), ("fc", "c0")),
+    "bingham-current": ((), ("fc", "c0")),
+    "biviscous": ((), ("c_pr", "c_po"), ("fy",)),
+    "biviscous-current": ((), ("c_pr", "c_po"), ("fy",)),
+}
