@@ -23,6 +23,10 @@ def __getattr__(name):
         from duffsym.campaign.command import batch
 
         return batch
+    if name == "compare":  # several models on the same records, held-out scores (duffsym.diagnose.compare)
+        from duffsym.diagnose.compare import compare
+
+        return compare
     if name == "read_csv":
         from duffsym.data import read_csv
 
@@ -34,6 +38,6 @@ __version__ = "0.1.0"
 
 __all__ = [
     "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",
-    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch",
+    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch", "compare",
     "DuffsymError", "ModelError", "DataError", "SimulationError",
 ]
