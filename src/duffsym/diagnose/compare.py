@@ -146,7 +146,7 @@ def resolve_model(spec):
 
 
 def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = None, holdout: float = HOLDOUT,
-            n_starts: int = 4, start_spread: float = 3.0, rng: int = 0, fixed: Mapping[str, Mapping] | None = None,
+            n_starts: int = 4, start_spread: float = 3.0, rng: int = 0, fixed: Mapping[str, float] | None = None,
             max_iter: int = 500, progress: Callable[[str], None] | None = None) -> Comparison:
     """Fit each of ``models`` on the training records and score it on held-out data (module docstring).
 
@@ -157,7 +157,8 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
     validate : held-out records; then ``records`` are used whole for training.
     holdout : without ``validate``, the fraction of each record held out (its end).
     n_starts, start_spread, rng : the multistart of :func:`duffsym.identify.fit`.
-    fixed : per model name, parameter values to hold (e.g. ``{"mr-damper-current": {"eta": 60}}``).
+    fixed : parameter values to hold in every model that has the parameter (e.g. ``{"eta": 100}``: the field rate
+        is not identifiable from records at constant currents).
     max_iter : IPOPT's iteration limit per start.
     progress : a callable taking one line of text, or None.
     """
@@ -178,7 +179,8 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
     for model in resolved:
         say(f"fitting {model.name} on {len(train)} record(s) from {n_starts} start(s)")
         score, pred = _score_model(model, train, held, tails, n_starts=n_starts, start_spread=start_spread,
-                                   rng=rng, fixed=dict((fixed or {}).get(model.name, {})), max_iter=max_iter)
+                                   rng=rng, fixed={k: v for k, v in (fixed or {}).items() if k in model.param_names},
+                                   max_iter=max_iter)
         say(f"  {model.name}: held-out NRMSE {score.heldout_nrmse:.4f}, fit {score.fit_seconds:.1f} s")
         scores.append(score)
         preds[model.name] = pred

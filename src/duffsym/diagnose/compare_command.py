@@ -6,7 +6,7 @@ import sys
 
 
 def cmd_compare(args) -> int:
-    from duffsym._cli_common import CLIError, _check_outputs, _emit_json, _read_record
+    from duffsym._cli_common import CLIError, _check_outputs, _emit_json, _parse_assignments, _read_record
     from duffsym.diagnose.compare import compare, plot_comparison
 
     models = [m.strip() for m in (args.models or "").split(",") if m.strip()]
@@ -19,7 +19,8 @@ def cmd_compare(args) -> int:
     held = [_read_record(args, p) for p in validate_files] or None
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     result = compare(records, models, validate=held, holdout=args.holdout, n_starts=args.starts,
-                     start_spread=args.spread, rng=args.seed, max_iter=args.max_iter, progress=say)
+                     start_spread=args.spread, rng=args.seed, max_iter=args.max_iter, progress=say,
+                     fixed=_parse_assignments(args.fix, "--fix"))
     if args.out:
         from duffsym._io import write_json_atomic
         from duffsym._json import jsonable
@@ -46,6 +47,8 @@ def register(sub) -> None:
     s.add_argument("--starts", type=int, default=4, help="IPOPT starts per model (default 4)")
     s.add_argument("--spread", type=float, default=3.0, help="random starts: log-uniform factors in [1/s, s] (default 3)")
     s.add_argument("--seed", type=int, default=0, help="seed of the random starts")
+    s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold a parameter in every model that has "
+                   "it (repeat or comma-separate), e.g. eta=100 for records at constant currents")
     s.add_argument("--max-iter", type=int, default=500, help="IPOPT iteration limit per start")
     _add_file_arguments(s)
     s.add_argument("--out", help="write the comparison as JSON")
