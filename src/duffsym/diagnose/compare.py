@@ -147,7 +147,8 @@ def resolve_model(spec):
 
 def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = None, holdout: float = HOLDOUT,
             n_starts: int = 4, start_spread: float = 3.0, rng: int = 0, fixed: Mapping[str, float] | None = None,
-            max_iter: int = 500, progress: Callable[[str], None] | None = None) -> Comparison:
+            max_iter: int = 500, starts: Mapping[str, Mapping[str, float]] | None = None,
+            progress: Callable[[str], None] | None = None) -> Comparison:
     """Fit each of ``models`` on the training records and score it on held-out data (module docstring).
 
     Parameters
@@ -160,6 +161,8 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
     fixed : parameter values to hold in every model that has the parameter (e.g. ``{"eta": 100}``: the field rate
         is not identifiable from records at constant currents).
     max_iter : IPOPT's iteration limit per start.
+    starts : per model name, start values of (some of) its parameters (e.g. a published fit); the others, and
+        models not named, start from :func:`duffsym.identify.initial_guess`.
     progress : a callable taking one line of text, or None.
     """
     say = progress or (lambda msg: None)
@@ -180,7 +183,7 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
         say(f"fitting {model.name} on {len(train)} record(s) from {n_starts} start(s)")
         score, pred = _score_model(model, train, held, tails, n_starts=n_starts, start_spread=start_spread,
                                    rng=rng, fixed={k: v for k, v in (fixed or {}).items() if k in model.param_names},
-                                   max_iter=max_iter)
+                                   max_iter=max_iter, x0=dict((starts or {}).get(model.name, {})) or None)
         say(f"  {model.name}: held-out NRMSE {score.heldout_nrmse:.4f}, fit {score.fit_seconds:.1f} s")
         scores.append(score)
         preds[model.name] = pred
@@ -188,13 +191,13 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
                       tuple(r.name or f"record {i}" for i, r in enumerate(held)), preds)
 
 
-def _score_model(model, train, held, tails, *, n_starts, start_spread, rng, fixed, max_iter):
+def _score_model(model, train, held, tails, *, n_starts, start_spread, rng, fixed, max_iter, x0=None):
     """One model: fit, held-out error, BIC, starts, simulation cost, certificate."""
     from duffsym.identify import Problem, fit
 
     t0 = time.perf_counter()
     try:
-        res = fit(Problem(model, train, fixed=fixed or None), n_starts=n_starts, start_spread=start_spread, rng=rng,
+        res = fit(Problem(model, train, fixed=fixed or None), x0, n_starts=n_starts, start_spread=start_spread, rng=rng,
                   max_iter=max_iter)
     except (ModelError, DataError) as exc:
         return _failed(model, str(exc)), {}
