@@ -22,7 +22,8 @@ STUDIES = tuple(sorted(p.stem for p in Path(__file__).resolve().parent.glob("s[0
 #: typical full-run seconds per study (2 cores, fresh virtualenv; paper/README.md): the weights of the
 #: estimate of the time left, scaled by how fast this run has been so far; 60 s for a study not listed
 TYPICAL_SECONDS = {"s01": 20, "s02": 8, "s03": 4, "s04": 3, "s05": 23, "s06": 220, "s07": 230, "s08": 127,
-                   "s09": 42, "s10": 143, "s11": 1500, "s12": 35, "s13": 165}
+                   "s09": 42, "s10": 143, "s11": 1500, "s12": 35, "s13": 165,
+                   "s14": 2670}  # s14: measured under load average ~20 (the Spencer campaign fit: 1822 s)
 
 
 def _estimate(done: list[str], left: list[str], elapsed: float, smoke: bool) -> str:
