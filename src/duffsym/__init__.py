@@ -20,6 +20,7 @@ _LAZY = {
     "duffing_like": "duffsym.model", "get_model": "duffsym.model", "mr_damper": "duffsym.model",
     "state_space": "duffsym.model", "Trajectory": "duffsym.simulate", "Problem": "duffsym.identify",
     "fit": "duffsym.identify", "batch": "duffsym.campaign.command", "read_csv": "duffsym.data",
+    "compare": "duffsym.diagnose.compare",
 }
 
 
@@ -60,6 +61,6 @@ show_notes()
 
 __all__ = [
     "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",
-    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch",
+    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch", "compare",
     "DuffsymError", "ModelError", "DataError", "SimulationError",
 ]

@@ -38,6 +38,7 @@ COMMAND_MODULES = (
     "duffsym.reproduce_command",    # reproduce
     "duffsym.effects.command",      # effects
     "duffsym.diagnose.command",     # diagnose, ladder
+    "duffsym.diagnose.compare_command",  # compare
     "duffsym.uncertainty.command",  # sample
     "duffsym.sindy.command",        # sindy
     "duffsym.data.command",         # convert

@@ -96,7 +96,9 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     ``y / gain`` and the other its integral (drift and mean removed) or its derivative. A model
     extended by catalogued effects starts its base states this way from the measured output with
     the effects' output terms removed, and each added state from its effect's guess
-    (:func:`duffsym.effects.initial_states_with_effects`). Other models start from zeros.
+    (:func:`duffsym.effects.initial_states_with_effects`). Other models (an output read from several states,
+    e.g. Spencer's model) start from a free run at ``params`` (the driven states at their equilibrium, the
+    others at 0; RK4), or from zeros where it fails.
     """
     if getattr(model, "composition", ()):
         from duffsym.identify.structure import structure_initial_states
@@ -114,7 +116,7 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         X[:, j] = traj
     info = _output_gain(model, [model.states[j] for j in driven])
     if info is None:
-        return X
+        return _free_run_states(model, record, params, X)
     i, gain_fn = info[:2]
     gain = np.broadcast_to(np.asarray(gain_fn(*params, *driven.values()), dtype=float), (record.n_times,))
     if np.any(gain == 0) or not np.all(np.isfinite(gain)):
@@ -136,6 +138,17 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
         elif i == ip:
             X[:, iv] = np.gradient(xi, t)
     return X
+
+
+def _free_run_states(model, record, params: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """The states of a free run at ``params`` from ``X[0]``, or ``X`` unchanged if it fails or blows up."""
+    from duffsym.simulate import simulate
+
+    if model.n_states == len(driven_states(model, record, params)) or not np.all(np.isfinite(params)):
+        return X
+    tr = simulate(model, np.asarray(params, dtype=float), np.asarray(record.t), _input_matrix(model, record),
+                  x0=X[0], method="rk4", on_failure="return")
+    return tr.x if tr.success and np.all(np.isfinite(tr.x)) else X
 
 
 def _position_rate(model, record, params: np.ndarray) -> np.ndarray | float:
@@ -632,8 +645,8 @@ def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale
     args = [z, uk, uk1, hk, pf, sx]
     jfun = ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())])
     hfun = ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())])
-    jr, jc = (np.asarray(a) for a in Jk.sparsity().get_triplet())
-    hr, hc = (np.asarray(a) for a in Hk.sparsity().get_triplet())
+    jr, jc = (np.asarray(a, dtype=np.int64) for a in Jk.sparsity().get_triplet())
+    hr, hc = (np.asarray(a, dtype=np.int64) for a in Hk.sparsity().get_triplet())
     # one objective term: 0.5 * w * ((y_hat - y) / y_norm)^2 of v = (x_k, p_k)
     v = ca.SX.sym("v", nx + n_free)
     uo, yk, wk, lf = ca.SX.sym("u", nu), ca.SX.sym("y"), ca.SX.sym("wk"), ca.SX.sym("lam_f")
@@ -642,7 +655,7 @@ def _structured_derivatives(w, g, blocks, interval, out_fn, model, free, p_scale
     ok = 0.5 * wk * ((out_fn(v[:nx] * sx, uo, pv) - yk) / y_norm) ** 2
     Ho = ca.triu(ca.hessian(lf * ok, v)[0])
     ofun = ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())])
-    orr, occ = (np.asarray(a) for a in Ho.sparsity().get_triplet())
+    orr, occ = (np.asarray(a, dtype=np.int64) for a in Ho.sparsity().get_triplet())
 
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", n_g if n_g_total is None else n_g_total)
@@ -833,6 +846,9 @@ def laplace_covariance(problem, rec_params, x0s, U_list, y_sims) -> np.ndarray:
         resid.append(np.asarray(rec.y) - base.y)
         weights.append(problem.sample_weights(i))
     J = np.vstack(blocks)
+    # an initial state the output never sees (the carrier state of a static law) is not estimated: no column
+    J = J[:, np.concatenate([np.ones(n_slots, dtype=bool), np.any(J[:, n_slots:] != 0, axis=0)])]
+    n_cols = J.shape[1]
     r = np.concatenate(resid)
     wv = np.concatenate(weights)
     used = wv > 0

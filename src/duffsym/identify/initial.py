@@ -8,6 +8,7 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError
+from duffsym.model.classical import TUNING_STEPS as CLASSICAL_TUNING_STEPS
 from duffsym.model.library import EPS_PARAM
 
 #: The paper's tuning order (Fig. 4): step 1 fixes A_f (and n, structural), then pairs of parameters.
@@ -19,6 +20,7 @@ TUNING_STEPS: dict[str, tuple[tuple[str, ...], ...]] = {
     **{name: (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3"))
        for name in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic",
                      "mr-damper-current-path", "mr-damper-current-path-viscous")},
+    **CLASSICAL_TUNING_STEPS,
 }
 COARSE = (0.1, 0.3, 1.0, 3.0, 10.0)
 FINE = (0.5, 0.7, 1.0, 1.4, 2.0)

@@ -333,6 +333,10 @@ class Problem:
                 defaults["A_f"] = REASON_AF.format(value=peak).replace(
                     f"fixed to max|y| = {peak:.6g}", "fixed per group to the group's max|y| ("
                     + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
+        for spec in model.params:  # a parameter its model holds (a scaling symmetry), unless requested
+            if spec.held and spec.name not in requested and spec.name not in fixed_vals:
+                fixed_vals[spec.name] = spec.default
+                defaults[spec.name] = f"fixed at {spec.default:.6g}: {spec.held}"
         if "k3" in names and "k3" not in requested:
             fixed_vals["k3"] = 0.0
             defaults["k3"] = REASON_K3 if all(single_sine(r.d) for r in recs) else REASON_K3_OTHER

@@ -60,7 +60,8 @@ def model_from_result(result: IdentificationResult):
     """Rebuild the model of a fit from its name, structural powers and effects."""
     from duffsym.model import get_model
 
-    n = dict(result.structural).get("n_x")
+    structural = dict(result.structural)
+    n = structural.get("n_x", structural.get("n"))
     try:
         model = get_model(result.model, None if n is None or result.model == "duffing" else int(n))
     except ModelError as exc:

@@ -448,7 +448,7 @@ def at_constant_command(model: SymbolicModel) -> SymbolicModel | None:
     """The mechanical model of a command-driven model at a constant command: the field at its equilibrium
     ``u_field = i``, with the level ``i`` a parameter (for the derivations: how the stability conditions
     depend on the current). None if ``model`` has no field state driven by the command."""
-    if FIELD not in model.states or COMMAND not in model.inputs or model.n_states != 3:
+    if FIELD not in model.states or COMMAND not in model.inputs or model.n_states != 3 or model.position is None:
         return None
     level = _p("i", "i", 0.5, -1e3, 1e3, "constant command level (current or voltage); the field equals it",
                unit="command unit")
@@ -485,6 +485,10 @@ MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "structure": structure_with_damper,
 }
 
+from duffsym.model.classical import CLASSICAL_MODELS, WITH_EXPONENT  # noqa: E402 - classical models use this module's types
+
+MODELS.update(CLASSICAL_MODELS)
+
 
 def get_model(name: str, n: int | None = None, **kwargs) -> SymbolicModel:
     """A model of the library by name, with its power ``n`` if it has one."""
@@ -493,5 +497,9 @@ def get_model(name: str, n: int | None = None, **kwargs) -> SymbolicModel:
     if name in ("duffing", "duffing-gain"):
         if n not in (None, 3):
             raise ModelError(f"model {name} has a fixed cubic term (Eq. 1); drop --n or use duffing-like")
+        return MODELS[name](**kwargs)
+    if name in CLASSICAL_MODELS and name not in WITH_EXPONENT:
+        if n is not None:
+            raise ModelError(f"model {name} has no exponent n; drop --n")
         return MODELS[name](**kwargs)
     return MODELS[name](**({} if n is None else {"n": n}), **kwargs)

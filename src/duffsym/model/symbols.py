@@ -43,6 +43,8 @@ class ParamSpec:
     unit : physical unit, or ``"1"`` for the normalized model's dimensionless constants.
     scale : typical magnitude; identification divides by it so decision variables are O(1).
     description : one line for people.
+    held : if not empty, the reason the fit holds this parameter at its default unless it is listed in
+        ``free`` (a scaling symmetry makes it redundant, e.g. Spencer's A against alpha).
     """
 
     name: str
@@ -53,6 +55,7 @@ class ParamSpec:
     unit: str = "1"
     scale: float | None = None
     description: str = ""
+    held: str = ""
     symbol: sp.Symbol = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
