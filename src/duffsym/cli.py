@@ -67,6 +67,8 @@ COMMANDS = (
      "missing"),
     ("ladder", "duffsym.diagnose.command", "base fit, then add the best supported effect and refit, while the "
      "evidence supports it; the error at each step"),
+    ("compare", "duffsym.diagnose.compare_command", "fit several models on the same records and score them on "
+     "held-out data"),
     ("sample", "duffsym.uncertainty.command", "emcee posterior of a saved fit's free parameters (medians, 90 %% "
      "intervals, tau, ESS, Laplace comparison)"),
     ("sindy", "duffsym.sindy.command", "SINDy cross-check of the terms of the velocity equation (which terms the "
