@@ -26,11 +26,14 @@ the fitted initial state belongs to the same instant as on the full record.
 The rule for ``duffsym fit`` (:func:`choose_fit_decimation`, ``energy`` given): broadband device records
 (the Dyke record: random displacement and a switching voltage, anti-alias filtered at 100 Hz) carry force
 lines above -60 dB up to ~650 Hz, so the amplitude rule above keeps them at their full 3 kHz rate, while
-99.9 % of the force's variance lies below 370 Hz. With ``energy`` the bandwidth of each signal is instead
+99.7 % of the force's variance lies below 227 Hz. With ``energy`` the bandwidth of each signal is instead
 the frequency below which it keeps ``1 - energy`` of its variance (Hann-windowed periodogram, mean
 removed), and the new Nyquist frequency must be at least that bandwidth (the part given up is at most
-``energy`` of the variance, an NRMSE floor of ``sqrt(energy)`` added in quadrature: 0.032 for 1e-3);
-the ``MIN_PER_CYCLE`` and ``MIN_SAMPLES`` floors are the same. The command channel is low-passed with
+``energy`` of the variance, an NRMSE floor of ``sqrt(energy)`` added in quadrature: 0.055 for the default
+``FIT_ENERGY`` = 3e-3, which puts the Dyke record at 500 Hz, the rate s11 measured to give the same
+validation error as 1 kHz; 1e-3 keeps 750 Hz and took > 11 min to fit the whole record on a loaded 2-core
+machine, 1e-2 keeps 250 Hz: 290 s, NRMSE 0.200 at the fitted rate but 0.234 on the full-rate record);
+the floors are ``FIT_MIN_PER_CYCLE`` (25) samples per input period and ``FIT_MIN_SAMPLES`` (200). The command channel is low-passed with
 the others but does not set the rate (the field's first-order lag smooths its steps).
 
 This module moved here from ``duffsym.diagnose.prepare`` (which re-exports it) so that the data layer,
@@ -57,7 +60,11 @@ MIN_PER_CYCLE = 50
 #: fewest samples the decimated fitting data keep
 MIN_SAMPLES = 400
 #: ``duffsym fit``'s default share of each signal's variance that may lie above the new Nyquist frequency
-FIT_ENERGY = 1e-3
+FIT_ENERGY = 3e-3
+#: ``duffsym fit``'s floors: samples per input period (s11 measured the UTFSM campaign's fits the same to three
+#: decimals at 25, 50 and 100) and fitting samples per record
+FIT_MIN_PER_CYCLE = 25
+FIT_MIN_SAMPLES = 200
 
 
 @dataclass(frozen=True)
@@ -123,11 +130,15 @@ def energy_bandwidth(x, dt: float, energy: float) -> tuple[float, float]:
 
 
 def choose_decimation(record: Record, *, n_fit: int | None = None, max_factor: int | None = None,
-                      energy: float | None = None) -> Preparation:
+                      energy: float | None = None, min_per_cycle: int | None = None,
+                      min_samples: int | None = None) -> Preparation:
     """The decimation factor for ``record`` (see the module docstring); ``n_fit`` samples will be fitted
     (default: all); ``max_factor`` caps q (1: no decimation); ``energy`` switches to the variance rule
     of ``duffsym fit`` (the new Nyquist frequency above the frequency keeping ``1 - energy`` of each
-    signal's variance) instead of the amplitude rule."""
+    signal's variance) instead of the amplitude rule; ``min_per_cycle``, ``min_samples``: the floors
+    (default ``MIN_PER_CYCLE``, ``MIN_SAMPLES``)."""
+    per_cycle = MIN_PER_CYCLE if min_per_cycle is None else int(min_per_cycle)
+    fewest = MIN_SAMPLES if min_samples is None else int(min_samples)
     n = record.n_times
     n_fit = n if n_fit is None else int(n_fit)
     if not record.is_uniform():
@@ -138,20 +149,20 @@ def choose_decimation(record: Record, *, n_fit: int | None = None, max_factor: i
     if energy is None:
         fb_y, _ = bandwidth(record.y, dt)
         fb_d, f0 = bandwidth(record.d, dt)
-        need = max(OVERSAMPLE * max(fb_y, fb_d), MIN_PER_CYCLE * f0)
-        why = (f"the new rate is at least {OVERSAMPLE:g}x the bandwidth and {MIN_PER_CYCLE} samples per input "
+        need = max(OVERSAMPLE * max(fb_y, fb_d), per_cycle * f0)
+        why = (f"the new rate is at least {OVERSAMPLE:g}x the bandwidth and {per_cycle} samples per input "
                f"period ({f0:.3g} Hz)")
     else:
         fb_y, _ = energy_bandwidth(record.y, dt, energy)
         fb_d, _ = energy_bandwidth(record.d, dt, energy)
         _, f0 = bandwidth(record.d, dt)
-        need = max(2.0 * max(fb_y, fb_d), MIN_PER_CYCLE * f0)
+        need = max(2.0 * max(fb_y, fb_d), per_cycle * f0)
         why = (f"the new Nyquist frequency keeps {1 - energy:.4g} of the force's and the input's variance below "
-               f"it, and at least {MIN_PER_CYCLE} samples per input period ({f0:.3g} Hz)")
+               f"it, and at least {per_cycle} samples per input period ({f0:.3g} Hz)")
     q = int(math.floor(fs / need)) if need > 0 else 1
-    if n_fit // max(q, 1) < MIN_SAMPLES:
-        q = min(q, max(1, n_fit // MIN_SAMPLES))
-        why += f", and at least {MIN_SAMPLES} fitting samples"
+    if n_fit // max(q, 1) < fewest:
+        q = min(q, max(1, n_fit // fewest))
+        why += f", and at least {fewest} fitting samples"
     if max_factor is not None:
         q = min(q, max(1, int(max_factor)))
     q = max(q, 1)
@@ -205,17 +216,18 @@ def decimate_mask(mask, q: int, n_out: int):
     return out
 
 
-def prepare_record(record: Record, decimate: bool | int = True, *, n_fit: int | None = None,
-                   energy: float | None = None):
+def prepare_record(record: Record, decimate: bool | int = True, *, n_fit: int | None = None, **rule):
     """(preparation, record to fit): ``record`` decimated by the factor :func:`choose_decimation` picks
-    from ``record``'s spectrum (``decimate``: True, a cap on the factor, or False/1 for none)."""
+    from ``record``'s spectrum (``decimate``: True, a cap on the factor, or False/1 for none; ``rule``:
+    :func:`choose_decimation`'s ``energy``, ``min_per_cycle``, ``min_samples``)."""
     cap = 1 if decimate is False else (None if decimate is True else int(decimate))
-    prep = choose_decimation(record, n_fit=n_fit, max_factor=cap, energy=energy)
+    prep = choose_decimation(record, n_fit=n_fit, max_factor=cap, **rule)
     return prep, decimate_record(record, prep.factor)
 
 
 def prepare_for_fit(record: Record, decimate: bool | int = True, *, energy: float = FIT_ENERGY):
     """(preparation, record to fit) by the variance rule of ``duffsym fit`` (module docstring):
     ``decimate`` True (the spectrum's factor), an int (a cap on it) or False (none)."""
-    return prepare_record(record, decimate, energy=energy)
+    return prepare_record(record, decimate, energy=energy, min_per_cycle=FIT_MIN_PER_CYCLE,
+                          min_samples=FIT_MIN_SAMPLES)
 

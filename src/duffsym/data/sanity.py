@@ -300,7 +300,9 @@ def range_notes(ranges: dict, record: Record) -> list[str]:
             continue
         lo, hi = ranges[key]
         x_lo, x_hi = here[key]
-        if x_hi > hi * (1 + RANGE_TOL) or x_lo < lo * (1 - RANGE_TOL):
+        # a band is known to two frequency bins (1 / duration) of the record's spectrum
+        slack = 2.0 / record.duration if key == "frequency_hz" else 0.0
+        if x_hi > hi * (1 + RANGE_TOL) + slack or x_lo < lo * (1 - RANGE_TOL) - slack:
             text = f"{x_lo:.4g}" if x_lo == x_hi else f"{x_lo:.4g}..{x_hi:.4g}"
             fit = f"{lo:.4g}" if lo == hi else f"{lo:.4g}..{hi:.4g}"
             notes.append(f"the {word} {text} lies outside the fit's {fit}")

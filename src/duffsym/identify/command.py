@@ -153,7 +153,7 @@ def register(sub) -> None:
                    "or a file with one 0/1 per sample (1 = leave out of the objective)")
     s.add_argument("--add", help="effects to add to the model, comma-separated (see duffsym.effects)")
     s.add_argument("--decimate", default="auto", help="auto (default: a record of more than 4000 samples is fitted at "
-                   "the lowest rate keeping 99.9%% of the force's and displacement's variance; the rate is reported), off, "
+                   "the lowest rate keeping 99.7%% of the force's and displacement's variance; the rate is reported), off, "
                    "or the largest factor allowed")
     s.add_argument("--keep-invalid", action="store_true", help="keep clipped or frozen stretches in the fit and its "
                    "score (by default they are found, reported and left out)")
