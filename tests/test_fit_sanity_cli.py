@@ -80,3 +80,26 @@ def test_validate_notes_command_and_band_outside_the_fit(fitted, capsys):
     g = fitted[3]
     assert main(["validate", str(tmp / "fit.json"), _write(tmp / "same.csv", g), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["range_notes"] == []
+
+
+def test_fit_decimates_a_long_record_and_reports_the_rate(tmp_path, capsys):
+    """A 5001-sample record (independent generator, 1 kHz) is fitted at the rate the variance rule picks; the
+    rate is on stderr and in FIT.json, with the free-run error on the full-rate record beside the fitted one."""
+    from independent_sim import scenario
+
+    from duffsym.data import Record
+    from duffsym.data.decimate import prepare_for_fit
+
+    g = scenario("clean", 1, kind="sine", dt=0.001, duration=5.0)
+    path = tmp_path / "long.csv"
+    path.write_text("time,displacement,force\n" + "\n".join(f"{a:.10g},{b:.10g},{c:.10g}"
+                                                           for a, b, c in zip(g.t, g.d, g.y)) + "\n")
+    expect = prepare_for_fit(Record(t=g.t, d=g.d, y=g.y))[0].factor
+    out = tmp_path / "fit.json"
+    assert main(["fit", str(path), "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    fit = json.loads(out.read_text())
+    dec = fit["decimation"]
+    assert expect > 1 and dec["factor"] == expect and f"decimated by {expect}" in err
+    assert fit["n_samples"] == -(-g.t.size // expect) and dec["rate_hz"] == pytest.approx(1000.0 / expect)
+    assert dec["nrmse_full_rate"] < 0.05 and abs(dec["nrmse_full_rate"] - fit["nrmse"]) < 0.02
