@@ -120,11 +120,14 @@ def campaign_records(cfg: Config) -> list:
     return [s06.load_test(t, c, scfg)[0] for t in cfg.tests for c in cfg.currents]
 
 
-def dyke_record(q: int):
+def dyke_record(q: int, *, full: bool = False):
+    """The Dyke record, every ``q``-th sample (``full``: as read, at 3004.8 Hz)."""
     from duffsym.data import read_csv
 
     r = read_csv(_folder(DYKE) / "ranran_50_converted.csv", columns=DYKE_COLUMNS,
                  units={"time": "s", "input": "cm", "output": "N", "velocity": "cm/s", "voltage": "V"})
+    if full:
+        return r
     return r.replace(t=r.t[::q], d=r.d[::q], y=r.y[::q], d_dot=r.d_dot[::q], command=r.command[::q],
                      metadata={"decimation": q}, name=f"dyke_q{q}")
 
@@ -303,8 +306,12 @@ def compute_dyke(cfg: Config, arrays: dict) -> dict:
     n_fit = int(round(cfg.dyke_fit_seconds / rec.dt))
     n_val = None if cfg.dyke_val_seconds is None else rec.n_times // 2 + int(round(cfg.dyke_val_seconds / rec.dt))
     train, val = rec.slice(0, n_fit), rec.slice(rec.n_times // 2, n_val)
+    from duffsym.data.sanity import check_record
+
+    check = check_record(dyke_record(1, full=True))  # clipped or frozen stretches (issue 23): none in this file
+    print(f"  {check.summary()}", flush=True)
     out = dict(n_fit=train.n_times, n_val=val.n_times, dt=rec.dt, val_start_s=float(val.t[0]),
-               force_std_val=float(np.std(val.y)), forms={})
+               force_std_val=float(np.std(val.y)), data_check=check.to_dict(), forms={})
     arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"] = (np.asarray(val.t), np.asarray(val.y),
                                                               np.asarray(val.command))
     for k, form in enumerate(cfg.dyke_forms):

@@ -145,3 +145,25 @@ def test_decimation_leaves_the_verdict_and_the_held_out_errors_unchanged():
     assert a.nrmse_heldout == pytest.approx(b.nrmse_heldout, rel=0.02)
     assert a.best.nrmse_after == pytest.approx(b.best.nrmse_after, rel=0.02)
     assert a.best.params["off_y0"] == pytest.approx(b.best.params["off_y0"], rel=0.01)
+
+
+def test_energy_bandwidth_counts_variance_not_amplitude():
+    """The fit's variance rule: a 50 Hz line with 4e-4 of the variance lies above the 3e-3 cut, one with 1e-2
+    below it; the amplitude rule (-60 dB) counts both."""
+    from duffsym.data.decimate import energy_bandwidth
+
+    t = np.arange(0, 20, 1e-3)
+    for amp, expect in ((0.02, 1.0), (0.1, 50.0)):
+        y = np.sin(2 * math.pi * t) + amp * np.sin(2 * math.pi * 50 * t)
+        assert energy_bandwidth(y, 1e-3, 3e-3)[0] == pytest.approx(expect, abs=0.11)
+        assert bandwidth(y, 1e-3)[0] >= 50.0
+
+
+def test_fit_rule_floors_and_cap():
+    """prepare_for_fit: 25 samples per period and 200 samples at least; a cap of 1 switches it off."""
+    from duffsym.data.decimate import prepare_for_fit
+
+    rec = _record(fs=1000.0, duration=6.0, harmonics=(1, 3))   # 1 Hz: 25 samples/period allow q = 40
+    prep, out = prepare_for_fit(rec)
+    assert prep.factor == 30 and out.n_times == 200           # 6000 samples / 200 = 30 < 40: the sample floor
+    assert prepare_for_fit(rec, False)[0].factor == 1

@@ -19,20 +19,39 @@ from duffsym._cli_common import (
 )
 
 
+def _prepared(args, record, mask):
+    """The data to fit (sanity check and decimation, :mod:`duffsym.identify.fitdata`), noted on stderr."""
+    from duffsym.identify.fitdata import prepare_fit_data
+
+    decimate = getattr(args, "decimate", "off")
+    if decimate not in ("auto", "off") and not (decimate.isdigit() and int(decimate) >= 1):
+        raise CLIError(f"--decimate must be auto, off or a positive integer (the largest factor); got {decimate!r}")
+    data = prepare_fit_data(record, mask, keep_invalid=getattr(args, "keep_invalid", False), decimate=decimate)
+    if not args.quiet:
+        for line in data.notes():
+            _err(f"duffsym fit: note: {line}")
+    return data
+
+
 def cmd_fit(args) -> int:
     from duffsym.identify import fit
+    from duffsym.identify.fitdata import finish_fit
 
     if args.manifest or len(args.data) != 1:  # a campaign: one parameter set for several records
         return _cmd_fit_campaign(args)
     _check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
-    record = _read_record(args, args.data[0])
+    full_record = _read_record(args, args.data[0])
     model = _fit_model(args)
-    problem = _problem(args, model, [record], [_mask_from_args(args.mask, record)])
+    mask, mask_info = _mask_from_args(args.mask, full_record)
+    data = _prepared(args, full_record, mask)
+    record = data.record
+    problem = _problem(args, model, [record], [(data.mask, mask_info)])
     if not args.quiet:
         _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data[0]} "
              f"({record.t.size} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
                  progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
+    result = finish_fit(result, data, model)
     if record.metadata.get("sampling", {}).get("rebuilt") and not args.quiet:
         _err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
     from duffsym.data.record import time_unit_note
@@ -159,15 +178,27 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 def cmd_validate(args) -> int:
     from duffsym.identify import load_result, validate
 
+    from duffsym.data.sanity import range_notes, valid_part
+    from duffsym.identify.fitdata import score_valid
+
     _check_outputs(args, [args.fit, args.data], options=("plot",))
     result = load_result(args.fit)
     _require_success(result, args)
     record = _read_record(args, args.data)
-    val = validate(result, record)
+    valid = None if getattr(args, "keep_invalid", False) else valid_part(record)
+    if valid is not None:
+        record = valid.record
+    val = score_valid(validate(result, record), record, None if valid is None else valid.mask)
+    notes = range_notes(result.extras.get("training_ranges", {}), record)
+    if valid is not None and not valid.report.ok:
+        _err(f"duffsym validate: note: {valid.report.summary()}; left out of the score (--keep-invalid keeps them)")
+    for note in notes:
+        _err(f"duffsym validate: note: {note}: an extrapolation")
     if args.plot and val.success:
         _plot_validation(val, record, args.plot)
     if args.json:
-        _emit_json(val.to_dict())
+        extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
+        _emit_json({**val.to_dict(), **extra})
     else:
         print(val.summary())
     if not val.success:
@@ -215,6 +246,11 @@ def register(sub) -> None:
     s.add_argument("--mask", default="none", help="none, auto (the deadzone after velocity reversals, paper Fig. 8) "
                    "or a file with one 0/1 per sample (1 = leave out of the objective)")
     s.add_argument("--add", help="effects to add to the model, comma-separated (see duffsym.effects)")
+    s.add_argument("--decimate", default="auto", help="auto (default: a record of more than 4000 samples is fitted at "
+                   "the lowest rate keeping 99.7%% of the force's and displacement's variance; the rate is reported), off, "
+                   "or the largest factor allowed")
+    s.add_argument("--keep-invalid", action="store_true", help="keep clipped or frozen stretches in the fit and its "
+                   "score (by default they are found, reported and left out)")
     s.add_argument("--starts", type=int, default=1, help="multistart: number of starts (default 1)")
     s.add_argument("--seed", type=int, default=0, help="seed of the multistart")
     s.add_argument("--time-limit", type=_positive_seconds, metavar="SECONDS", help="wall-clock budget of the "
@@ -233,6 +269,8 @@ def register(sub) -> None:
     s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
     s.add_argument("data", help="CSV record to validate on")
     s.add_argument("--force", action="store_true", help="use a fit marked success: false")
+    s.add_argument("--keep-invalid", action="store_true", help="score clipped or frozen stretches too (by default "
+                   "they are found, reported and left out)")
     _add_file_arguments(s)
     s.add_argument("--plot", help="figure (PNG/PDF): measured vs predicted over time, a zoom on the largest error, "
                    "and loops of whole cycles (or of windows, where the input does not repeat)")

@@ -13,6 +13,10 @@ from duffsym._json import finite_or_none, jsonable
 from duffsym.errors import DataError
 
 
+#: FIT.json keys about the data that :attr:`IdentificationResult.extras` carries (each an object)
+EXTRA_KEYS = ("training_ranges", "decimation", "data_sanity")
+
+
 def nrmse(y, y_hat) -> float:
     """The free-run error of ``docs/contract.md``: RMS(y - y_hat) / RMS(y - mean y); inf when y_hat is not finite."""
     y = np.asarray(y, dtype=float)
@@ -49,6 +53,10 @@ class IdentificationResult:
     flags : doubtful features of a usable fit, each ``{"flag": name, "message": ..., ...}``
         (:func:`duffsym.identify.quality.fit_flags`: parameters on a bound, outside the stability
         certificate, R² < 0.5).
+    extras : what the command line adds about the data, written as top-level FIT.json keys
+        (:data:`EXTRA_KEYS`): ``training_ranges`` (the command, amplitude and frequency ranges the fit saw,
+        :func:`duffsym.data.sanity.training_ranges`), ``decimation`` (the rate the fit ran at) and
+        ``data_sanity`` (the invalid stretches left out).
     """
 
     model: str
@@ -82,6 +90,7 @@ class IdentificationResult:
     groups: tuple = ()
     flags: tuple = ()
     sampling: tuple = ()
+    extras: dict = field(default_factory=dict)
 
     def params_for(self, group: str | None = None) -> dict:
         """Every parameter by name for one group (``None`` for a fit without groups)."""
@@ -158,7 +167,17 @@ class IdentificationResult:
             "groups": list(self.groups),
             **({"sampling": jsonable(self.sampling[0] if len(self.sampling) == 1 else list(self.sampling))}
                if self.sampling else {}),
+            **{k: jsonable(v) for k, v in self.extras.items() if k in EXTRA_KEYS},
         }
+
+    def with_extras(self, **extras) -> "IdentificationResult":
+        """This result with FIT.json keys of :data:`EXTRA_KEYS` added (None values are left out)."""
+        import dataclasses
+
+        unknown = set(extras) - set(EXTRA_KEYS)
+        if unknown:
+            raise ValueError(f"unknown result extras {sorted(unknown)}; known: {EXTRA_KEYS}")
+        return dataclasses.replace(self, extras={**self.extras, **{k: v for k, v in extras.items() if v is not None}})
 
     def save(self, path) -> Path:
         """Write the result as JSON (``docs/contract.md``), atomically (a temporary file renamed over ``path``)."""
@@ -212,6 +231,7 @@ class IdentificationResult:
             sampling=_sampling_of(data.get("sampling")),
             flags=tuple(dict(f) for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
                         if isinstance(f, Mapping)),
+            extras={k: r.mapping(k) for k in EXTRA_KEYS if k in data},
         )
 
 
