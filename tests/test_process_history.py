@@ -1,13 +1,7 @@
 """No result depends on what ran earlier in the process (issue 24): the default start of a command model
 (``command_start``: equation error per trial field rate, ranked by free run) computed after the SINDy
 path (pysindy, scikit-learn, the bootstrap crosscheck) in this process is bit for bit the one a fresh
-Python process computes. Independent data (tests/independent_current_sim.py).
-
-Measured: without the start's rounding (``identify.initial.START_DIGITS``), running tests/test_function_length.py,
-test_layers.py and test_startup.py before this file in one pytest session changed the start in the last bits of
-every parameter (c1 6.281780456197806 in the session, ...817 fresh; 2 of 2 runs); none of those files alone,
-no import of any command module, pysindy, sklearn, dask, matplotlib, h5py or emcee, and no heap perturbation
-did. With the rounding the session gives the fresh start."""
+Python process computes. Independent data (tests/independent_current_sim.py)."""
 from __future__ import annotations
 
 import json
@@ -55,20 +49,9 @@ def _sindy_path() -> None:
     sindy_evidence(rec, model=model, params=dict(TABLE2[0.4]), n_models=4)
 
 
-def _busy_heap() -> list:
-    """Arrays of many sizes kept alive: later arrays land at other addresses and alignments, as after any
-    earlier work in a long process (three unrelated test files before this one were enough to change the
-    unrounded start in its last bits)."""
-    import numpy as np
-
-    return [np.ones(n) for n in range(1, 3000, 7)]
-
-
 def test_command_start_after_the_sindy_path_equals_a_fresh_process():
     _sindy_path()
-    heap = _busy_heap()
     here = _start_here()
-    del heap
     code = START.format(here=str(HERE)) + "print(json.dumps({k: v.hex() for k, v in START.items()}))\n"
     env = {**os.environ, "PYTHONHASHSEED": "0"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
@@ -82,4 +65,3 @@ def test_command_start_after_the_sindy_path_equals_a_fresh_process():
     exec(START.format(here=str(HERE)).replace("START = command_start", "TUNE = tuning_guess").replace(
         "import command_start", "import tuning_guess"), scope)
     assert any(abs(here[k] - scope["TUNE"][k]) > 1e-3 * (1 + abs(here[k])) for k in here)
-

@@ -26,20 +26,6 @@ FINE = (0.5, 0.7, 1.0, 1.4, 2.0)
 RATE_FACTORS = (0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 
 
-#: Significant digits a start keeps. Floating-point results in the last bits depend on the process's history
-#: (measured: command_start in a pytest process after three unrelated test files differed from a fresh
-#: process by 1e-15 relative in every parameter, e.g. c1 6.281780456197806 vs ...817; summation order in
-#: vectorised loops depends on the memory alignment of the arrays), and a fit from a start that differs in its
-#: last bits can take another path. Rounded, the start is the same in any process (unless a value falls on a
-#: rounding boundary, ~1e-6 of the cases).
-START_DIGITS = 10
-
-
-def stable(values: Mapping[str, float]) -> dict[str, float]:
-    """``values`` rounded to :data:`START_DIGITS` significant digits (see there)."""
-    return {k: float(f"{float(v):.{START_DIGITS}g}") for k, v in values.items()}
-
-
 def _cost(model, P, t, chans, x0, y):
     from duffsym.simulate import simulate_batch
 
@@ -123,7 +109,7 @@ def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = N
             if np.isfinite(cost[best]):
                 for p in scan:
                     values[p] = float(P[best, names.index(p)])
-    return {**stable(values), **{k: float(v) for k, v in fixed.items()}}
+    return {k: float(v) for k, v in values.items()}
 
 
 def _command_varies(record: Record, model) -> bool:
@@ -204,7 +190,7 @@ def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = 
     err = _free_run_errors(model, P, record, U, x0)
     if not np.any(np.isfinite(err)):
         return tuning_guess(record, model, fixed=fixed)
-    return {**stable(candidates[int(np.argmin(err))]), **{k: float(v) for k, v in fixed.items()}}
+    return {k: float(v) for k, v in candidates[int(np.argmin(err))].items()}
 
 
 def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float]) -> dict[str, float] | None:
@@ -227,9 +213,8 @@ def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float
     if tr.success and np.all(np.isfinite(tr.y)):
         for effect, _ in steps:
             values.update(effect.initial_guess(record, tr.y))
-    out = stable({k: values[k] for k in model.param_names})
-    out.update({k: float(v) for k, v in fixed.items() if k in out})
-    return out
+    values.update(fixed)
+    return {k: float(values[k]) for k in model.param_names}
 
 
 def _rate_parameters(model) -> list[str]:
