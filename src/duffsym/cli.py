@@ -128,6 +128,22 @@ def _quiet_dask_shutdown() -> None:
     if "distributed" in sys.modules:
         for name in ("distributed", "tornado", "asyncio"):
             logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    spec = sys.modules.get("distributed.deploy.spec")
+    if spec is not None and hasattr(spec, "close_clusters"):
+        # distributed closes its clusters at exit; one interrupted while starting raises there, and Python
+        # prints that as "Exception ignored in atexit callback" with a traceback: close them quietly instead
+        import atexit
+
+        atexit.unregister(spec.close_clusters)
+        atexit.register(_close_quietly, spec.close_clusters)
+
+
+def _close_quietly(close) -> None:
+    import contextlib
+    import io
+
+    with contextlib.suppress(BaseException), contextlib.redirect_stderr(io.StringIO()):
+        close()
 
 
 def _main(argv=None) -> int:
