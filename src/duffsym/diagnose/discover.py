@@ -20,6 +20,7 @@ which the library spans.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -35,6 +36,9 @@ from duffsym.model.symbols import state_symbol
 #: the fewest terms whose validation error is within this factor of the best is chosen
 PARSIMONY = 1.05
 MAX_TERMS = 3
+#: stability selection: resamples of half the cycles, and the inclusion probability a family must reach
+RESAMPLES = 40
+INCLUSION = 0.6
 #: term sets fitted by discover_term (measured on the four worst UTFSM 0 A tests: with 1, one of four
 #: improves by 23 % of its excess error; with 3, 25 mm 0.5 Hz falls 0.239 -> 0.118 and 0.1 Hz 0.140 -> 0.117)
 TRIES = 3
@@ -52,29 +56,97 @@ def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str
     return cols
 
 
-def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
-    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.03, 0.1, 0.3 RMS),
-    the pairwise products of ``d, d', x, x'``, and ``d·sign d'``, ``d·sign x'``, ``x·sign d'``, ``x·sign x'``
-    (ε = 0.1 RMS). ``x`` and ``x'`` appear as ``x, x'`` symbols (the model's states when applied)."""
-    out: list[sp.Expr] = [sp.Integer(1)]
-    for key, v in cols.items():
-        s = state_symbol(key)
-        rms = float(np.sqrt(np.mean(v**2)))
-        if not rms > 0:
-            continue
-        out += [s, s**2, s**3]
-        if key != "d_ddot":
-            for frac in EPS_FRACTIONS:  # sharp to soft switches
-                sg = sp.tanh(s / sp.Float(float(f"{frac * rms:.2g}")))
-                out += [sg, s * sg, s**2 * sg]
-    keys = [k for k in ("d", "d_dot", "x", "x_dot") if k in cols]
-    out += [state_symbol(a) * state_symbol(b) for i, a in enumerate(keys) for b in keys[i + 1:]]
-    # a displacement times the direction of motion: a stroke-dependent force that differs between
-    # compression and extension (e.g. a plateau that changes over the stroke in one direction only)
-    for a in (k for k in ("d", "x") if k in cols):
-        for b in (k for k in ("d_dot", "x_dot") if k in cols):
-            out.append(state_symbol(a) * sp.tanh(state_symbol(b) / sp.Float(float(f"{0.1 * _rms(cols[b]):.2g}"))))
+#: the polynomial factor's degree in the positions (d, x, and any extra measured channel)
+POSITION_DEGREE = 2
+#: degree of the plain polynomial in every signal (d, d', d'', x, x')
+PLAIN_DEGREE = 3
+#: Stribeck speeds v_s, as fractions of the velocity's RMS
+STRIBECK_FRACTIONS = (0.05, 0.1, 0.2)
+POSITIONS = ("d", "x", "command")
+VELOCITIES = ("d_dot", "x_dot")
+
+
+def _eps(frac: float, rms: float) -> str:
+    return f"{float(f'{frac * rms:.2g}'):g}"
+
+
+def switches(rms: float) -> list[tuple[str, object]]:
+    """The switching functions of one velocity ``v`` (RMS ``rms``), as (printable template, function):
+    smooth signs ``tanh(v/ε)`` (ε = 3, 10, 30 % of the RMS), Stribeck shapes
+    ``exp(-(v/v_s)**2)·tanh(v/ε)`` (v_s = 5, 10, 20 % of the RMS, ε = 3 %), the smooth ``|v|`` and ``v|v|``
+    (``v·tanh(v/ε)``, ``v**2·tanh(v/ε)``, ε = 10 %). The template has ``{v}`` for the signal's name."""
+    def sign(e):
+        return lambda v: np.tanh(v / e)
+
+    def stribeck(vs, e):
+        return lambda v: np.exp(-(v / vs) ** 2) * np.tanh(v / e)
+
+    def power(k, e):
+        return lambda v: v**k * np.tanh(v / e)
+
+    out = []  # pysindy counts a function's arguments: one argument each (closures, no defaults)
+    for frac in EPS_FRACTIONS:
+        e = _eps(frac, rms)
+        out.append((f"tanh({{v}}/{e})", sign(float(e))))
+    e0 = _eps(EPS_FRACTIONS[0], rms)
+    for frac in STRIBECK_FRACTIONS:
+        vs = _eps(frac, rms)
+        out.append((f"exp(-({{v}}/{vs})**2)*tanh({{v}}/{e0})", stribeck(float(vs), float(e0))))
+    e1 = _eps(EPS_FRACTIONS[1], rms)
+    out.append((f"{{v}}*tanh({{v}}/{e1})", power(1, float(e1))))
+    out.append((f"{{v}}**2*tanh({{v}}/{e1})", power(2, float(e1))))
     return out
+
+
+def term_library(cols: Mapping[str, np.ndarray]):
+    """The candidate library as a pysindy :class:`~pysindy.feature_library.GeneralizedLibrary` over the
+    signals in ``cols`` and the signal names it takes, in order: a plain polynomial (degree
+    ``PLAIN_DEGREE``) in every signal, plus each velocity's switching functions (:func:`switches`) alone
+    and times a polynomial (degree ``POSITION_DEGREE``) in the positions — the tensor product
+    ``positions ⊗ switches(d') ⊗ ...``: ``d²·tanh(d'/ε)`` (friction growing toward the stroke ends),
+    ``exp(-(d'/v_s)²)·tanh(d'/ε)`` (a Stribeck peak), ``d·|x'|``, ... Nothing is typed in per term."""
+    import pysindy as ps
+
+    names = [k for k in cols if np.ptp(cols[k]) > 0]
+    pos = [names.index(k) for k in POSITIONS if k in names]
+    libs, inputs, tensor = [ps.PolynomialLibrary(degree=PLAIN_DEGREE, include_bias=True)], [list(range(len(names)))], []
+    libs.append(ps.PolynomialLibrary(degree=POSITION_DEGREE, include_bias=False))
+    inputs.append(pos)
+    for key in (k for k in VELOCITIES if k in names):
+        sw = switches(_rms(cols[key]))
+        libs.append(ps.CustomLibrary(library_functions=[f for _, f in sw],
+                                     function_names=[_namer(t) for t, _ in sw]))
+        inputs.append([names.index(key)])
+        tensor.append([0, 1] + [int(i == len(libs) - 1) for i in range(2, len(libs))])
+    tensor = [row + [0] * (len(libs) - len(row)) for row in tensor]
+    return ps.GeneralizedLibrary(libs, tensor_array=tensor or None, inputs_per_library=inputs), names
+
+
+def _namer(template: str):
+    return lambda v: template.format(v=v)
+
+
+def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
+    """The candidate terms (SymPy, in the signals' symbols, duplicates dropped) of :func:`term_library`."""
+    return library_matrix(cols)[0]
+
+
+def library_matrix(cols: Mapping[str, np.ndarray]) -> tuple[list[sp.Expr], np.ndarray]:
+    """(terms, library matrix ``(n_times, n_terms)``): pysindy's evaluation of :func:`term_library`, its
+    feature names read back as SymPy expressions; a duplicate or constant-free repeat is dropped."""
+    lib, names = term_library(cols)
+    X = np.column_stack([np.asarray(cols[k], float) for k in names])
+    Theta = np.asarray(lib.fit_transform(X), float)
+    syms = {k: state_symbol(k) for k in names}
+    terms, keep, seen = [], [], set()
+    for j, name in enumerate(lib.get_feature_names(names)):
+        expr = sp.sympify(name.replace("^", "**").replace(" ", "*"), locals=syms)
+        if expr in seen or not np.all(np.isfinite(Theta[:, j])):
+            continue
+        seen.add(expr)
+        terms.append(expr)
+        keep.append(j)
+    return terms, Theta[:, keep]
 
 
 def _rms(v: np.ndarray) -> float:
@@ -178,27 +250,73 @@ def _states(model, params, record, x0) -> np.ndarray | None:
     return np.asarray(tr.x, float) if tr.success and np.all(np.isfinite(tr.x)) else None
 
 
+def blocks(record, k: int) -> list[np.ndarray]:
+    """Row indices of the resampling blocks of the fitting part (its first ``k`` rows): whole input cycles
+    (between rising crossings of ``d``) when there are at least 6, else 8 equal stretches."""
+    from duffsym.diagnose.residuals import rising_crossings
+
+    cut = rising_crossings(np.asarray(record.d)[:k])
+    cut = cut[(cut > 0) & (cut < k)]
+    edges = np.concatenate([[0], cut, [k]]) if cut.size >= 5 else np.linspace(0, k, 9).astype(int)
+    return [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def family(term: sp.Expr) -> str:
+    """The term with its grid constants (ε, v_s) blanked: the members of one family differ only in them."""
+    return re.sub(r"\d+\.\d+(e[+-]?\d+)?", "#", sp.sstr(term))
+
+
+def stability(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], terms: list, *,
+              resamples: int = RESAMPLES, max_terms: int = MAX_TERMS, seed: int = 0) -> dict:
+    """Stability selection over resampled cycles: ``resamples`` times, half the blocks (``parts``) train an
+    OMP path (:func:`select_terms`, 1..``max_terms`` terms) and the other half choose its size; returns
+    the inclusion probability of every family of terms (:func:`family`; any member selected) and of every
+    term, and each family's most selected member."""
+    rng = np.random.default_rng(seed)
+    hits = np.zeros(Theta.shape[1])
+    fam = [family(t) for t in terms]
+    fam_hits: dict[str, int] = {}
+    for _ in range(resamples):
+        order = rng.permutation(len(parts))
+        tr = np.concatenate([parts[i] for i in order[: len(parts) // 2]])
+        va = np.concatenate([parts[i] for i in order[len(parts) // 2:]])
+        rows = np.concatenate([tr, va])
+        support, _, _ = select_terms(Theta[rows], r[rows], tr.size, max_terms)
+        hits[support] += 1
+        for f in {fam[i] for i in support}:
+            fam_hits[f] = fam_hits.get(f, 0) + 1
+    best = {}
+    for i in np.argsort(-hits):
+        if hits[i] > 0:
+            best.setdefault(fam[i], int(i))
+    return {"family": {f: n / resamples for f, n in fam_hits.items()}, "term": hits / resamples, "best": best}
+
+
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
-    """The sparse term sets for ``dg``'s base fit (fitting part only), as effects (the selected one
-    first, then up to ``tries - 1`` supports of other sizes); and the selection scores."""
+    """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
+    resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
+    selected member, then that set without its least stable family; and the selection's numbers."""
     k = dg.split["n_fit"]
     cols = signals(record, model, _states(model, dg.base_fit.params, record, dg.base_fit.x0[0]))
-    terms, columns = [], []
-    for t in library(cols):
-        c = _evaluate(t, cols)
-        if np.all(np.isfinite(c)) and np.ptp(c[:k]) + abs(c[0]) > 0:
-            terms.append(t)
-            columns.append(c)
-    Theta = np.column_stack(columns)
+    terms, Theta = library_matrix(cols)
+    ok = [j for j in range(len(terms)) if np.ptp(Theta[:k, j]) + abs(Theta[0, j]) > 0]
+    terms, Theta = [terms[j] for j in ok], Theta[:, ok]
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
-    support, scores, others = select_terms(Theta[:k], r[:k], _train_rows(record, k))
-    selection = {"library": len(terms), "validation_mse": {str(n): v for n, v in scores.items()},
-                 "n_terms": len(support), "selector": "sklearn OrthogonalMatchingPursuit"}
-    if not support:
+    stab = stability(Theta[:k], r[:k], blocks(record, k), terms)
+    stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
+    selection = {"library": len(terms), "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
+                 f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
+                 "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
+                 "inclusion": {term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3) for f, p in
+                               sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]},
+                 "n_terms": len(stable)}
+    if not stable:
         return [], selection
     index = 1 + sum(e.startswith("discovered:") for e in model.effects)
+    sets = [stable[:n] for n in range(len(stable), 0, -1)][:max(tries, 1)]
     out = []
-    for sup in ([support] + others)[:max(tries, 1)]:
+    for fams in sets:
+        sup = [stab["best"][f] for f in fams]
         coefs, *_ = np.linalg.lstsq(Theta[:k, sup], r[:k], rcond=None)
         out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
     return out, selection
