@@ -19,6 +19,7 @@ which the library spans.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from dataclasses import dataclass
@@ -326,13 +327,15 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
                   bic_threshold: float | None = None, min_improvement: float | None = None,
                   min_explained: float | None = None, max_iter: int = 300, tries: int = TRIES,
                   progress=None) -> Discovery:
-    """Discover an output term that ``model`` lacks on ``record``, from the diagnosis ``dg`` of it.
+    """Discover what ``model`` lacks on ``record`` outside the catalogue, from the diagnosis ``dg`` of it.
 
-    The term is selected on the fitting part (``dg.split``) only, fitted by
-    :func:`duffsym.identify.fit_with_effects` on the fitting part, and judged on the held-out tail by
-    the same rules as a catalogued candidate (defaults: those of :mod:`duffsym.diagnose.search`).
-    ``tries``: how many term sets to fit (the selected one, then OMP's supports of other sizes); the
-    one with the lowest BIC on the fitting part is kept (the held-out tail is never used to choose).
+    First, when the base fit's residual grows or shrinks over the record, a drifting parameter
+    (:func:`duffsym.diagnose.drift.windowed_refits` and :class:`~duffsym.effects.drift.ParameterDrift`);
+    if none is needed, an output term (:func:`propose`). Each is selected on the fitting part
+    (``dg.split``) only, fitted by :func:`duffsym.identify.fit_with_effects` on the fitting part, and
+    judged on the held-out tail by the same rules as a catalogued candidate (defaults: those of
+    :mod:`duffsym.diagnose.search`). ``tries``: how many term sets to fit; the one with the lowest BIC on
+    the fitting part is kept (the held-out tail is never used to choose).
     """
     import time
 
@@ -342,17 +345,26 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     k = dg.split["n_fit"]
-    y = np.asarray(record.y, float)
     held = slice(k, None)
-    before = _nrmse(y[held], dg.y_base[held])
+    before = _nrmse(np.asarray(record.y, float)[held], dg.y_base[held])
+    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
+                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
+                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
+    drifted = discover_drift(record, model, dg, fixed=fixed, mask=mask, max_iter=max_iter, rules=rules,
+                             progress=progress)
+    if drifted is not None and drifted.needed:
+        return dataclasses.replace(drifted, seconds=time.perf_counter() - t0)
     say("  discovering a term outside the catalogue")
     try:
         effects, selection = propose(record, model, dg, tries)
     except (ModelError, DataError, ValueError, np.linalg.LinAlgError) as exc:
         return _nothing(f"the term library could not be built: {exc}", before, {}, time.perf_counter() - t0)
+    if drifted is not None:
+        selection["drift"] = drifted.to_dict()
     if not effects:
-        return _nothing("no term beats the base model on the validation cycles", before, selection,
-                        time.perf_counter() - t0)
+        best = max(selection.get("inclusion", {"": 0}).items(), key=lambda kv: kv[1], default=("", 0))
+        return _nothing(f"no term is stable over resampled cycles (highest inclusion {best[1]:.2f}, {best[0]})",
+                        before, selection, time.perf_counter() - t0)
     fits = [f for f in (_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects) if f]
     if not fits:
         return _nothing(f"the fit of {effects[0].name} failed or its free run diverged", before, selection,
@@ -362,24 +374,78 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     if pruned is not None and pruned[3] <= fitted[3] + 2.0:  # fewer terms, BIC no worse (within 2)
         fitted = pruned
     final, fr, y_ext, bic_ext = fitted
-    own = [p.name for p in final.parameters()]
-    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
-                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
-                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
     expr = final.expression(final.coefs)
+    return _found(final, fr, y_ext, bic_ext, record, model, dg, rules, selection, time.perf_counter() - t0,
+                  term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
+                  words=f"{term_words(expr)} added to the output",
+                  resembles=[r for r in map(resembles, final.terms) if r])
+
+
+def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seconds, **named) -> Discovery:
+    """The Discovery of a fitted ``effect`` (on ``model``), with the diagnosis's held-out evidence."""
+    from duffsym.identify.result import nrmse as _nrmse
+
+    k = dg.split["n_fit"]
+    y = np.asarray(record.y, float)
+    own = [p.name for p in effect.parameters()]
     return Discovery(
-        found=True, effect=final.name, term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
-        words=f"{term_words(expr)} added to the output", resembles=[r for r in map(resembles, final.terms) if r],
-        nrmse_before=before, nrmse_after=_nrmse(y[held], y_ext[held]), params={n: float(fr.params[n]) for n in own},
-        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own}, all_params=dict(fr.params), success=True,
-        message=fr.message, selection=selection, seconds=time.perf_counter() - t0, model=final.apply(model),
-        y_ext=y_ext, **_evidence(y, dg, y_ext, bic_ext, rules))
+        found=True, effect=effect.name, nrmse_before=_nrmse(y[k:], dg.y_base[k:]), nrmse_after=_nrmse(y[k:], y_ext[k:]),
+        params={n: float(fr.params[n]) for n in own}, stderr={n: float(fr.stderr.get(n, math.nan)) for n in own},
+        all_params=dict(fr.params), success=True, message=fr.message, selection=selection, seconds=seconds,
+        model=effect.apply(model), y_ext=y_ext, **named, **_evidence(y, dg, y_ext, bic_ext, rules))
+
+
+def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 300, rules: dict,
+                   progress=None) -> Discovery | None:
+    """A drifting parameter, when the base fit's residual grows or shrinks over the record
+    (:mod:`duffsym.diagnose.drift`): windowed refits name the parameters that change; each follows time or
+    the dissipated energy in turn; the lowest BIC on the fitting part is judged. None when nothing trends
+    or nothing changes."""
+    from duffsym.diagnose import drift as D
+
+    if not D.trending(dg):
+        return None
+    say = progress or (lambda msg: None)
+    say("  the error grows over the record: windowed refits")
+    try:
+        windows = D.windowed_refits(record, model, dg, fixed)
+    except (ModelError, DataError) as exc:
+        say(f"  windowed refits failed: {exc}")
+        return None
+    selection = {"windows": windows.to_dict()}
+    fits = []
+    for eff in D.candidates(record, dg, windows):
+        a = D.guess(eff, windows)
+        eff = dataclasses.replace(eff, start=a)
+        p0 = float(dg.base_fit.params[eff.parameter]) / (1 - 0.5 * a)  # its value at the start (u = 0)
+        got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
+        if got is not None:
+            fits.append((eff, *got))
+    if not fits:
+        return None
+    eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
+    selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}
+    a = float(fr.params["drift_a"])
+    sentence = eff.sentence(a)
+    return _found(eff, fr, y_ext, bic, record, model, dg, rules, selection, 0.0, term=eff.form, latex=eff.latex(a),
+                  words=sentence, resembles=[f"no catalogued effect: {eff.physics} (e.g. a damper whose fluid warms "
+                                             "and thins)"])
 
 
 def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     """``effect`` fitted on the fitting part by :func:`duffsym.identify.fit_with_effects`:
     (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part);
     None on failure."""
+    got = _fit_any(effect, record, model, dg, fixed, mask, max_iter, say)
+    if got is None:
+        return None
+    coefs = tuple(float(got[0].params[p.name]) for p in effect.parameters())
+    return (DiscoveredEffect(effect.terms, coefs, effect.index), *got)
+
+
+def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mapping[str, float] | None = None):
+    """(fit, free run over the record, BIC on the fitting part) of ``model`` + ``effect`` on the fitting
+    part, from the base fit (updated by ``start``); None on failure."""
     from duffsym.diagnose import search as S
     from duffsym.identify import Problem, fit_with_effects
 
@@ -390,15 +456,14 @@ def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     ext = effect.apply(model)
     problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names},
                       mask=None if mask is None else np.asarray(mask, bool)[:k])
-    fr = fit_with_effects(problem, [effect], dg.base_fit.params, dg.y_base[:k], max_iter=max_iter,
-                          compute_stderr=True, bound_restart=False)
+    fr = fit_with_effects(problem, [effect], {**dg.base_fit.params, **dict(start or {})}, dg.y_base[:k],
+                          max_iter=max_iter, compute_stderr=True, bound_restart=False)
     y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
     if y_ext is None:
         return None
     y = np.asarray(record.y, float)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
-    coefs = tuple(float(fr.params[p.name]) for p in effect.parameters())
-    return DiscoveredEffect(effect.terms, coefs, effect.index), fr, y_ext, bic
+    return fr, y_ext, bic
 
 
 def _prune(fitted, record, model, dg, fixed, mask, max_iter, say):
@@ -425,3 +490,20 @@ def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
     supported = bool(dbic < rules["bic_threshold"] and improvement >= rules["min_improvement"])
     needed = bool(supported and explained >= rules["min_explained"] and not dg.residuals.at_noise_level)
     return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)
+
+
+def proposal(residuals, candidates) -> str:
+    """The diagnosis's sentence proposing discovery, when no catalogued effect is needed and the model is
+    not at the noise: what ``duffsym ladder`` (discovery on by default) will look for ('' otherwise)."""
+    from duffsym.diagnose.drift import GROWTH
+
+    if any(c.needed for c in candidates) or residuals.at_noise_level or residuals.excess < 1.5:
+        return ""
+    tr = residuals.trend
+    g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
+    if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
+        return (f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
+                "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
+                "drifts and tries it following time or the dissipated energy.")
+    return (" Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
+            "regression of the residual on polynomials and switching functions of d, d', x, x'.")

@@ -94,7 +94,7 @@ class Ladder:
 
 def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
            fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           accept: str = "needed", discover: bool = False, progress=None, **rules) -> Ladder:
+           accept: str = "needed", discover: bool = True, progress=None, **rules) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
 
     Parameters
@@ -107,9 +107,10 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         half of what is left) — for records where several small real effects remain, each too small
         to dominate the residual. Stricter evidence against an effect outside the catalogue is then
         the user's call: each step's held-out error is reported.
-    discover : when no catalogued effect is needed, try a term outside the catalogue
-        (:func:`~duffsym.diagnose.discover.discover_term`); it is added only when it passes the same
-        evidence as a needed catalogued effect, and the step says so (``"term"``, ``"latex"``).
+    discover : (default on) when no catalogued effect is needed, look outside the catalogue
+        (:func:`~duffsym.diagnose.discover.discover_term`: a drifting parameter when the error grows over
+        the record, else an output term); it is added only when it passes the same evidence as a needed
+        catalogued effect, and the step says so (``"term"``, ``"latex"``).
     rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose`.
     """
     from duffsym.effects import CATALOGUE, apply_effects

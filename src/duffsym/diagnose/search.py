@@ -477,7 +477,9 @@ def diagnose(
     needed = tuple(c.effect for c in out if c.needed)
     base_held = _nrmse(y[held], y_base[held])
     evidence = _sindy_evidence(record, base, model, say) if sindy else None
-    verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
+    from duffsym.diagnose.discover import proposal
+
+    verdict = (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
                + _sindy_sentence(evidence, out) + _base_sentence(base_check))
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
