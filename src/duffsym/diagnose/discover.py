@@ -293,6 +293,16 @@ def stability(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], terms: 
     return {"family": {f: n / resamples for f, n in fam_hits.items()}, "term": hits / resamples, "best": best}
 
 
+def _simpler(terms: list, i: int) -> int:
+    """The index of the nested simpler form of ``terms[i]``: a Stribeck shape ``exp(-(v/v_s)²)·tanh(v/ε)`` ->
+    the plain smooth sign ``tanh(v/ε)`` (its v_s -> ∞ limit, same polynomial factor), if in the library; else ``i``.
+    A residual of the base fit shows a Coulomb step partly absorbed by the damping, which looks like a
+    Stribeck peak; the full refit tells them apart (the simpler form is kept when its BIC is as good)."""
+    t = terms[i]
+    plain = t.replace(lambda e: isinstance(e, sp.exp), lambda e: sp.Integer(1))
+    return terms.index(plain) if plain != t and plain in terms else i
+
+
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
     """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
     resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
@@ -314,10 +324,12 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     if not stable:
         return [], selection
     index = 1 + sum(e.startswith("discovered:") for e in model.effects)
-    sets = [stable[:n] for n in range(len(stable), 0, -1)][:max(tries, 1)]
+    supports = [[stab["best"][f] for f in stable[:n]] for n in range(len(stable), 0, -1)]
+    simpler = [_simpler(terms, i) for i in supports[0]]
+    if simpler != supports[0] and len(set(simpler)) == len(simpler):
+        supports.insert(1, simpler)
     out = []
-    for fams in sets:
-        sup = [stab["best"][f] for f in fams]
+    for sup in supports[:max(tries, 1)]:
         coefs, *_ = np.linalg.lstsq(Theta[:k, sup], r[:k], rcond=None)
         out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
     return out, selection
@@ -370,6 +382,9 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
         return _nothing(f"the fit of {effects[0].name} failed or its free run diverged", before, selection,
                         time.perf_counter() - t0)
     fitted = min(fits, key=lambda f: f[3])
+    simple = [f for f in fits if not any(t.has(sp.exp) for t in f[0].terms)]
+    if simple and fitted[0].terms != simple[0][0].terms and min(f[3] for f in simple) <= fitted[3] + 2.0:
+        fitted = min(simple, key=lambda f: f[3])  # as good without a Stribeck shape: the simpler form
     pruned = _prune(fitted, record, model, dg, fixed, mask, max_iter, say)
     if pruned is not None and pruned[3] <= fitted[3] + 2.0:  # fewer terms, BIC no worse (within 2)
         fitted = pruned
