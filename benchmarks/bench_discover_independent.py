@@ -33,7 +33,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 OUTSIDE = ("stroke-friction", "stribeck-friction", "heating", "orifice", "gas-spring")
-LABELS = OUTSIDE + ("stribeck-friction-lowpass", "heating-movavg", "clean", "seal-friction@removed")
+LABELS = OUTSIDE + ("clean", "seal-friction@removed", "stribeck-friction-lowpass", "heating-movavg")
 REMOVED = ("seal-friction", "coulomb-friction")
 
 
