@@ -1,17 +1,28 @@
-"""When the catalogue has no answer, discover a term: sparse regression of what the model misses.
+"""When the catalogue has no answer, discover what is missing: a drifting parameter, or a term.
 
-:func:`discover_term` regresses the free-run residual of a base fit (on the fitting part of a
-record) on a library of candidate output terms built from the record and the model's simulated
-states — the piston displacement, velocity and acceleration ``d, d', d''``, the model's internal
-states ``x, x'``, their powers, products, smooth absolute values ``s·tanh(s/ε)`` and smooth signs
-``tanh(s/ε)`` (ε = 3, 10 and 30 % of the signal's RMS). The sparse selection is scikit-learn's orthogonal
-matching pursuit (:class:`sklearn.linear_model.OrthogonalMatchingPursuit`) on the standardised
-library, with the number of terms chosen on held-out whole input cycles at the end of the fitting
-part (the fewest terms within 5 % of the best validation error). The selected terms become a
-:class:`DiscoveredEffect` — a model extension adding ``Σ c_i·term_i`` to the output, with the
-coefficients as parameters — fitted through the normal path
-(:func:`duffsym.identify.fit_with_effects`) and judged by the same held-out evidence as a
-catalogued effect (ΔBIC, fall of the held-out error, share of the excess error removed).
+:func:`discover_term` first asks whether the base fit's residual grows (or shrinks) over the record;
+if so, windowed refits name the parameter that changes and a :class:`~duffsym.effects.drift.ParameterDrift`
+lets it follow time or the dissipated energy (:mod:`duffsym.diagnose.drift`). Otherwise (or when no
+drift is needed) it regresses the free-run residual of the base fit (on the fitting part of the
+record) on a systematic library of candidate output terms (:func:`term_library`, built with pysindy's
+libraries — nothing typed in per term): a plain polynomial (degree 3) in the piston displacement,
+velocity and acceleration ``d, d', d''`` and the model's states ``x, x'`` (and a measured command), plus
+switching functions of each velocity — smooth signs ``tanh(v/ε)`` (ε = 3, 10, 30 % of its RMS), Stribeck
+shapes ``exp(-(v/v_s)²)·tanh(v/ε)`` (v_s = 5, 10, 20 % of the RMS), ``|v|`` and ``v|v|`` — alone and
+times a polynomial (degree 2) in the positions (pysindy's tensor product): ``d²·tanh(d'/ε)`` is friction
+whose level grows toward the stroke ends. Selection is *stability selection* (:func:`stability`):
+scikit-learn's orthogonal matching pursuit on the standardised library, fitted on a random half of the
+whole input cycles and sized on the other half, 40 times; a family of terms (members that differ only
+in ε or v_s) is kept when selected in at least 60 % of the resamples. The stable set, its nested simpler
+form (a Stribeck shape -> the plain sign) and its smaller subsets become :class:`DiscoveredEffect`\ s —
+model extensions adding ``Σ c_i·term_i`` to the output, the coefficients as parameters — fitted through
+the normal path (:func:`duffsym.identify.fit_with_effects`); the lowest BIC on the fitting part is kept
+and judged by the same held-out evidence as a catalogued effect (ΔBIC, fall of the held-out error,
+share of the excess error removed). The result is named in words and LaTeX in ``d, d'`` where the
+physics acts there, with the catalogue effect it resembles.
+
+Not done: terms inside the state equation (a coefficient of the fluid model that depends on a state or
+a speed) other than the drift; such terms act on the output only here.
 
 Delayed copies of the signals are not in the library: an output term must be a function of the
 model's current states and inputs, and a short delay of ``d`` is ``d - τ d'`` to first order,
@@ -174,16 +185,6 @@ def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int 
     k = min(k for k, s in scores.items() if s <= best * PARSIMONY)
     others = [supports[j] for j in sorted(supports, key=lambda j: scores[j]) if j and j != k]
     return supports[k], scores, others
-
-
-def _train_rows(record, k: int) -> int:
-    """Rows of the fitting part used to fit the selection; the rest (whole cycles if periodic) validate it."""
-    from duffsym.diagnose.residuals import rising_crossings
-
-    n = int(round(0.7 * k))
-    rising = rising_crossings(np.asarray(record.d)[:k])
-    ok = rising[(rising > 0.5 * k) & (rising < 0.9 * k)]
-    return int(ok[np.argmin(np.abs(ok - n))]) if ok.size else n
 
 
 # ---------------------------------------------------------------------------------------------- discovery
