@@ -372,12 +372,17 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
         effects, selection = propose(record, model, dg, tries)
     except (ModelError, DataError, ValueError, np.linalg.LinAlgError) as exc:
         return _nothing(f"the term library could not be built: {exc}", before, {}, time.perf_counter() - t0)
+    tried = ""
     if drifted is not None:
         selection["drift"] = drifted.to_dict()
+        tried = (drifted.message if not drifted.found else
+                 f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})")
+        tried += "; "
     if not effects:
         best = max(selection.get("inclusion", {"": 0}).items(), key=lambda kv: kv[1], default=("", 0))
-        return _nothing(f"no term is stable over resampled cycles (highest inclusion {best[1]:.2f}, {best[0]})",
-                        before, selection, time.perf_counter() - t0)
+        what = f"highest inclusion {best[1]:.2f}, {best[0]}" if best[0] else "every resample chose no term"
+        return _nothing(f"{tried}no term is stable over resampled cycles ({what})", before, selection,
+                        time.perf_counter() - t0)
     fits = [f for f in (_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects) if f]
     if not fits:
         return _nothing(f"the fit of {effects[0].name} failed or its free run diverged", before, selection,
@@ -423,22 +428,24 @@ def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 
         return None
     say = progress or (lambda msg: None)
     say("  the error grows over the record: windowed refits")
+    before = float(dg.nrmse_heldout)
     try:
         windows = D.windowed_refits(record, model, dg, fixed)
     except (ModelError, DataError) as exc:
-        say(f"  windowed refits failed: {exc}")
-        return None
+        return _nothing(f"drift: the windowed refits failed ({exc})", before, {}, 0.0)
     selection = {"windows": windows.to_dict()}
-    fits = []
-    for eff in D.candidates(record, dg, windows):
-        a = D.guess(eff, windows)
-        eff = dataclasses.replace(eff, start=a)
-        p0 = float(dg.base_fit.params[eff.parameter]) / (1 - 0.5 * a)  # its value at the start (u = 0)
-        got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
-        if got is not None:
-            fits.append((eff, *got))
+    if not windows.drifting():
+        change = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
+        return _nothing(f"drift: no parameter changes monotonically by more than {100 * D.MIN_CHANGE:.0f} % over "
+                        f"{len(windows.bounds)} windows ({change})", before, selection, 0.0)
+    fits = _drift_fits(D.candidates(record, dg, windows), windows, record, model, dg, fixed, mask, max_iter, say)
+    if fits:  # the best parameter following time instead of the dissipated energy
+        best = min(fits, key=lambda f: f[3])[0].parameter
+        fits += _drift_fits(D.candidates(record, dg, windows, "time", [best]), windows, record, model, dg, fixed,
+                            mask, max_iter, say)
     if not fits:
-        return None
+        return _nothing("drift: the fits of " + ", ".join(windows.drifting()) + " drifting failed", before,
+                        selection, 0.0)
     eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
     selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}
     a = float(fr.params["drift_a"])
@@ -480,6 +487,21 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     y = np.asarray(record.y, float)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
     return fr, y_ext, bic
+
+
+def _drift_fits(effects, windows, record, model, dg, fixed, mask, max_iter, say) -> list:
+    """(effect, fit, free run, BIC) of each drift effect that fits, started from the windowed refits' slope."""
+    from duffsym.diagnose import drift as D
+
+    out = []
+    for eff in effects:
+        a = D.guess(eff, windows)
+        eff = dataclasses.replace(eff, start=a)
+        p0 = float(dg.base_fit.params[eff.parameter]) / (1 - 0.5 * a)  # its value at the start (u = 0)
+        got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
+        if got is not None:
+            out.append((eff, *got))
+    return out
 
 
 def _prune(fitted, record, model, dg, fixed, mask, max_iter, say):

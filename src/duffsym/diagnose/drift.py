@@ -19,13 +19,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from duffsym.effects.drift import ParameterDrift
+from duffsym.errors import DataError, ModelError
 
 #: the residual "grows over the record" (the diagnosis's trend): growth above this, or below its inverse
 GROWTH = 1.5
 #: a parameter counts as drifting when its windowed values change monotonically by more than this (relative)
-MIN_CHANGE = 0.10
-#: at most this many drifting parameters are tried (each with time and with energy)
-MAX_PARAMETERS = 2
+MIN_CHANGE = 0.05
+#: at most this many drifting parameters are tried with the dissipated energy (the best of them also with time);
+#: windowed refits trade parameters off (on a short sine record with c2, c3 falling by 30-45 %, c3 fell by 7 %
+#: and k1 by 12 % between two windows), so the largest windowed change alone does not name the parameter
+MAX_PARAMETERS = 3
 N_WINDOWS = 3
 
 
@@ -63,15 +66,19 @@ class Windows:
 
 
 def _window_bounds(record, k: int, n: int) -> list[tuple[int, int]]:
+    """Consecutive windows of the first ``k`` samples, cut at rising crossings of ``d`` so that each holds
+    at least two input cycles (fewer windows on a short record, at least two)."""
     from duffsym.diagnose.residuals import rising_crossings
 
     cut = rising_crossings(np.asarray(record.d)[:k])
+    cut = cut[(cut > 0) & (cut < k)]
+    n = max(2, min(n, cut.size // 2)) if cut.size else n
     edges = [0]
     for j in range(1, n):
         target = j * k / n
-        near = cut[np.abs(cut - target) < 0.5 * k / n] if cut.size else cut
-        edges.append(int(near[np.argmin(np.abs(near - target))]) if near.size else int(round(target)))
+        edges.append(int(cut[np.argmin(np.abs(cut - target))]) if cut.size else int(round(target)))
     edges.append(k)
+    edges = sorted(set(edges))
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a > 20]
 
 
@@ -90,10 +97,14 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     for a, b in bounds:
         win = record.replace(t=record.t[a:b], d=record.d[a:b], y=record.y[a:b], d_dot=v[a:b],
                              command=None if record.command is None else record.command[a:b])
-        fr = _fit(model, win, fx, dict(dg.base_fit.params))
+        try:
+            fr = _fit(model, win, fx, dict(dg.base_fit.params))
+        except (DataError, ModelError):  # a window the fit cannot use: no values from it
+            fr = None
+        ok = fr is not None and fr.success
         for n in params:
-            params[n].append(float(fr.params[n]) if fr.success else math.nan)
-            stderr[n].append(float(fr.stderr.get(n, math.nan)) if fr.success else math.nan)
+            params[n].append(float(fr.params[n]) if ok else math.nan)
+            stderr[n].append(float(fr.stderr.get(n, math.nan)) if ok else math.nan)
         for s in sig:
             mids[s].append(float(sig[s][(a + b) // 2]))
     change, monotone = {}, {}
@@ -107,17 +118,14 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     return Windows(bounds=bounds, params=params, stderr=stderr, change=change, monotone=monotone, signals=mids)
 
 
-def candidates(record, dg, windows: Windows) -> list[ParameterDrift]:
-    """Drift effects to try: each drifting parameter (at most ``MAX_PARAMETERS``) following time, and
-    following the dissipated energy; ``u_ref`` = the signal at the end of the fitting part."""
+def candidates(record, dg, windows: Windows, signal: str = "energy", names=None) -> list[ParameterDrift]:
+    """Drift effects to try: each drifting parameter (at most ``MAX_PARAMETERS``, or ``names``) following
+    ``signal``; ``u_ref`` = the signal at the end of the fitting part."""
     k = dg.split["n_fit"]
-    out = []
-    for name in windows.drifting()[:MAX_PARAMETERS]:
-        for signal in ("energy", "time"):
-            ref = float(record.drift_signal(signal)[k - 1])
-            if ref > 0:
-                out.append(ParameterDrift(name, signal, ref))
-    return out
+    ref = float(record.drift_signal(signal)[k - 1])
+    if not ref > 0:
+        return []
+    return [ParameterDrift(n, signal, ref) for n in (names or windows.drifting()[:MAX_PARAMETERS])]
 
 
 def guess(effect: ParameterDrift, windows: Windows) -> float:
