@@ -126,3 +126,13 @@ def test_heating_is_found_as_a_damping_that_follows_the_dissipated_energy():
     assert disc.needed and disc.nrmse_after <= 2 * _floor(rec, g, dg) < 0.5 * disc.nrmse_before
     assert 0.1 < disc.params["drift_a"] < 0.6
     assert disc.words.startswith("c3 falls by ") and "energy dissipated" in disc.words
+
+
+def test_no_stable_term_in_the_residual_of_a_clean_record():
+    """A clean record (the base model is the generator's device): the residual is noise, no family of terms is
+    selected in 60 % of the resampled cycles, nothing is fitted, and the message says so."""
+    rec, _ = _record("clean", 2, duration=3.0)
+    dg = diagnose(rec, candidates=[], sindy=False)
+    disc = discover_term(rec, mr_damper(), dg)
+    assert not disc.found and "no term is stable over resampled cycles" in disc.message, disc.message
+    assert all(p < 0.6 for p in disc.selection["inclusion"].values())
