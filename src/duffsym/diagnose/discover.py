@@ -424,7 +424,7 @@ def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 
     or nothing changes."""
     from duffsym.diagnose import drift as D
 
-    if not D.trending(dg):
+    if not D.trending(dg) or any(e.startswith("drift:") for e in model.effects):  # one drifting parameter at most
         return None
     say = progress or (lambda msg: None)
     say("  the error grows over the record: windowed refits")
@@ -498,7 +498,11 @@ def _drift_fits(effects, windows, record, model, dg, fixed, mask, max_iter, say)
         a = D.guess(eff, windows)
         eff = dataclasses.replace(eff, start=a)
         p0 = float(dg.base_fit.params[eff.parameter]) / (1 - 0.5 * a)  # its value at the start (u = 0)
-        got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
+        try:
+            got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
+        except (ModelError, DataError) as exc:
+            say(f"  {eff.name}: {exc}")
+            continue
         if got is not None:
             out.append((eff, *got))
     return out
