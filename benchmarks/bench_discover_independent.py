@@ -171,11 +171,12 @@ def main(argv=None) -> int:
     rows: list[dict] = []
     t0 = time.perf_counter()
     out_path.parent.mkdir(parents=True, exist_ok=True)
+    commit = _commit()  # the code the run started with (a later save must not record a newer HEAD)
     settings = dict(seeds=args.seeds, first_seed=args.first_seed, workers=args.workers, screen=args.screen,
                     cases=labels, ladder="defaults (discovery on), sindy=False")
 
     def save():
-        doc = dict(benchmark="discover_independent", commit=_commit(), settings=settings,
+        doc = dict(benchmark="discover_independent", commit=commit, settings=settings,
                    date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), python=sys.version.split()[0],
                    machine=platform.machine(), cpus=os.cpu_count(), load=os.getloadavg(),
                    wall_seconds=time.perf_counter() - t0, summary=summarise(rows), runs=rows)
