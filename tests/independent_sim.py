@@ -23,6 +23,14 @@ a first-order lag ``tau_lag`` (sensor/filter dynamics), with a zero offset, an o
 time, white noise, and optionally a zero-phase pre-filter (moving average or Butterworth low-pass)
 as in published data sets. A channel delay makes the force respond to ``a(t - tau_delay)``.
 
+Outside the catalogue (issue 22; no catalogued effect has these forms, each placed where it acts):
+seal friction whose level grows toward the stroke ends ``F_0 (1 + g (p/P)^2) tanh(p'/eps_s)`` and
+Stribeck friction ``(F_c + (F_s - F_c) exp(-(p'/v_s)^2)) tanh(p'/eps_s)`` on the piston velocity; an
+orifice force ``C_o p'|p'|`` on the piston velocity; a polytropic gas spring
+``F_g ((L/(L - p))^1.4 - 1)`` on the piston displacement (not the catalogue's linear accumulator); and
+heating: a temperature state ``theta' = F p'/E_ref - theta/tau_cool`` driven by the power the piston
+dissipates, which lowers the fluid damping ``c2, c3`` by ``(1 - b theta)`` (``extra["temperature"]``).
+
 Integration: classical RK4 with ``substeps`` (>= 20) steps per sample; the inputs are analytic
 (sums of sinusoids), evaluated at every stage; the play operator is evaluated on the half-step grid.
 """
@@ -111,6 +119,19 @@ class Physics:
     drift: float = 0.0  # load-cell drift (force units / s)
     damping_drift: float = 0.0  # relative fall of c1, c3 over the record (warming fluid; not catalogued)
     d_offset: float = 0.0  # displacement-sensor zero error (benign: the model absorbs it)
+    # ---- outside the catalogue (no catalogued effect has these forms; issue 22)
+    stroke_friction: float = 0.0  # F_0: seal friction F_0 (1 + g (p/P)^2) tanh(p'/eps_s), level grows to the stroke ends
+    stroke_friction_growth: float = 0.0  # g; P = stroke_length
+    stroke_length: float = 1.0  # P (input units)
+    stribeck_coulomb: float = 0.0  # F_c: (F_c + (F_s - F_c) exp(-(p'/v_s)^2)) tanh(p'/eps_s) on the piston
+    stribeck_static: float = 0.0  # F_s (the static peak)
+    stribeck_velocity: float = 0.0  # v_s (input units / s)
+    heating: float = 0.0  # b: c2, c3 scaled by (1 - b theta); theta' = (F p')/E_ref - theta/tau_cool (fluid warms)
+    heating_energy: float = 1.0  # E_ref: energy that warms theta by 1 (force units x input units)
+    heating_cooling: float = 0.0  # tau_cool (s); 0: no cooling
+    orifice: float = 0.0  # C_o: orifice (turbulent) force C_o p'|p'| on the piston velocity
+    gas_spring: float = 0.0  # F_g: polytropic gas spring F_g ((L/(L - p))^1.4 - 1) on the piston displacement
+    gas_spring_length: float = 1.0  # L: gas column length (input units), > max p
 
 
 def play(a: np.ndarray, h: float, p0: float | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -150,16 +171,23 @@ def simulate_device(params: dict, phys: Physics, inp: SumOfSines, t: np.ndarray,
     def rhs(j, s):
         # states x, u = x' - c1(t) p (so that the jump of p' at an engagement of the play does not
         # enter the integration: the forcing is p, continuous) and the load-cell state z
-        x, u, z = s
+        x, u, z = s[0], s[1], s[2]
         scale = 1 - phys.damping_drift * (tf[j] - t[0]) / T
         cc1, cc3 = c1 * scale, c3 * scale
         v = u + cc1 * p[j]
-        acc = k1 * p[j] - (cc1 + c2) * v - (k1 + k2) * x - k3 * x**n - cc3 * v**n
+        if phys.heating:  # the fluid's temperature theta = s[3] lowers c2 and c3
+            hot = 1 - phys.heating * s[3]
+            acc = k1 * p[j] - (cc1 + c2 * hot) * v - (k1 + k2) * x - k3 * x**n - cc3 * hot * v**n
+        else:
+            acc = k1 * p[j] - (cc1 + c2) * v - (k1 + k2) * x - k3 * x**n - cc3 * v**n
         acc += c1 * phys.damping_drift / T * p[j]  # -(d c1/dt) p
         if phys.internal_friction:
             acc -= phys.internal_friction * v / math.sqrt(v * v + phys.internal_friction_eps**2)
         f = piston_force(j, v)
         dz = (f - z) / phys.lag if phys.lag > 0 else 0.0
+        if phys.heating:
+            cool = s[3] / phys.heating_cooling if phys.heating_cooling > 0 else 0.0
+            return np.array([v, acc, dz, f * p1[j] / phys.heating_energy - cool])
         return np.array([v, acc, dz])
 
     def velocity(j, s):
@@ -169,11 +197,12 @@ def simulate_device(params: dict, phys: Physics, inp: SumOfSines, t: np.ndarray,
         f = Af * v * (1 + phys.asymmetry * math.copysign(1.0, v)) if phys.asymmetry else Af * v
         f += phys.seal_friction * math.tanh(p1[j] / eps_s) if phys.seal_friction else 0.0
         f += phys.inertia * p2[j] + phys.gas_preload + phys.gas_stiffness * p[j]
-        return f
+        return f + outside_catalogue_force(phys, p[j], p1[j], eps_s) if _has_outside(phys) else f
 
-    s = np.array([0.0, -c1 * p[0], piston_force(0, 0.0)])
+    s = np.array([0.0, -c1 * p[0], piston_force(0, 0.0)] + ([0.0] if phys.heating else []))
     out = np.empty(t.size)
     vel = np.empty(t.size)
+    theta = np.zeros(t.size)
     out[0] = s[2] if phys.lag > 0 else piston_force(0, 0.0)
     vel[0] = 0.0
     for k in range(t.size - 1):
@@ -186,10 +215,33 @@ def simulate_device(params: dict, phys: Physics, inp: SumOfSines, t: np.ndarray,
             s = s + h / 6 * (k1_ + 2 * k2_ + 2 * k3_ + k4_)
         J = 2 * (k + 1) * substeps
         vel[k + 1] = velocity(J, s)
+        theta[k + 1] = s[3] if phys.heating else 0.0
         out[k + 1] = s[2] if phys.lag > 0 else piston_force(J, vel[k + 1])
     out = out + phys.offset + phys.drift * (t - t[0])
     idx = 2 * substeps * np.arange(t.size)
-    return out, {"piston": p[idx], "piston_velocity": p1[idx], "x_dot": vel}
+    return out, {"piston": p[idx], "piston_velocity": p1[idx], "x_dot": vel, "temperature": theta}
+
+
+def _has_outside(phys: Physics) -> bool:
+    return bool(phys.stroke_friction or phys.stribeck_coulomb or phys.stribeck_static or phys.orifice
+                or phys.gas_spring)
+
+
+def outside_catalogue_force(phys: Physics, p: float, v: float, eps_s: float) -> float:
+    """The piston forces no catalogued effect has: stroke-dependent seal friction, Stribeck friction,
+    an orifice (velocity-squared) force and a polytropic gas spring, at piston position ``p`` and velocity ``v``."""
+    f = 0.0
+    if phys.stroke_friction:
+        level = phys.stroke_friction * (1 + phys.stroke_friction_growth * (p / phys.stroke_length) ** 2)
+        f += level * math.tanh(v / eps_s)
+    if phys.stribeck_coulomb or phys.stribeck_static:
+        fc, fs = phys.stribeck_coulomb, phys.stribeck_static
+        f += (fc + (fs - fc) * math.exp(-((v / phys.stribeck_velocity) ** 2))) * math.tanh(v / eps_s)
+    if phys.orifice:
+        f += phys.orifice * v * abs(v)
+    if phys.gas_spring:
+        f += phys.gas_spring * ((phys.gas_spring_length / (phys.gas_spring_length - p)) ** 1.4 - 1)
+    return f
 
 
 def prefilter(y: np.ndarray, kind: str | None, width: float, dt: float) -> np.ndarray:
@@ -220,6 +272,7 @@ class Generated:
     y_clean: np.ndarray
     noise_std: float  # std of the noise left in y (after any pre-filter)
     truth: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)  # the device's hidden signals on the sample grid (e.g. temperature)
 
 
 def generate(params: dict, phys: Physics, inp: SumOfSines, *, dt: float = 0.005, duration: float = 4.0,
@@ -245,7 +298,7 @@ def generate(params: dict, phys: Physics, inp: SumOfSines, *, dt: float = 0.005,
                  filter=filter_kind, filter_width=filter_width, substeps=substeps)
     truth.update(extra_summary(extra))
     return Generated(t=t, d=d, y=y, y_clean=prefilter(y0, filter_kind, filter_width, dt),
-                     noise_std=float(np.std(e_f)), truth=truth)
+                     noise_std=float(np.std(e_f)), truth=truth, extra=extra)
 
 
 def extra_summary(extra: dict) -> dict:
@@ -262,9 +315,11 @@ ROWS = (0.2, 0.3, 0.4, 0.5, 0.6, 0.8)
 KINDS = ("sine", "multisine", "random")
 
 
-def physics_for(effects, rng: np.random.Generator, peak: float, stroke: float, acc: float) -> Physics:
+def physics_for(effects, rng: np.random.Generator, peak: float, stroke: float, acc: float, vel: float = 1.0,
+                energy: float = 1.0) -> Physics:
     """Random magnitudes of each effect in ``effects``, from ranges of real dampers relative to the
-    clean record's peak force ``peak``, input amplitude ``stroke`` and peak acceleration ``acc``."""
+    clean record's peak force ``peak``, input amplitude ``stroke`` and peak acceleration ``acc`` (and,
+    for the effects outside the catalogue, peak velocity ``vel`` and dissipated energy ``energy``)."""
     ph = Physics()
     u = rng.uniform
     for e in effects:
@@ -289,9 +344,39 @@ def physics_for(effects, rng: np.random.Generator, peak: float, stroke: float, a
             ph.backlash = float(u(0.03, 0.07) * stroke)
         elif e == "drift":
             ph.damping_drift = 0.5
+        elif e in OUTSIDE:
+            outside_physics(ph, e, rng, peak, stroke, vel, energy)
         elif e != "clean":
-            raise ValueError(f"unknown effect {e!r}; choose from {EFFECTS + ('clean', 'drift')}")
+            raise ValueError(f"unknown effect {e!r}; choose from {EFFECTS + ('clean', 'drift') + OUTSIDE}")
     return ph
+
+
+#: Effects with no catalogue form (issue 22), drawn by :func:`outside_physics`.
+OUTSIDE = ("stroke-friction", "stribeck-friction", "heating", "orifice", "gas-spring")
+
+
+def outside_physics(ph: Physics, e: str, rng: np.random.Generator, peak: float, stroke: float, vel: float,
+                    energy: float) -> None:
+    """Random magnitudes of an out-of-catalogue effect ``e`` (in place), relative to the clean record's
+    peak force, stroke, peak piston velocity ``vel`` and dissipated energy over the record ``energy``."""
+    u = rng.uniform
+    if e == "stroke-friction":  # seal friction 4-7 % of the peak at mid-stroke, 3-5x that at the ends
+        ph.stroke_friction = float(u(0.04, 0.07) * peak)
+        ph.stroke_friction_growth = float(u(2.0, 4.0))
+        ph.stroke_length = stroke
+    elif e == "stribeck-friction":  # kinetic 3-6 % of the peak, static peak 2.5-4x that, v_s 3-8 % of max speed
+        ph.stribeck_coulomb = float(u(0.03, 0.06) * peak)
+        ph.stribeck_static = float(u(2.5, 4.0) * ph.stribeck_coulomb)
+        ph.stribeck_velocity = float(u(0.03, 0.08) * vel)
+    elif e == "heating":  # damping falls by 30-45 % over the record as the dissipated energy warms the fluid
+        ph.heating = float(u(0.30, 0.45))
+        ph.heating_energy = energy
+        ph.heating_cooling = 0.0
+    elif e == "orifice":  # turbulent orifice force 10-20 % of the peak at the peak piston speed
+        ph.orifice = float(u(0.10, 0.20) * peak / vel**2)
+    elif e == "gas-spring":  # polytropic (1.4) gas spring, column 1.3-2x the stroke, 8-15 % of the peak at full stroke
+        ph.gas_spring_length = float(u(1.3, 2.0) * stroke)
+        ph.gas_spring = float(u(0.08, 0.15) * peak / ((ph.gas_spring_length / (ph.gas_spring_length - stroke)) ** 1.4 - 1))
 
 
 def scenario(effects, seed: int, *, kind: str | None = None, voltage: float | None = None, noise: float = 0.01,
@@ -311,7 +396,9 @@ def scenario(effects, seed: int, *, kind: str | None = None, voltage: float | No
     clean, _ = simulate_device(params, Physics(), inp, t, substeps=substeps)
     stroke = float(np.max(np.abs(inp(t))))
     acc = float(np.max(np.abs(inp(t, 2))))
-    phys = physics_for(effects, rng, float(np.max(np.abs(clean))), stroke, acc)
+    vel = float(np.max(np.abs(inp(t, 1))))
+    energy = float(np.sum(clean * inp(t, 1)) * dt) if "heating" in effects else 1.0  # dissipated by the clean device
+    phys = physics_for(effects, rng, float(np.max(np.abs(clean))), stroke, acc, vel, energy)
     g = generate(params, phys, inp, dt=dt, duration=duration, noise=noise, rng=rng, substeps=substeps,
                  filter_kind=filter_kind, filter_width=filter_width)
     g.truth.update(effects=list(effects), voltage=volt, kind=kind, seed=seed, period=inp.period)

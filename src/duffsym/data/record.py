@@ -31,6 +31,9 @@ from duffsym.errors import DataError
 
 #: Fewest samples a record may hold.
 MIN_SAMPLES = 20
+#: Slow signals a drifting parameter can follow (:meth:`Record.drift_signal`), usable as model inputs.
+DRIFT_SIGNALS = ("time", "energy")
+
 #: Names a command history may carry (the CSV columns of ``docs/contract.md``).
 COMMAND_NAMES = ("current", "voltage")
 NAN_POLICIES = ("raise", "omit")
@@ -504,6 +507,8 @@ class Record:
                     raise DataError(f"model {model.name} needs the derivative {ch.name} of the command; a record "
                                     "provides the command itself only")
                 out[ch.name] = self.command_signal(model.name)
+            elif ch.signal in DRIFT_SIGNALS:
+                out[ch.name] = self.drift_signal(ch.signal)
             elif ch.order == 0:
                 out[ch.name] = np.asarray(self.d)
             elif ch.order == 1:
@@ -516,6 +521,19 @@ class Record:
                     "the input and its first and second derivatives only"
                 )
         return out
+
+    def drift_signal(self, name: str) -> np.ndarray:
+        """A slow signal a drifting parameter can follow (``duffsym.effects.drift``): ``"time"`` since the
+        record's start (s), or ``"energy"``, the work done on the device since the start,
+        :math:`\\int_0^t y\\,\\dot d\\,dt` (force units x displacement units; trapezoidal rule): the
+        energy a damper dissipates, which heats it."""
+        t = np.asarray(self.t, float)
+        if name == "time":
+            return t - t[0]
+        if name == "energy":
+            p = np.asarray(self.y, float) * np.asarray(self.velocity(), float)
+            return np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(t))])
+        raise DataError(f"unknown drift signal {name!r}; choose from {DRIFT_SIGNALS}")
 
     def command_signal(self, model_name: str = "") -> np.ndarray:
         """The command history ``(n_times,)``: :attr:`command`, else the constant current, else the voltage.

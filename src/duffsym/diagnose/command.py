@@ -158,7 +158,7 @@ def cmd_ladder(args) -> int:
         lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
                      holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
                      decimate=args.decimate_opt, budget=budget, on_step=on_step,
-                     progress=_progress(args), engine=engine, discover=args.discover)
+                     progress=_progress(args), engine=engine, discover=not args.no_discover)
     if args.out:
         from duffsym._cli_common import _save_fit
 
@@ -222,7 +222,8 @@ def register(sub) -> None:
                    "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
                    "held-out error)")
     s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
-
-    s.add_argument("--discover", action="store_true", help="when no catalogued effect is needed, try a term found by "
-                   "sparse regression of the residual (added only if it passes the same held-out evidence)")
+    s.add_argument("--no-discover", action="store_true", help="do not look outside the catalogue (by default, when "
+                   "no catalogued effect is needed, a drifting parameter or a term found by sparse regression of the "
+                   "residual is tried, and added only if it passes the same held-out evidence)")
+    s.add_argument("--discover", action="store_true", help="accepted for compatibility (discovery is on by default)")
     s.set_defaults(func=cmd_ladder)

@@ -1,17 +1,28 @@
-"""When the catalogue has no answer, discover a term: sparse regression of what the model misses.
+"""When the catalogue has no answer, discover what is missing: a drifting parameter, or a term.
 
-:func:`discover_term` regresses the free-run residual of a base fit (on the fitting part of a
-record) on a library of candidate output terms built from the record and the model's simulated
-states — the piston displacement, velocity and acceleration ``d, d', d''``, the model's internal
-states ``x, x'``, their powers, products, smooth absolute values ``s·tanh(s/ε)`` and smooth signs
-``tanh(s/ε)`` (ε = 3, 10 and 30 % of the signal's RMS). The sparse selection is scikit-learn's orthogonal
-matching pursuit (:class:`sklearn.linear_model.OrthogonalMatchingPursuit`) on the standardised
-library, with the number of terms chosen on held-out whole input cycles at the end of the fitting
-part (the fewest terms within 5 % of the best validation error). The selected terms become a
-:class:`DiscoveredEffect` — a model extension adding ``Σ c_i·term_i`` to the output, with the
-coefficients as parameters — fitted through the normal path
-(:func:`duffsym.identify.fit_with_effects`) and judged by the same held-out evidence as a
-catalogued effect (ΔBIC, fall of the held-out error, share of the excess error removed).
+:func:`discover_term` first asks whether the base fit's residual grows (or shrinks) over the record;
+if so, windowed refits name the parameter that changes and a :class:`~duffsym.effects.drift.ParameterDrift`
+lets it follow time or the dissipated energy (:mod:`duffsym.diagnose.drift`). Otherwise (or when no
+drift is needed) it regresses the free-run residual of the base fit (on the fitting part of the
+record) on a systematic library of candidate output terms (:func:`term_library`, built with pysindy's
+libraries — nothing typed in per term): a plain polynomial (degree 3) in the piston displacement,
+velocity and acceleration ``d, d', d''`` and the model's states ``x, x'`` (and a measured command), plus
+switching functions of each velocity — smooth signs ``tanh(v/ε)`` (ε = 3, 10, 30 % of its RMS), Stribeck
+shapes ``exp(-(v/v_s)²)·tanh(v/ε)`` (v_s = 5, 10, 20 % of the RMS), ``|v|`` and ``v|v|`` — alone and
+times a polynomial (degree 2) in the positions (pysindy's tensor product): ``d²·tanh(d'/ε)`` is friction
+whose level grows toward the stroke ends. Selection is *stability selection* (:func:`stability`):
+scikit-learn's orthogonal matching pursuit on the standardised library, fitted on a random half of the
+whole input cycles and sized on the other half, 40 times; a family of terms (members that differ only
+in ε or v_s) is kept when selected in at least 60 % of the resamples. The stable set, its nested simpler
+form (a Stribeck shape -> the plain sign) and its smaller subsets become :class:`DiscoveredEffect`\ s —
+model extensions adding ``Σ c_i·term_i`` to the output, the coefficients as parameters — fitted through
+the normal path (:func:`duffsym.identify.fit_with_effects`); the lowest BIC on the fitting part is kept
+and judged by the same held-out evidence as a catalogued effect (ΔBIC, fall of the held-out error,
+share of the excess error removed). The result is named in words and LaTeX in ``d, d'`` where the
+physics acts there, with the catalogue effect it resembles.
+
+Not done: terms inside the state equation (a coefficient of the fluid model that depends on a state or
+a speed) other than the drift; such terms act on the output only here.
 
 Delayed copies of the signals are not in the library: an output term must be a function of the
 model's current states and inputs, and a short delay of ``d`` is ``d - τ d'`` to first order,
@@ -19,7 +30,9 @@ which the library spans.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+import re
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -35,6 +48,9 @@ from duffsym.model.symbols import state_symbol
 #: the fewest terms whose validation error is within this factor of the best is chosen
 PARSIMONY = 1.05
 MAX_TERMS = 3
+#: stability selection: resamples of half the cycles, and the inclusion probability a family must reach
+RESAMPLES = 40
+INCLUSION = 0.6
 #: term sets fitted by discover_term (measured on the four worst UTFSM 0 A tests: with 1, one of four
 #: improves by 23 % of its excess error; with 3, 25 mm 0.5 Hz falls 0.239 -> 0.118 and 0.1 Hz 0.140 -> 0.117)
 TRIES = 3
@@ -52,29 +68,97 @@ def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str
     return cols
 
 
-def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
-    """Candidate terms: each signal ``s`` with ``s, s², s³, |s|, s|s|, sign s`` (smooth, ε = 0.03, 0.1, 0.3 RMS),
-    the pairwise products of ``d, d', x, x'``, and ``d·sign d'``, ``d·sign x'``, ``x·sign d'``, ``x·sign x'``
-    (ε = 0.1 RMS). ``x`` and ``x'`` appear as ``x, x'`` symbols (the model's states when applied)."""
-    out: list[sp.Expr] = [sp.Integer(1)]
-    for key, v in cols.items():
-        s = state_symbol(key)
-        rms = float(np.sqrt(np.mean(v**2)))
-        if not rms > 0:
-            continue
-        out += [s, s**2, s**3]
-        if key != "d_ddot":
-            for frac in EPS_FRACTIONS:  # sharp to soft switches
-                sg = sp.tanh(s / sp.Float(float(f"{frac * rms:.2g}")))
-                out += [sg, s * sg, s**2 * sg]
-    keys = [k for k in ("d", "d_dot", "x", "x_dot") if k in cols]
-    out += [state_symbol(a) * state_symbol(b) for i, a in enumerate(keys) for b in keys[i + 1:]]
-    # a displacement times the direction of motion: a stroke-dependent force that differs between
-    # compression and extension (e.g. a plateau that changes over the stroke in one direction only)
-    for a in (k for k in ("d", "x") if k in cols):
-        for b in (k for k in ("d_dot", "x_dot") if k in cols):
-            out.append(state_symbol(a) * sp.tanh(state_symbol(b) / sp.Float(float(f"{0.1 * _rms(cols[b]):.2g}"))))
+#: the polynomial factor's degree in the positions (d, x, and any extra measured channel)
+POSITION_DEGREE = 2
+#: degree of the plain polynomial in every signal (d, d', d'', x, x')
+PLAIN_DEGREE = 3
+#: Stribeck speeds v_s, as fractions of the velocity's RMS
+STRIBECK_FRACTIONS = (0.05, 0.1, 0.2)
+POSITIONS = ("d", "x", "command")
+VELOCITIES = ("d_dot", "x_dot")
+
+
+def _eps(frac: float, rms: float) -> str:
+    return f"{float(f'{frac * rms:.2g}'):g}"
+
+
+def switches(rms: float) -> list[tuple[str, object]]:
+    """The switching functions of one velocity ``v`` (RMS ``rms``), as (printable template, function):
+    smooth signs ``tanh(v/ε)`` (ε = 3, 10, 30 % of the RMS), Stribeck shapes
+    ``exp(-(v/v_s)**2)·tanh(v/ε)`` (v_s = 5, 10, 20 % of the RMS, ε = 3 %), the smooth ``|v|`` and ``v|v|``
+    (``v·tanh(v/ε)``, ``v**2·tanh(v/ε)``, ε = 10 %). The template has ``{v}`` for the signal's name."""
+    def sign(e):
+        return lambda v: np.tanh(v / e)
+
+    def stribeck(vs, e):
+        return lambda v: np.exp(-(v / vs) ** 2) * np.tanh(v / e)
+
+    def power(k, e):
+        return lambda v: v**k * np.tanh(v / e)
+
+    out = []  # pysindy counts a function's arguments: one argument each (closures, no defaults)
+    for frac in EPS_FRACTIONS:
+        e = _eps(frac, rms)
+        out.append((f"tanh({{v}}/{e})", sign(float(e))))
+    e0 = _eps(EPS_FRACTIONS[0], rms)
+    for frac in STRIBECK_FRACTIONS:
+        vs = _eps(frac, rms)
+        out.append((f"exp(-({{v}}/{vs})**2)*tanh({{v}}/{e0})", stribeck(float(vs), float(e0))))
+    e1 = _eps(EPS_FRACTIONS[1], rms)
+    out.append((f"{{v}}*tanh({{v}}/{e1})", power(1, float(e1))))
+    out.append((f"{{v}}**2*tanh({{v}}/{e1})", power(2, float(e1))))
     return out
+
+
+def term_library(cols: Mapping[str, np.ndarray]):
+    """The candidate library as a pysindy :class:`~pysindy.feature_library.GeneralizedLibrary` over the
+    signals in ``cols`` and the signal names it takes, in order: a plain polynomial (degree
+    ``PLAIN_DEGREE``) in every signal, plus each velocity's switching functions (:func:`switches`) alone
+    and times a polynomial (degree ``POSITION_DEGREE``) in the positions — the tensor product
+    ``positions ⊗ switches(d') ⊗ ...``: ``d²·tanh(d'/ε)`` (friction growing toward the stroke ends),
+    ``exp(-(d'/v_s)²)·tanh(d'/ε)`` (a Stribeck peak), ``d·|x'|``, ... Nothing is typed in per term."""
+    import pysindy as ps
+
+    names = [k for k in cols if np.ptp(cols[k]) > 0]
+    pos = [names.index(k) for k in POSITIONS if k in names]
+    libs, inputs, tensor = [ps.PolynomialLibrary(degree=PLAIN_DEGREE, include_bias=True)], [list(range(len(names)))], []
+    libs.append(ps.PolynomialLibrary(degree=POSITION_DEGREE, include_bias=False))
+    inputs.append(pos)
+    for key in (k for k in VELOCITIES if k in names):
+        sw = switches(_rms(cols[key]))
+        libs.append(ps.CustomLibrary(library_functions=[f for _, f in sw],
+                                     function_names=[_namer(t) for t, _ in sw]))
+        inputs.append([names.index(key)])
+        tensor.append([0, 1] + [int(i == len(libs) - 1) for i in range(2, len(libs))])
+    tensor = [row + [0] * (len(libs) - len(row)) for row in tensor]
+    return ps.GeneralizedLibrary(libs, tensor_array=tensor or None, inputs_per_library=inputs), names
+
+
+def _namer(template: str):
+    return lambda v: template.format(v=v)
+
+
+def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
+    """The candidate terms (SymPy, in the signals' symbols, duplicates dropped) of :func:`term_library`."""
+    return library_matrix(cols)[0]
+
+
+def library_matrix(cols: Mapping[str, np.ndarray]) -> tuple[list[sp.Expr], np.ndarray]:
+    """(terms, library matrix ``(n_times, n_terms)``): pysindy's evaluation of :func:`term_library`, its
+    feature names read back as SymPy expressions; a duplicate or constant-free repeat is dropped."""
+    lib, names = term_library(cols)
+    X = np.column_stack([np.asarray(cols[k], float) for k in names])
+    Theta = np.asarray(lib.fit_transform(X), float)
+    syms = {k: state_symbol(k) for k in names}
+    terms, keep, seen = [], [], set()
+    for j, name in enumerate(lib.get_feature_names(names)):
+        expr = sp.sympify(name.replace("^", "**").replace(" ", "*"), locals=syms)
+        if expr in seen or not np.all(np.isfinite(Theta[:, j])):
+            continue
+        seen.add(expr)
+        terms.append(expr)
+        keep.append(j)
+    return terms, Theta[:, keep]
 
 
 def _rms(v: np.ndarray) -> float:
@@ -101,16 +185,6 @@ def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int 
     k = min(k for k, s in scores.items() if s <= best * PARSIMONY)
     others = [supports[j] for j in sorted(supports, key=lambda j: scores[j]) if j and j != k]
     return supports[k], scores, others
-
-
-def _train_rows(record, k: int) -> int:
-    """Rows of the fitting part used to fit the selection; the rest (whole cycles if periodic) validate it."""
-    from duffsym.diagnose.residuals import rising_crossings
-
-    n = int(round(0.7 * k))
-    rising = rising_crossings(np.asarray(record.d)[:k])
-    ok = rising[(rising > 0.5 * k) & (rising < 0.9 * k)]
-    return int(ok[np.argmin(np.abs(ok - n))]) if ok.size else n
 
 
 # ---------------------------------------------------------------------------------------------- discovery
@@ -178,27 +252,85 @@ def _states(model, params, record, x0) -> np.ndarray | None:
     return np.asarray(tr.x, float) if tr.success and np.all(np.isfinite(tr.x)) else None
 
 
+def blocks(record, k: int) -> list[np.ndarray]:
+    """Row indices of the resampling blocks of the fitting part (its first ``k`` rows): whole input cycles
+    (between rising crossings of ``d``) when there are at least 6, else 8 equal stretches."""
+    from duffsym.diagnose.residuals import rising_crossings
+
+    cut = rising_crossings(np.asarray(record.d)[:k])
+    cut = cut[(cut > 0) & (cut < k)]
+    edges = np.concatenate([[0], cut, [k]]) if cut.size >= 5 else np.linspace(0, k, 9).astype(int)
+    return [np.arange(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def family(term: sp.Expr) -> str:
+    """The term with its grid constants (ε, v_s) blanked: the members of one family differ only in them."""
+    return re.sub(r"\d+\.\d+(e[+-]?\d+)?", "#", sp.sstr(term))
+
+
+def stability(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], terms: list, *,
+              resamples: int = RESAMPLES, max_terms: int = MAX_TERMS, seed: int = 0) -> dict:
+    """Stability selection over resampled cycles: ``resamples`` times, half the blocks (``parts``) train an
+    OMP path (:func:`select_terms`, 1..``max_terms`` terms) and the other half choose its size; returns
+    the inclusion probability of every family of terms (:func:`family`; any member selected) and of every
+    term, and each family's most selected member."""
+    rng = np.random.default_rng(seed)
+    hits = np.zeros(Theta.shape[1])
+    fam = [family(t) for t in terms]
+    fam_hits: dict[str, int] = {}
+    for _ in range(resamples):
+        order = rng.permutation(len(parts))
+        tr = np.concatenate([parts[i] for i in order[: len(parts) // 2]])
+        va = np.concatenate([parts[i] for i in order[len(parts) // 2:]])
+        rows = np.concatenate([tr, va])
+        support, _, _ = select_terms(Theta[rows], r[rows], tr.size, max_terms)
+        hits[support] += 1
+        for f in {fam[i] for i in support}:
+            fam_hits[f] = fam_hits.get(f, 0) + 1
+    best = {}
+    for i in np.argsort(-hits):
+        if hits[i] > 0:
+            best.setdefault(fam[i], int(i))
+    return {"family": {f: n / resamples for f, n in fam_hits.items()}, "term": hits / resamples, "best": best}
+
+
+def _simpler(terms: list, i: int) -> int:
+    """The index of the nested simpler form of ``terms[i]``: a Stribeck shape ``exp(-(v/v_s)²)·tanh(v/ε)`` ->
+    the plain smooth sign ``tanh(v/ε)`` (its v_s -> ∞ limit, same polynomial factor), if in the library; else ``i``.
+    A residual of the base fit shows a Coulomb step partly absorbed by the damping, which looks like a
+    Stribeck peak; the full refit tells them apart (the simpler form is kept when its BIC is as good)."""
+    t = terms[i]
+    plain = t.replace(lambda e: isinstance(e, sp.exp), lambda e: sp.Integer(1))
+    return terms.index(plain) if plain != t and plain in terms else i
+
+
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
-    """The sparse term sets for ``dg``'s base fit (fitting part only), as effects (the selected one
-    first, then up to ``tries - 1`` supports of other sizes); and the selection scores."""
+    """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
+    resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
+    selected member, then that set without its least stable family; and the selection's numbers."""
     k = dg.split["n_fit"]
     cols = signals(record, model, _states(model, dg.base_fit.params, record, dg.base_fit.x0[0]))
-    terms, columns = [], []
-    for t in library(cols):
-        c = _evaluate(t, cols)
-        if np.all(np.isfinite(c)) and np.ptp(c[:k]) + abs(c[0]) > 0:
-            terms.append(t)
-            columns.append(c)
-    Theta = np.column_stack(columns)
+    terms, Theta = library_matrix(cols)
+    ok = [j for j in range(len(terms)) if np.ptp(Theta[:k, j]) + abs(Theta[0, j]) > 0]
+    terms, Theta = [terms[j] for j in ok], Theta[:, ok]
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
-    support, scores, others = select_terms(Theta[:k], r[:k], _train_rows(record, k))
-    selection = {"library": len(terms), "validation_mse": {str(n): v for n, v in scores.items()},
-                 "n_terms": len(support), "selector": "sklearn OrthogonalMatchingPursuit"}
-    if not support:
+    stab = stability(Theta[:k], r[:k], blocks(record, k), terms)
+    stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
+    selection = {"library": len(terms), "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
+                 f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
+                 "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
+                 "inclusion": {term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3) for f, p in
+                               sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]},
+                 "n_terms": len(stable)}
+    if not stable:
         return [], selection
     index = 1 + sum(e.startswith("discovered:") for e in model.effects)
+    supports = [[stab["best"][f] for f in stable[:n]] for n in range(len(stable), 0, -1)]
+    simpler = [_simpler(terms, i) for i in supports[0]]
+    if simpler != supports[0] and len(set(simpler)) == len(simpler):
+        supports.insert(1, simpler)
     out = []
-    for sup in ([support] + others)[:max(tries, 1)]:
+    for sup in supports[:max(tries, 1)]:
         coefs, *_ = np.linalg.lstsq(Theta[:k, sup], r[:k], rcond=None)
         out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
     return out, selection
@@ -208,13 +340,15 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
                   bic_threshold: float | None = None, min_improvement: float | None = None,
                   min_explained: float | None = None, max_iter: int = 300, tries: int = TRIES,
                   progress=None) -> Discovery:
-    """Discover an output term that ``model`` lacks on ``record``, from the diagnosis ``dg`` of it.
+    """Discover what ``model`` lacks on ``record`` outside the catalogue, from the diagnosis ``dg`` of it.
 
-    The term is selected on the fitting part (``dg.split``) only, fitted by
-    :func:`duffsym.identify.fit_with_effects` on the fitting part, and judged on the held-out tail by
-    the same rules as a catalogued candidate (defaults: those of :mod:`duffsym.diagnose.search`).
-    ``tries``: how many term sets to fit (the selected one, then OMP's supports of other sizes); the
-    one with the lowest BIC on the fitting part is kept (the held-out tail is never used to choose).
+    First, when the base fit's residual grows or shrinks over the record, a drifting parameter
+    (:func:`duffsym.diagnose.drift.windowed_refits` and :class:`~duffsym.effects.drift.ParameterDrift`);
+    if none is needed, an output term (:func:`propose`). Each is selected on the fitting part
+    (``dg.split``) only, fitted by :func:`duffsym.identify.fit_with_effects` on the fitting part, and
+    judged on the held-out tail by the same rules as a catalogued candidate (defaults: those of
+    :mod:`duffsym.diagnose.search`). ``tries``: how many term sets to fit; the one with the lowest BIC on
+    the fitting part is kept (the held-out tail is never used to choose).
     """
     import time
 
@@ -224,44 +358,117 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     k = dg.split["n_fit"]
-    y = np.asarray(record.y, float)
     held = slice(k, None)
-    before = _nrmse(y[held], dg.y_base[held])
+    before = _nrmse(np.asarray(record.y, float)[held], dg.y_base[held])
+    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
+                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
+                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
+    drifted = discover_drift(record, model, dg, fixed=fixed, mask=mask, max_iter=max_iter, rules=rules,
+                             progress=progress)
+    if drifted is not None and drifted.needed:
+        return dataclasses.replace(drifted, seconds=time.perf_counter() - t0)
     say("  discovering a term outside the catalogue")
     try:
         effects, selection = propose(record, model, dg, tries)
     except (ModelError, DataError, ValueError, np.linalg.LinAlgError) as exc:
         return _nothing(f"the term library could not be built: {exc}", before, {}, time.perf_counter() - t0)
+    tried = ""
+    if drifted is not None:
+        selection["drift"] = drifted.to_dict()
+        tried = (drifted.message if not drifted.found else
+                 f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})")
+        tried += "; "
     if not effects:
-        return _nothing("no term beats the base model on the validation cycles", before, selection,
+        best = max(selection.get("inclusion", {"": 0}).items(), key=lambda kv: kv[1], default=("", 0))
+        what = f"highest inclusion {best[1]:.2f}, {best[0]}" if best[0] else "every resample chose no term"
+        return _nothing(f"{tried}no term is stable over resampled cycles ({what})", before, selection,
                         time.perf_counter() - t0)
     fits = [f for f in (_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects) if f]
     if not fits:
         return _nothing(f"the fit of {effects[0].name} failed or its free run diverged", before, selection,
                         time.perf_counter() - t0)
     fitted = min(fits, key=lambda f: f[3])
+    simple = [f for f in fits if not any(t.has(sp.exp) for t in f[0].terms)]
+    if simple and fitted[0].terms != simple[0][0].terms and min(f[3] for f in simple) <= fitted[3] + 2.0:
+        fitted = min(simple, key=lambda f: f[3])  # as good without a Stribeck shape: the simpler form
     pruned = _prune(fitted, record, model, dg, fixed, mask, max_iter, say)
     if pruned is not None and pruned[3] <= fitted[3] + 2.0:  # fewer terms, BIC no worse (within 2)
         fitted = pruned
     final, fr, y_ext, bic_ext = fitted
-    own = [p.name for p in final.parameters()]
-    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
-                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
-                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
     expr = final.expression(final.coefs)
+    return _found(final, fr, y_ext, bic_ext, record, model, dg, rules, selection, time.perf_counter() - t0,
+                  term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
+                  words=f"{term_words(expr)} added to the output",
+                  resembles=[r for r in map(resembles, final.terms) if r])
+
+
+def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seconds, **named) -> Discovery:
+    """The Discovery of a fitted ``effect`` (on ``model``), with the diagnosis's held-out evidence."""
+    from duffsym.identify.result import nrmse as _nrmse
+
+    k = dg.split["n_fit"]
+    y = np.asarray(record.y, float)
+    own = [p.name for p in effect.parameters()]
     return Discovery(
-        found=True, effect=final.name, term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
-        words=f"{term_words(expr)} added to the output", resembles=[r for r in map(resembles, final.terms) if r],
-        nrmse_before=before, nrmse_after=_nrmse(y[held], y_ext[held]), params={n: float(fr.params[n]) for n in own},
-        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own}, all_params=dict(fr.params), success=True,
-        message=fr.message, selection=selection, seconds=time.perf_counter() - t0, model=final.apply(model),
-        y_ext=y_ext, **_evidence(y, dg, y_ext, bic_ext, rules))
+        found=True, effect=effect.name, nrmse_before=_nrmse(y[k:], dg.y_base[k:]), nrmse_after=_nrmse(y[k:], y_ext[k:]),
+        params={n: float(fr.params[n]) for n in own}, stderr={n: float(fr.stderr.get(n, math.nan)) for n in own},
+        all_params=dict(fr.params), success=True, message=fr.message, selection=selection, seconds=seconds,
+        model=effect.apply(model), y_ext=y_ext, **named, **_evidence(y, dg, y_ext, bic_ext, rules))
+
+
+def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 300, rules: dict,
+                   progress=None) -> Discovery | None:
+    """A drifting parameter, when the base fit's residual grows or shrinks over the record
+    (:mod:`duffsym.diagnose.drift`): windowed refits name the parameters that change; each follows time or
+    the dissipated energy in turn; the lowest BIC on the fitting part is judged. None when nothing trends
+    or nothing changes."""
+    from duffsym.diagnose import drift as D
+
+    if not D.trending(dg) or any(e.startswith("drift:") for e in model.effects):  # one drifting parameter at most
+        return None
+    say = progress or (lambda msg: None)
+    say("  the error grows over the record: windowed refits")
+    before = float(dg.nrmse_heldout)
+    try:
+        windows = D.windowed_refits(record, model, dg, fixed)
+    except (ModelError, DataError) as exc:
+        return _nothing(f"drift: the windowed refits failed ({exc})", before, {}, 0.0)
+    selection = {"windows": windows.to_dict()}
+    if not windows.drifting():
+        change = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
+        return _nothing(f"drift: no parameter changes monotonically by more than {100 * D.MIN_CHANGE:.0f} % over "
+                        f"{len(windows.bounds)} windows ({change})", before, selection, 0.0)
+    fits = _drift_fits(D.candidates(record, dg, windows), windows, record, model, dg, fixed, mask, max_iter, say)
+    if fits:  # the best parameter following time instead of the dissipated energy
+        best = min(fits, key=lambda f: f[3])[0].parameter
+        fits += _drift_fits(D.candidates(record, dg, windows, "time", [best]), windows, record, model, dg, fixed,
+                            mask, max_iter, say)
+    if not fits:
+        return _nothing("drift: the fits of " + ", ".join(windows.drifting()) + " drifting failed", before,
+                        selection, 0.0)
+    eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
+    selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}
+    a = float(fr.params["drift_a"])
+    sentence = eff.sentence(a)
+    return _found(eff, fr, y_ext, bic, record, model, dg, rules, selection, 0.0, term=eff.form, latex=eff.latex(a),
+                  words=sentence, resembles=[f"no catalogued effect: {eff.physics} (e.g. a damper whose fluid warms "
+                                             "and thins)"])
 
 
 def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     """``effect`` fitted on the fitting part by :func:`duffsym.identify.fit_with_effects`:
     (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part);
     None on failure."""
+    got = _fit_any(effect, record, model, dg, fixed, mask, max_iter, say)
+    if got is None:
+        return None
+    coefs = tuple(float(got[0].params[p.name]) for p in effect.parameters())
+    return (DiscoveredEffect(effect.terms, coefs, effect.index), *got)
+
+
+def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mapping[str, float] | None = None):
+    """(fit, free run over the record, BIC on the fitting part) of ``model`` + ``effect`` on the fitting
+    part, from the base fit (updated by ``start``); None on failure."""
     from duffsym.diagnose import search as S
     from duffsym.identify import Problem, fit_with_effects
 
@@ -272,15 +479,33 @@ def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     ext = effect.apply(model)
     problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names},
                       mask=None if mask is None else np.asarray(mask, bool)[:k])
-    fr = fit_with_effects(problem, [effect], dg.base_fit.params, dg.y_base[:k], max_iter=max_iter,
-                          compute_stderr=True, bound_restart=False)
+    fr = fit_with_effects(problem, [effect], {**dg.base_fit.params, **dict(start or {})}, dg.y_base[:k],
+                          max_iter=max_iter, compute_stderr=True, bound_restart=False)
     y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
     if y_ext is None:
         return None
     y = np.asarray(record.y, float)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
-    coefs = tuple(float(fr.params[p.name]) for p in effect.parameters())
-    return DiscoveredEffect(effect.terms, coefs, effect.index), fr, y_ext, bic
+    return fr, y_ext, bic
+
+
+def _drift_fits(effects, windows, record, model, dg, fixed, mask, max_iter, say) -> list:
+    """(effect, fit, free run, BIC) of each drift effect that fits, started from the windowed refits' slope."""
+    from duffsym.diagnose import drift as D
+
+    out = []
+    for eff in effects:
+        a = D.guess(eff, windows)
+        eff = dataclasses.replace(eff, start=a)
+        p0 = float(dg.base_fit.params[eff.parameter]) / (1 - 0.5 * a)  # its value at the start (u = 0)
+        try:
+            got = _fit_any(eff, record, model, dg, fixed, mask, max_iter, say, start={eff.parameter: p0})
+        except (ModelError, DataError) as exc:
+            say(f"  {eff.name}: {exc}")
+            continue
+        if got is not None:
+            out.append((eff, *got))
+    return out
 
 
 def _prune(fitted, record, model, dg, fixed, mask, max_iter, say):
@@ -307,3 +532,20 @@ def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
     supported = bool(dbic < rules["bic_threshold"] and improvement >= rules["min_improvement"])
     needed = bool(supported and explained >= rules["min_explained"] and not dg.residuals.at_noise_level)
     return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)
+
+
+def proposal(residuals, candidates) -> str:
+    """The diagnosis's sentence proposing discovery, when no catalogued effect is needed and the model is
+    not at the noise: what ``duffsym ladder`` (discovery on by default) will look for ('' otherwise)."""
+    from duffsym.diagnose.drift import GROWTH
+
+    if any(c.needed for c in candidates) or residuals.at_noise_level or residuals.excess < 1.5:
+        return ""
+    tr = residuals.trend
+    g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
+    if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
+        return (f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
+                "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
+                "drifts and tries it following time or the dissipated energy.")
+    return (" Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
+            "regression of the residual on polynomials and switching functions of d, d', x, x'.")

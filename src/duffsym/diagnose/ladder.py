@@ -130,7 +130,7 @@ class Ladder:
 
 def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
            fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           accept: str = "needed", discover: bool = False, progress=None, budget: float | None = None,
+           accept: str = "needed", discover: bool = True, progress=None, budget: float | None = None,
            joint: bool = True, on_step=None, **rules) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
 
@@ -144,9 +144,10 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         half of what is left) — for records where several small real effects remain, each too small
         to dominate the residual. Stricter evidence against an effect outside the catalogue is then
         the user's call: each step's held-out error is reported.
-    discover : when no catalogued effect is needed, try a term outside the catalogue
-        (:func:`~duffsym.diagnose.discover.discover_term`); it is added only when it passes the same
-        evidence as a needed catalogued effect, and the step says so (``"term"``, ``"latex"``).
+    discover : (default on) when no catalogued effect is needed, look outside the catalogue
+        (:func:`~duffsym.diagnose.discover.discover_term`: a drifting parameter when the error grows over
+        the record, else an output term); it is added only when it passes the same evidence as a needed
+        catalogued effect, and the step says so (``"term"``, ``"latex"``).
     budget : seconds for the whole run (None: no limit; ``duffsym ladder`` defaults to ``DEFAULT_BUDGET``).
         ``FINAL_RESERVE`` of it is kept for the backward pass and the final fit; each step's diagnosis
         gets the rest of the time left (its fits their shares, see :func:`diagnose`'s ``deadline``).
@@ -198,10 +199,13 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
             if chosen is None and accept == "supported":
                 chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
             if chosen is None and discover and len(steps) <= max_steps and not dg.residuals.at_noise_level:  # discovery
-                found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
-                if found is not None:
-                    continue
-                dg = _with_note(dg, note)
+                if steps_end is not None and time.monotonic() >= steps_end:
+                    dg = _with_note(dg, " Term discovery outside the catalogue: not tried, the time budget ran out.")
+                else:
+                    found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
+                    if found is not None:
+                        continue
+                    dg = _with_note(dg, note)
             if chosen is None and _out_of_time(dg):
                 stopped, complete = (f"stopped at step {len(steps) - 1}: the time budget ran out before every "
                                      f"candidate was fitted ({_out_of_time(dg)}): {dg.verdict}"), False

@@ -611,7 +611,9 @@ def diagnose(
     base_held = _nrmse(y[held], y_base[held])
     evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
     inactive = inactive_effects(model, record, base.params, base.stderr)
-    verdict = (_verdict(res, out, base_held, noise_method, shifted) + _smoothing_sentence(w)
+    from duffsym.diagnose.discover import proposal
+
+    verdict = (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
                + _sindy_sentence(evidence, out) + _base_sentence(base_check)
                + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
     return Diagnosis(

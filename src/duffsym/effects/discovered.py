@@ -109,6 +109,8 @@ def term_words(expr: sp.Expr) -> str:
     for key in ("d_ddot", "d_dot", "x_dot"):
         text = text.replace(key, _WORDS[key])
     text = re.sub(r"tanh\(([0-9.e+-]+)\*([a-z_']+)\)", lambda m: f"tanh({m[2]}/{1 / float(m[1]):.2g})", text)
+    text = re.sub(r"exp\(-([0-9.e+-]+)\*([a-z_']+)\*\*2\)",
+                  lambda m: f"exp(-({m[2]}/{1 / float(m[1]) ** 0.5:.2g})**2)", text)
     text = text.replace("**", "^").replace("*", "·")
     return text if text.startswith("-") else "+" + text
 
@@ -118,31 +120,58 @@ def term_latex(expr: sp.Expr) -> str:
 
 
 def _kind(term: sp.Expr) -> tuple[str | None, str]:
-    """(signal key, shape) of a library term; shape: constant, linear, square, cube, sign (tanh(s/ε)),
-    abs (s·tanh(s/ε)), sabs (s²·tanh(s/ε)) or product."""
+    """(signal key, shape) of a library term. Without a switch: constant, linear, square, cube (one signal)
+    or product. With a switch of a velocity ``v`` (``tanh(v/ε)``, Stribeck ``exp(-(v/v_s)²)·tanh(v/ε)``):
+    sign, abs (``v·tanh``), sabs (``v²·tanh``) or stribeck; times a polynomial in another signal ``s``:
+    key ``"s|v"``, shape ``stroke-<shape>`` (e.g. ``d²·tanh(d'/ε)``: ``("d|d_dot", "stroke-sign")``), or
+    stroke-direction when the factor is odd in ``s``."""
     syms = sorted(map(str, term.free_symbols))
     if not syms:
         return "1", "constant"
-    if len(syms) != 1:
-        return None, "stroke-direction" if term.has(sp.tanh) else "product"
-    s = state_symbol(syms[0])
-    poly = sp.Mul(*[a for a in sp.Mul.make_args(term) if not isinstance(a, sp.tanh)])
-    deg = int(sp.degree(poly, s)) if poly.has(s) else 0
-    if term.has(sp.tanh):
-        return syms[0], {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
-    return syms[0], {1: "linear", 2: "square", 3: "cube"}.get(deg, "power")
+    factors = sp.Mul.make_args(term)
+    switch = [a for a in factors if isinstance(a, (sp.tanh, sp.exp))]
+    poly = sp.Mul(*[a for a in factors if not isinstance(a, (sp.tanh, sp.exp))])
+    if not switch:
+        if len(syms) != 1:
+            return None, "product"
+        deg = int(sp.degree(poly, state_symbol(syms[0])))
+        return syms[0], {1: "linear", 2: "square", 3: "cube"}.get(deg, "power")
+    vel = sorted({str(s) for a in switch for s in a.free_symbols})
+    if len(vel) != 1:
+        return None, "product"
+    v = state_symbol(vel[0])
+    deg = int(sp.degree(poly, v)) if poly.has(v) else 0
+    shape = "stribeck" if any(isinstance(a, sp.exp) for a in switch) else {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
+    others = sorted(map(str, poly.free_symbols - {v}))
+    if not others:
+        return vel[0], shape
+    if len(others) == 1 and shape in ("sign", "stribeck"):
+        k = int(sp.degree(poly, state_symbol(others[0])))
+        return f"{others[0]}|{vel[0]}", ("stroke-" + shape) if k % 2 == 0 else "stroke-direction"
+    return None, "stroke-direction"
 
 
 _RESEMBLES = {
     ("d_dot", "sign"): "friction on the piston velocity (seal friction F_c·sign d'; the catalogue's "
                        "coulomb-friction acts on the internal velocity x' instead)",
+    ("d_dot", "stribeck"): ("Stribeck friction on the piston velocity: a static peak that decays with the sliding "
+                            "speed (the catalogue's seal-friction has one constant level)"),
+    ("d|d_dot", "stroke-sign"): ("seal friction whose level changes over the stroke (with d²: grows toward the "
+                                 "stroke ends; the catalogue's seal-friction has one constant level)"),
+    ("d|d_dot", "stroke-stribeck"): "a Stribeck friction peak whose height changes over the stroke",
     ("x_dot", "sign"): "coulomb-friction (dry friction on the internal velocity x')",
+    ("x_dot", "stribeck"): "a Stribeck-shaped friction on the internal velocity x' (coulomb-friction with a static peak)",
     ("x_dot", "abs"): "asymmetry (force level differs between compression and extension)",
     ("d_dot", "abs"): "asymmetry (an even-in-velocity force: compression vs extension)",
     ("d", "linear"): "gas-accumulator (stiffness on the piston displacement)",
+    ("d", "square"): ("position-dependent stiffness on the piston (a nonlinear gas spring; the catalogue's "
+                      "gas-accumulator is linear in d)"),
+    ("d", "cube"): ("position-dependent stiffness on the piston (a hardening spring; the catalogue's "
+                    "gas-accumulator is linear in d)"),
     ("d_ddot", "linear"): "inertia (force proportional to the piston acceleration)",
     ("d_dot", "linear"): "viscous damping on the piston velocity (the model's c1 term)",
     ("d_dot", "sabs"): "quadratic (orifice) damping on the piston velocity, d'|d'|",
+    ("d_dot", "square"): "quadratic (orifice-like) force in the piston velocity, even in d'",
     ("x_dot", "cube"): "cubic-damping (here on the output rather than in the state equation)",
     ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
     ("d_dot", "cube"): "a cubic damping on the piston velocity",
@@ -159,7 +188,7 @@ def resembles(term: sp.Expr) -> str:
 
 def describe(term: sp.Expr) -> str:
     key, shape = _kind(term)
-    if key is None:
+    if key is None or "|" in key:
         return f"a product term {term_words(term).lstrip('+')}"
     return f"{shape} term in {_WORDS.get(key, key)}"
 

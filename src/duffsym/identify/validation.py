@@ -70,14 +70,16 @@ def model_from_result(result: IdentificationResult):
         from duffsym.effects import CATALOGUE, apply_effects
 
         from duffsym.effects.discovered import PREFIX, from_name
+        from duffsym.effects.drift import PREFIX as DRIFT, from_name as drift_from_name
 
-        missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith(PREFIX)]
+        missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith((PREFIX, DRIFT))]
         if missing:
             raise ModelError(f"the fit uses effect(s) {missing} unknown to this duffsym; known: {sorted(CATALOGUE)}")
         n_disc = 0
         for e in result.effects:  # a discovered term (duffsym ladder --discover) is rebuilt from its name
             n_disc += e.startswith(PREFIX)
-            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else CATALOGUE[e]])
+            effect = drift_from_name(e) if e.startswith(DRIFT) else CATALOGUE.get(e)
+            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else effect])
     return model
 
 
