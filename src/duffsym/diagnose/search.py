@@ -611,11 +611,7 @@ def diagnose(
     base_held = _nrmse(y[held], y_base[held])
     evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
     inactive = inactive_effects(model, record, base.params, base.stderr)
-    from duffsym.diagnose.discover import proposal
-
-    verdict = (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
-               + _sindy_sentence(evidence, out) + _base_sentence(base_check)
-               + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
+    verdict = _full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive)
     return Diagnosis(
         model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
         residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
@@ -624,6 +620,16 @@ def diagnose(
         y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
         noise_estimate=est, inactive=inactive,
     )
+
+
+def _full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive) -> str:
+    """The diagnosis's sentences: the verdict, the proposal to look outside the catalogue, smoothing, SINDy,
+    the base fit's check and the inactive effects."""
+    from duffsym.diagnose.discover import proposal
+
+    return (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
+            + _sindy_sentence(evidence, out) + _base_sentence(base_check)
+            + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
 
 
 def _within_range(y_run, y) -> bool:
