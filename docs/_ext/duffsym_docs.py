@@ -74,7 +74,7 @@ def models_table() -> str:
     for name in MODELS:
         m = get_model(name)
         ins = ", ".join(str(s) for s in m.input_symbols)
-        rows.append((f"``{name}``", m.description.replace("*", "\\*"), f"{ins} → {m.output_name}",
+        rows.append((f"``{name}``", rst_text(m.description), f"{ins} → {m.output_name}",
                      ", ".join(f"``{p}``" for p in m.param_names)))
     out = [".. list-table::", "   :header-rows: 1", "   :widths: 18 42 15 25", "",
            "   * - model", "     - what", "     - inputs → output", "     - parameters"]
