@@ -19,6 +19,18 @@ from duffsym.errors import show_notes
 show_notes()  # the package's warnings as one-line notes in the study output
 
 
+def external_folder(name: str) -> Path | None:
+    """The external data set ``name`` (a folder under ``duffsym.data.external_data_dir()``), or None when absent."""
+    from duffsym.data import external_data_dir
+    from duffsym.errors import DataError
+
+    try:
+        p = external_data_dir() / name
+    except DataError:
+        return None
+    return p if p.is_dir() else None
+
+
 def git_sha() -> str | None:
     """The checkout's commit (with ``-dirty`` if the tree has changes), or ``None`` without git."""
     try:

@@ -102,14 +102,7 @@ class Config:
 
 # ------------------------------------------------------------------------------------------- data
 def _folder(name: str) -> Path | None:
-    from duffsym.data import external_data_dir
-    from duffsym.errors import DataError
-
-    try:
-        p = external_data_dir() / name
-    except DataError:
-        return None
-    return p if p.is_dir() else None
+    return C.external_folder(name)
 
 
 def campaign_records(cfg: Config) -> list:
