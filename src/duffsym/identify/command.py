@@ -194,7 +194,7 @@ def cmd_validate(args) -> int:
         _err(f"duffsym validate: note: {valid.report.summary()}; left out of the score (--keep-invalid keeps them)")
     for note in notes:
         _err(f"duffsym validate: note: {note}: an extrapolation")
-    if args.plot and val.success:
+    if args.plot and _drawable(val, record):  # a poor prediction (R² < 0) is drawn too: that is when it is looked at
         _plot_validation(val, record, args.plot)
     if args.json:
         extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
@@ -218,6 +218,14 @@ def _positive_seconds(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number of seconds; got {text!r}")
     return value
+
+
+def _drawable(val, record) -> bool:
+    """Whether the free run of ``val`` covers ``record`` with finite values (it may still be a failed prediction)."""
+    import numpy as np
+
+    y = np.asarray(val.y_sim, dtype=float)
+    return y.shape == (record.n_times,) and bool(np.all(np.isfinite(y)))
 
 
 def _plot_validation(val, record, path) -> None:
