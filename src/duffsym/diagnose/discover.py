@@ -1,4 +1,4 @@
-"""When the catalogue has no answer, discover what is missing: a drifting parameter, or a term.
+r"""When the catalogue has no answer, discover what is missing: a drifting parameter, or a term.
 
 :func:`discover_term` first asks whether the base fit's residual grows (or shrinks) over the record;
 if so, windowed refits name the parameter that changes and a :class:`~duffsym.effects.drift.ParameterDrift`
