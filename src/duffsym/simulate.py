@@ -285,6 +285,20 @@ def simulate(
     return traj
 
 
+def simulate_record(model: SymbolicModel, params: Mapping[str, float] | Sequence[float], record, *,
+                    x0: Sequence[float] | None = None, **options) -> Trajectory:
+    """The free run of ``model`` with ``params`` on a measured ``record``: the one public way to run a model
+    on a record.
+
+    The record's input channels (its displacement, the Savitzky-Golay velocity and acceleration, the
+    command, a drift signal: whatever ``model.inputs`` asks for) are built once per record and model
+    inputs (:meth:`duffsym.data.Record.input_matrix`) and reused by every later call. ``x0`` is the
+    initial state (default zeros; a fit's estimate: :meth:`duffsym.identify.IdentificationResult.simulate`);
+    ``options`` are :func:`simulate`'s (``method``, ``substeps``, ``on_failure``, ...).
+    """
+    return simulate(model, params, record.t, record.input_matrix(model), x0=x0, **options)
+
+
 def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hold, blowup):
     """One compiled run, explicit (``"rk4"``) or implicit (``"rosenbrock"``): X, Y, status, index, steps."""
     from duffsym.codegen.compiled import compiled_module

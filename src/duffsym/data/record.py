@@ -498,6 +498,19 @@ class Record:
         out.flags.writeable = False
         return out
 
+    def input_matrix(self, model) -> np.ndarray:
+        """The model's input matrix ``(n_times, n_inputs)`` on this record (columns in ``model.inputs``
+        order; see :meth:`inputs_for`), built once per set of input channels and then reused (read-only)."""
+        from duffsym.simulate import input_matrix
+
+        key = tuple((c.name, c.signal, c.order) for c in model.inputs)
+        cache = self.__dict__.setdefault("_input_matrices", {})
+        if key not in cache:
+            U = input_matrix(model, np.asarray(self.t), self.inputs_for(model))
+            U.setflags(write=False)
+            cache[key] = U
+        return cache[key]
+
     def inputs_for(self, model) -> dict[str, np.ndarray]:
         """The model's input channels by name (order 0: ``d``; 1: the velocity; 2: the acceleration)."""
         out = {}
