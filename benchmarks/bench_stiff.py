@@ -21,7 +21,6 @@ from pathlib import Path
 import numpy as np
 
 from duffsym.data import external_data_dir, read_csv
-from duffsym.identify.collocation import _input_matrix
 from duffsym.model.library import mr_damper
 from duffsym.simulate import IMPLICIT_ATOL, IMPLICIT_RTOL, simulate
 
@@ -58,7 +57,7 @@ def _dyke(folder: Path):
 
 def compare(name, model, params, rec, x0, repeats, n=None):
     n = rec.n_times if n is None else n
-    U = _input_matrix(model, rec)[:n]
+    U = rec.input_matrix(model)[:n]
     t = np.asarray(rec.t)[:n]
     rec = rec.slice(0, n)
     t0 = time.perf_counter()

@@ -2,9 +2,10 @@
 start from the base model's trajectory instead of from the data?
 
 ``duffsym.identify.fit`` takes starting *parameters* only; the states always start from the data
-(``collocation.initial_states``). To measure what a state warm start would give, this script replaces that
-function, for the duration of one fit, by the base model's free-run trajectory (the base fit's parameters
-and initial state, simulated over the fitting part), extended by each effect's own state guess as usual.
+(``duffsym.identify.states.initial_states``). To measure what a state warm start would give, this script
+replaces that function where the NLP looks it up (``duffsym.identify.nlp.initial_states``), for the duration
+of one fit, by the base model's free-run trajectory (the base fit's parameters and initial state, simulated
+over the fitting part), extended by each effect's own state guess as usual.
 Each candidate is fitted from the same parameters (``extended_start``) both ways on a 100-iteration budget.
 
     nice -n 10 python benchmarks/lever_warm_states.py [--case synth1600|s07_1A|...]
@@ -33,7 +34,7 @@ CANDS = ("force-offset", "gas-accumulator", "asymmetry", "coulomb-friction", "cu
 def main(argv=None) -> int:
     from bench_diagnose_speed import _record
 
-    import duffsym.identify.collocation as col
+    import duffsym.identify.nlp as nlp_module
     from duffsym.diagnose.prepare import prepare_record
     from duffsym.diagnose.search import _fit, _free_run, _part, split_record, with_default_af
     from duffsym.effects import CATALOGUE, apply_effects
@@ -58,10 +59,10 @@ def main(argv=None) -> int:
     q = prep.factor
     base = _fit(model, rf, fixed, None)
     y_base = _free_run(model, base.params, rec, base.x0[0])
-    traj = simulate(model, model.param_vector(base.params), np.asarray(rf.t), col._input_matrix(model, rf),
+    traj = simulate(model, model.param_vector(base.params), np.asarray(rf.t), rf.input_matrix(model),
                     x0=base.x0[0], on_failure="return")
     X_base = np.asarray(traj.x, dtype=float)
-    data_states = col.initial_states
+    data_states = nlp_module.initial_states
 
     def warm_states(m, r, p):
         if not m.effects and r.n_times == X_base.shape[0]:
@@ -75,7 +76,7 @@ def main(argv=None) -> int:
         ext = apply_effects(model, [eff])
         x0 = extended_start(ext, eff, rf, base.params, y_base[:k:q], fixed=fixed)
         for how in (("data", "base trajectory") if args.lever == "states" else ("tol 1e-10", "tol 1e-8")):
-            col.initial_states = warm_states if how == "base trajectory" else data_states
+            nlp_module.initial_states = warm_states if how == "base trajectory" else data_states
             try:
                 t0 = time.perf_counter()
                 if how == "tol 1e-8":
@@ -84,7 +85,7 @@ def main(argv=None) -> int:
                     fr = _fit(ext, rf, fixed, x0, max_iter=100)
                 secs = time.perf_counter() - t0
             finally:
-                col.initial_states = data_states
+                nlp_module.initial_states = data_states
             ye = _free_run(ext, fr.params, rec, fr.x0[0])
             row = dict(effect=name, states=how, n_iter=fr.n_iter, status=fr.status, seconds=secs,
                        solve=fr.timings["solve"], heldout=nrmse(y[k:], ye[k:]) if ye is not None else None,

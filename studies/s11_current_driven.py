@@ -166,12 +166,11 @@ def lsoda_free_run(model, p, rec) -> np.ndarray:
     from scipy.integrate import solve_ivp
 
     from duffsym.codegen.numpy_rhs import scalar_model
-    from duffsym.identify.collocation import initial_states
-    from duffsym.simulate import input_matrix
+    from duffsym.identify import initial_states
 
     sm = scalar_model(model)
     t = np.asarray(rec.t)
-    U = input_matrix(model, t, rec.inputs_for(model))
+    U = rec.input_matrix(model)
     dt = float(t[1] - t[0])
 
     def u_at(tt):

@@ -18,7 +18,7 @@ from duffsym.effects import CATALOGUE, Backlash, apply_effects, effect_chain
 from duffsym.effects import base as effects_base
 from duffsym.errors import ModelError
 from duffsym.excitation import Multisine
-from duffsym.identify.collocation import initial_states
+from duffsym.identify.states import initial_states
 from duffsym.model.core import SymbolicModel
 from duffsym.model.presets import table2_params
 from duffsym.simulate import input_matrix, simulate

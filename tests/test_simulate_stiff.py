@@ -132,11 +132,10 @@ def _dyke_slice(tmp_path, a, b):
 
 def _dyke_runs(tmp_path, n):
     """The first ``n`` samples of the 15 000 (the velocity derived from the whole slice, as the fit had it)."""
-    from duffsym.identify.collocation import _input_matrix
 
     model = mr_damper(5)
     rec = _dyke_slice(tmp_path, 30_000, 45_000)
-    U = _input_matrix(model, rec)[:n]
+    U = rec.input_matrix(model)[:n]
     t, y = np.asarray(rec.t)[:n], np.asarray(rec.y)[:n]
     ref = simulate(model, DYKE_PARAMS, t, U, x0=DYKE_X0, method="radau", rtol=1e-9, atol=1e-11)
     assert ref.success and np.abs(ref.x).max() < 1.0
@@ -168,12 +167,11 @@ def test_sampler_kernel_follows_the_stiff_dyke_record(tmp_path):
     """The uncertainty sampler's compiled kernel is explicit, but on the substep schedule it derives from
     the stiffness along the fit's trajectory (h rho(J) <= 1) it follows the record where the default
     explicit free run stops at sample 0: measured max |y - y_Radau| / std(y) = 2.6e-4 over 3000 samples."""
-    from duffsym.identify.collocation import _input_matrix
     from duffsym.uncertainty import _kernel, _setup
 
     model, n = mr_damper(5), 1000
     rec = _dyke_slice(tmp_path, 30_000, 45_000)
-    U, t = _input_matrix(model, rec)[:n], np.asarray(rec.t)[:n]
+    U, t = rec.input_matrix(model)[:n], np.asarray(rec.t)[:n]
     p, x0 = model.param_vector(DYKE_PARAMS), np.asarray(DYKE_X0)
     ref = simulate(model, p, t, U, x0=x0, method="radau", rtol=1e-9, atol=1e-11)
     sched, _ = _setup.stiffness_schedule(model, p, t, U, x0, h_rho=1.0)

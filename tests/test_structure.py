@@ -196,7 +196,7 @@ def test_bouc_wen_mass_recovered_and_prediction_beats_linear():
 
     assert rmse(start) < 0.7 * rmse(lin)
 def test_structure_state_guess_from_data():
-    from duffsym.identify.collocation import initial_states
+    from duffsym.identify.states import initial_states
 
     rec, S = _record(400, seed=2, noise=0.0)
     model = get_model("structure", 3)

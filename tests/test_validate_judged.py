@@ -54,7 +54,7 @@ def test_a_level_difference_is_not_absorbed_by_the_initial_state(fitted):
     rec = _record(sim.Physics(offset=3.0 * TRUTH["A_f"]), seed=3)
     val = validate(res, rec, model)
     X = np.array(val.x0)
-    from duffsym.identify.collocation import initial_states
+    from duffsym.identify.states import initial_states
 
     Xd = initial_states(model, rec, model.param_vector(res.params))
     span = Xd.max(axis=0) - Xd.min(axis=0)

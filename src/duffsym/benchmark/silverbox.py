@@ -72,19 +72,18 @@ def initial_state(model, params: dict, rec, n_init: int = N_SKIP) -> np.ndarray:
     fitted by least squares to the first ``n_init`` output samples."""
     from scipy.optimize import least_squares
 
-    from duffsym.identify.collocation import initial_states
-    from duffsym.simulate import input_matrix, simulate
+    from duffsym.identify.states import initial_states
+    from duffsym.simulate import simulate_record
 
     p = model.param_vector(params)
     x0 = np.array(initial_states(model, rec, p)[0], dtype=float)
     head = rec.slice(0, n_init)
-    U = input_matrix(model, np.asarray(head.t), head.inputs_for(model))
     ip, iv = model.states.index(model.position), model.states.index(model.velocity)
 
     def res(z):
         x = x0.copy()
         x[ip], x[iv] = z
-        tr = simulate(model, p, np.asarray(head.t), U, x0=x, on_failure="return")
+        tr = simulate_record(model, p, head, x0=x, on_failure="return")
         return (np.asarray(tr.y) - head.y) if tr.success else np.full(head.n_times, 1.0)
 
     sol = least_squares(res, [x0[ip], x0[iv]], x_scale=[max(abs(x0[ip]), 1e-3), max(abs(x0[iv]), 1e-1)])
@@ -93,12 +92,13 @@ def initial_state(model, params: dict, rec, n_init: int = N_SKIP) -> np.ndarray:
 
 
 def free_run(model, params: dict, rec, *, substeps="auto", info: dict | None = None) -> np.ndarray:
-    """Free-run output of ``model`` on ``rec`` (NaN where it fails); ``info`` receives the substeps used."""
-    from duffsym.simulate import input_matrix, simulate
+    """The benchmark's scored free run: :func:`duffsym.simulate.simulate_record` of ``model`` on ``rec`` from
+    :func:`initial_state` (the position and velocity fitted to the first ``N_SKIP`` samples), its output with
+    NaN where it fails; ``info`` receives whether it succeeded and the most substeps it used."""
+    from duffsym.simulate import simulate_record
 
-    U = input_matrix(model, np.asarray(rec.t), rec.inputs_for(model))
-    tr = simulate(model, model.param_vector(params), np.asarray(rec.t), U, x0=initial_state(model, params, rec),
-                  substeps=substeps, on_failure="return")
+    tr = simulate_record(model, model.param_vector(params), rec, x0=initial_state(model, params, rec),
+                         substeps=substeps, on_failure="return")
     y = np.asarray(tr.y, dtype=float)
     if info is not None:
         sub = np.asarray(tr.substeps)

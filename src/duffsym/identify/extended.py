@@ -14,7 +14,11 @@ import numpy as np
 
 from duffsym.effects.base import Effect, effect_chain
 from duffsym.errors import DuffsymError
+from duffsym.identify.collocation import fit
+from duffsym.identify.initial import initial_guess
+from duffsym.identify.states import initial_states
 from duffsym.model.core import SymbolicModel
+from duffsym.simulate import simulate_record
 
 
 def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Mapping[str, float], y_model,
@@ -39,10 +43,6 @@ def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Ma
     ``fixed``: the values the fit will hold (e.g. ``problem.fixed``; ``A_f`` otherwise defaults to
     ``max|y|`` in the re-guess). Returns every parameter of ``model`` (clipped to its bounds).
     """
-    from duffsym.identify.collocation import _input_matrix, initial_states
-    from duffsym.identify.initial import initial_guess
-    from duffsym.simulate import simulate
-
     fixed = dict(fixed or {})
     guess = effect.initial_guess(record, y_model)
     defaults = model.defaults()
@@ -73,12 +73,10 @@ def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Ma
         pass
     if len(candidates) == 1:
         return candidates[0]
-    t = np.asarray(record.t)
-    U = _input_matrix(model, record)
     costs = []
     for c in candidates:
         p = model.param_vector(c)
-        tr = simulate(model, p, t, U, x0=initial_states(model, record, p)[0], on_failure="return")
+        tr = simulate_record(model, p, record, x0=initial_states(model, record, p)[0], on_failure="return")
         ok = tr.success and np.all(np.isfinite(tr.y))
         costs.append(float(np.mean((np.asarray(tr.y) - y) ** 2)) if ok else np.inf)
     return candidates[int(np.argmin(costs))]
@@ -103,9 +101,6 @@ def fit_with_effects(problem, effects: Iterable[Effect], base_params: Mapping[st
     ``fit_kwargs`` go to :func:`duffsym.identify.fit`; ``result.settings["effect_start"]`` (1 or 2)
     says which start won.
     """
-    from duffsym.identify.collocation import fit
-    from duffsym.identify.initial import initial_guess
-
     effects = list(effects)
     model = problem.model
     record = problem.records[0]

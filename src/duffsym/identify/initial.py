@@ -8,6 +8,7 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError
+from duffsym.identify.states import driven_states, initial_states
 from duffsym.model.classical import TUNING_STEPS as CLASSICAL_TUNING_STEPS
 from duffsym.model.library import EPS_PARAM
 
@@ -76,8 +77,6 @@ def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = N
                  max_samples: int = 2000) -> dict[str, float]:
     """The paper's tuning procedure of :func:`initial_guess` (for any model with a tuning order; the
     defaults with the fixed values otherwise)."""
-    from duffsym.identify.collocation import _input_matrix, initial_states
-
     fixed = dict(fixed or {})
     values = {**model.defaults(), **fixed}
     steps = TUNING_STEPS.get(model.name)
@@ -89,7 +88,7 @@ def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = N
         values[EPS_PARAM] = float(np.sqrt(np.mean(np.square(record.inputs_for(model)["d_dot"]))))
     n = min(record.n_times, max_samples)
     t = np.asarray(record.t[:n])
-    U = _input_matrix(model, record)[:n]
+    U = record.input_matrix(model)[:n]
     chans = {c.name: U[:, j] for j, c in enumerate(model.inputs)}
     y = np.asarray(record.y[:n])
     names = list(model.param_names)
@@ -117,8 +116,6 @@ def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = N
 def _command_varies(record: Record, model) -> bool:
     """True for a command-driven model whose states are position, velocity and states driven by the
     inputs alone (e.g. the field), on a record whose command is not constant."""
-    from duffsym.identify.collocation import driven_states
-
     if "command" not in [c.name for c in model.inputs] or model.position is None or model.velocity is None:
         return False
     if record.command is None or not np.ptp(np.asarray(record.command, dtype=float)) > 0:
@@ -167,15 +164,13 @@ def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = 
     every parameter within 1.6 standard errors. On s12's 4 s training record the tuning start led to a
     diverging optimum (eta 0.29, c2 < 0), this one to the truth.
     """
-    from duffsym.identify.collocation import _input_matrix, initial_states
-
     fixed = dict(fixed or {})
     base = {**model.defaults(), **fixed}
     if "A_f" not in fixed and "A_f" in base:
         base["A_f"] = float(np.max(np.abs(record.y)))
     rates = _rate_parameters(model)
     lin = linear_parameters(model, exclude=set(fixed) | set(rates))
-    U = _input_matrix(model, record)
+    U = record.input_matrix(model)
     regress = _EquationError(model, record, lin, U, lowpass=lowpass, skip=skip)
     candidates = []
     for f in rate_factors:
@@ -189,7 +184,7 @@ def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = 
         candidates.append(values)
     P = np.array([[c[n] for n in model.param_names] for c in candidates])
     x0 = np.array([initial_states(model, record, p)[0] for p in P])
-    err = _free_run_errors(model, P, record, U, x0)
+    err = _free_run_errors(model, P, record, x0)
     if not np.any(np.isfinite(err)):
         return tuning_guess(record, model, fixed=fixed)
     return {k: float(v) for k, v in candidates[int(np.argmin(err))].items()}
@@ -200,8 +195,7 @@ def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float
     :func:`command_start`, then each effect's :meth:`~duffsym.effects.Effect.initial_guess` from the base
     model's free run (as a ladder step starts an effect). None when this does not apply."""
     from duffsym.effects.base import effect_chain
-    from duffsym.identify.collocation import _input_matrix, initial_states
-    from duffsym.simulate import simulate
+    from duffsym.simulate import simulate_record
 
     chain = effect_chain(model) if model.effects else None
     if chain is None or not _command_varies(record, chain[0]):
@@ -210,8 +204,7 @@ def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float
     values = {**model.defaults(), **command_start(record, base, fixed={k: v for k, v in fixed.items()
                                                                          if k in base.param_names})}
     p = base.param_vector({n: values[n] for n in base.param_names})
-    tr = simulate(base, p, np.asarray(record.t), _input_matrix(base, record), x0=initial_states(base, record, p)[0],
-                  on_failure="return", method="rk4")
+    tr = simulate_record(base, p, record, x0=initial_states(base, record, p)[0], on_failure="return", method="rk4")
     if tr.success and np.all(np.isfinite(tr.y)):
         for effect, _ in steps:
             values.update(effect.initial_guess(record, tr.y))
@@ -228,10 +221,12 @@ def _rate_parameters(model) -> list[str]:
     return [p.name for p in model.params if p.symbol in syms]
 
 
-def _free_run_errors(model, P, record, U, x0) -> np.ndarray:
-    """RMS output error of each row of ``P`` in free run (RK4; inf where it fails)."""
+def _free_run_errors(model, P, record, x0) -> np.ndarray:
+    """RMS output error of each row of ``P`` in free run on ``record`` (RK4; inf where it fails): one batch
+    of runs (:func:`~duffsym.simulate.simulate_batch`) on the record's input matrix."""
     from duffsym.simulate import simulate_batch
 
+    U = record.input_matrix(model)
     chans = {c.name: U[:, j] for j, c in enumerate(model.inputs)}
     res = simulate_batch(model, P, np.asarray(record.t), chans, x0=x0, method="rk4")
     err = np.sqrt(np.mean((res.y - np.asarray(record.y)[None, :]) ** 2, axis=1))

@@ -13,12 +13,14 @@ import math
 import signal
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Mapping
 
 import numpy as np
 
 from duffsym.errors import ModelError
+from duffsym.identify.states import driven_states, initial_states
+from duffsym.status import Status
 
 #: Seconds between two "iteration k" progress lines of one solve.
 PROGRESS_EVERY = 2.0
@@ -45,9 +47,12 @@ class FitInterrupted(KeyboardInterrupt):
 
 @dataclass(frozen=True)
 class Run:
-    """One IPOPT run: how it ended, its iterations, the scaled optimum and its scaled cost."""
+    """One IPOPT run: how it ended, its iterations, the scaled optimum and its scaled cost.
 
-    status: str
+    ``status`` is IPOPT's return status as a :class:`~duffsym.status.Status` (a ``str`` with IPOPT's name as
+    its value); a name the enumeration lacks (``"error"``: CasADi raised) stays the plain string."""
+
+    status: Status | str
     success: bool
     n_iter: int
     w: np.ndarray
@@ -58,16 +63,28 @@ class Run:
 
 
 @dataclass(frozen=True)
-class _Block:
-    """Where one record's variables sit in the decision vector, and its data."""
+class RecordBlock:
+    """One record in the NLP: where its variables and constraints sit, and the data its intervals use.
 
-    offset: int
-    N: int
-    S: np.ndarray
-    p_offset: int
-    nb: int
-    U: np.ndarray
-    X_init: np.ndarray
+    The decision vector holds, per record from ``offset``: its ``N`` sample states (scaled by ``S``), its
+    collocation states, then ``nb`` copies of the free parameters from ``p_offset`` (one per
+    ``param_stride`` samples). Its constraints start at row ``g_offset``.
+    """
+
+    offset: int                 # first decision variable of the record (its first sample state)
+    N: int                      # samples
+    S: np.ndarray               # (n_states,) state scale
+    p_offset: int               # first of its parameter copies
+    nb: int                     # number of parameter copies
+    U: np.ndarray               # (N, n_inputs) input matrix (Record.input_matrix)
+    X_init: np.ndarray          # (N, n_states) data-based state guess (duffsym.identify.states)
+    h: np.ndarray               # (N-1,) sample intervals
+    pf: np.ndarray              # (n_params,) fixed values, 0 where free
+    sidx: list                  # the slots of the free parameters (Problem.slot_index)
+    y: np.ndarray               # (N,) measured output
+    wts: np.ndarray             # (N,) sample weights (0: masked)
+    g_offset: int               # first constraint row of the record
+    driven_range: dict = field(default_factory=dict)  # input-driven state -> (lower, upper) bounds
 
 
 #: MUMPS' extra workspace, % of its estimate: IPOPT's default, stated here so that it is one setting. Not
@@ -90,6 +107,30 @@ def ipopt_settings(*, tol: float = 1e-10, acceptable_tol: float = 1e-7, max_iter
     for k, v in (ipopt_options or {}).items():
         opts[k if k.startswith("ipopt.") else f"ipopt.{k}"] = v
     return opts
+
+
+def collocation_coefficients(degree: int = 3, scheme: str = "legendre"):
+    """Collocation points ``tau`` (with 0 first), derivative matrix ``C`` and end weights ``D``.
+
+    ``C[r, j]`` is the derivative at ``tau[j]`` of the Lagrange polynomial of ``tau[r]``, so that
+    :math:`\\dot x(\\tau_j) h = \\sum_r C_{rj} x_r`; ``D[r]`` is its value at 1 (the interval end).
+    """
+    import casadi as ca
+
+    tau = np.append(0.0, ca.collocation_points(degree, scheme))
+    n = degree + 1
+    C = np.zeros((n, n))
+    D = np.zeros(n)
+    for r in range(n):
+        coeff = np.poly1d([1.0])
+        for s in range(n):
+            if s != r:
+                coeff *= np.poly1d([1.0, -tau[s]]) / (tau[r] - tau[s])
+        D[r] = coeff(1.0)
+        dp = np.polyder(coeff)
+        for j in range(n):
+            C[r, j] = dp(tau[j])
+    return tau, C, D
 
 
 class CollocationNLP:
@@ -115,7 +156,6 @@ class CollocationNLP:
         import casadi as ca
 
         from duffsym.codegen.casadi_fn import casadi_functions
-        from duffsym.identify.collocation import collocation_coefficients
 
         self.problem = problem
         model = problem.model
@@ -173,20 +213,19 @@ class CollocationNLP:
         self.theta = wsym[:n_slots]
         lbw, ubw, w0 = list(self.lo), list(self.hi), list(self.th0)
         self.g_parts, self.obj = [], 0
-        self.layout, self.blocks = [], []
+        self.blocks: list[RecordBlock] = []
         offset, n_g = n_slots, 0
         for i, rec in enumerate(problem.records):
-            blk, spec, parts, w0_i = self._record(ca, i, rec, start, offset, n_g)
+            blk, parts, w0_i = self._record(ca, i, rec, start, offset, n_g)
             self.g_parts += parts
             w0 += w0_i
             n_var = blk.p_offset - offset
             lbw += [-np.inf] * (n_var + n_free * blk.nb)
             ubw += [np.inf] * (n_var + n_free * blk.nb)
-            for j, (lo, hi) in spec.pop("driven_range").items():  # input-driven states stay in their range
+            for j, (lo, hi) in blk.driven_range.items():  # input-driven states stay in their range
                 for k in range(blk.N):
                     lbw[offset + k * nx + j], ubw[offset + k * nx + j] = lo / blk.S[j], hi / blk.S[j]
-            self.layout.append(blk)
-            self.blocks.append(spec)
+            self.blocks.append(blk)
             n_g += (nx * K + nx) * (blk.N - 1) + n_free * blk.nb
             offset += n_var + n_free * blk.nb
         self.n_g = n_g
@@ -194,13 +233,11 @@ class CollocationNLP:
 
     def _record(self, ca, i, rec, start, offset, n_g):
         """One record's block: its variables, collocation and chain constraints, objective and start values."""
-        from duffsym.identify.collocation import _input_matrix, driven_states, initial_states
-
         problem, model, K, tau, stride = self.problem, self.model, self.degree, self.tau, self.stride
         nx, n_free, free = model.n_states, len(self.free), self.free
         wsym, th0 = self.wsym, self.th0
         N = rec.n_times
-        U = _input_matrix(model, rec)
+        U = rec.input_matrix(model)
         sidx = problem.slot_index(i)
         p_start = np.array([problem.record_params(i, start)[n] for n in model.param_names])
         X_init = initial_states(model, rec, p_start)
@@ -247,9 +284,9 @@ class CollocationNLP:
         w0 = list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F"))
         w0 += list(np.tile(th0[sidx] * self.p_scale[sidx] / self.p_scale_free, nb))
         pf = np.array([0.0 if n in free else problem.fixed_value(i, n) for n in model.param_names])
-        spec = dict(offset=offset, N=N, U=U, h=h, S=S, pf=pf, sidx=sidx, y=np.asarray(rec.y, dtype=float),
-                    wts=wts, g_offset=n_g, driven_range=driven)
-        return _Block(offset, N, S, offset + n_var, nb, U, X_init), spec, parts, w0
+        blk = RecordBlock(offset=offset, N=N, S=S, p_offset=offset + n_var, nb=nb, U=U, X_init=X_init, h=h, pf=pf,
+                          sidx=sidx, y=np.asarray(rec.y, dtype=float), wts=wts, g_offset=n_g, driven_range=driven)
+        return blk, parts, w0
 
     def _linear_constraints(self) -> None:
         """``Problem.constraints``: one row per distinct set of slots, after the dynamics."""
@@ -274,18 +311,13 @@ class CollocationNLP:
                 con_info.append({"coefficients": {slot_names[j]: coeffs[n] for n, j in zip(coeffs, key)},
                                  "lower": lo, "upper": hi})
         self.lbg, self.ubg, self.constraints = lbg, ubg, con_info
-        self._extra = (con_r, con_c, con_v)
+        self.linear_rows = (con_r, con_c, con_v)  # the Jacobian's constant rows of the constraints
 
     def _solver(self, ca, derivatives, expand, opts):
-        from duffsym.identify.collocation import _structured_derivatives
-
         g = ca.vertcat(*self.g_parts)
         opts = {**opts, "expand": bool(expand)}
         if derivatives == "structured":
-            jac_g, hess_lag = _structured_derivatives(
-                self.wsym, g, self.blocks, self.interval, self.out_fn, self.model, self.free, self.p_scale_free,
-                theta_size=self.n_slots, n_g=self.n_g, K=self.degree, y_norm=self.y_norm, stride=self.stride,
-                extra=self._extra, n_g_total=self.lbg.size)
+            jac_g, hess_lag = _structured_derivatives(self, g)
             opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
         self._hook = _iteration_hook()
         opts["iteration_callback"] = self._hook
@@ -296,7 +328,7 @@ class CollocationNLP:
         """The start vector with the parameter slots (and their per-stride copies) set to ``th``."""
         w = self.w0.copy()
         w[:self.n_slots] = th
-        for i, blk in enumerate(self.layout):
+        for i, blk in enumerate(self.blocks):
             sidx = self.problem.slot_index(i)
             w[blk.p_offset: blk.p_offset + len(self.free) * blk.nb] = np.tile(
                 th[sidx] * self.p_scale[sidx] / self.p_scale_free, blk.nb)
@@ -324,11 +356,9 @@ class CollocationNLP:
                            self._hook.log.summary(), self._hook.stop_reason)
             self._hook.raise_if_interrupted()
         stats = self.solver.stats()
-        status = str(stats.get("return_status", "unknown"))
+        status = ipopt_status(stats.get("return_status", "unknown"))
         success = bool(stats.get("success", False))
         cost = float(sol["f"])
-        from duffsym.identify.collocation import _status_message
-
         log = self._hook.log
         log.finish(stats)
         return Run(status, success, int(stats.get("iter_count", 0)), np.asarray(sol["x"]).reshape(-1),
@@ -343,8 +373,182 @@ class CollocationNLP:
         w[:self.n_slots] = np.clip(w[:self.n_slots], self.lo, self.hi)
         slot_values = dict(zip(self.slot_names, map(float, w[:self.n_slots] * self.p_scale)))
         nx = self.model.n_states
-        x0s = [tuple(float(v) for v in w[b.offset: b.offset + nx] * b.S) for b in self.layout]
+        x0s = [tuple(float(v) for v in w[b.offset: b.offset + nx] * b.S) for b in self.blocks]
         return slot_values, x0s
+
+
+def _structured_derivatives(nlp: "CollocationNLP", g):
+    """The NLP's constraint Jacobian and the triangle of the Lagrangian's Hessian, assembled by blocks.
+
+    Every collocation interval k depends only on ``z_k = (x_k, xc_k, x_k+1, p_k)`` (scaled states at
+    both ends, its collocation states, its copy of the free parameters), and every objective term
+    only on ``(x_k, p_k)``. The Jacobian and Hessian of one interval and of one objective term are
+    generated once as SX functions (:func:`_interval_derivatives`), mapped over the intervals of each
+    record (:func:`_block_entries`), and their nonzeros scattered into the global matrices (sums where
+    blocks overlap, by one constant sparse matrix product). The linear constraints (parameter copies
+    chained to theta, ``Problem.constraints``) add constant entries.
+    """
+    import casadi as ca
+
+    w = nlp.wsym
+    fns = _interval_derivatives(nlp)
+    lam_f = ca.MX.sym("lam_f")
+    lam_g = ca.MX.sym("lam_g", nlp.lbg.size)
+    p_empty = ca.MX.sym("p", 0)
+    J_rows, J_cols, J_vals, H_rows, H_cols, H_vals = [], [], [], [], [], []
+    for b in nlp.blocks:
+        J, H = _block_entries(nlp, fns, b, lam_f, lam_g)
+        for lists, entries in (((J_rows, J_cols, J_vals), J), ((H_rows, H_cols, H_vals), H)):
+            for out, part in zip(lists, entries):
+                out += part
+    con_r, con_c, con_v = nlp.linear_rows
+    if len(con_r):  # linear parameter constraints: constant rows after the dynamics
+        J_rows.append(np.asarray(con_r))
+        J_cols.append(np.asarray(con_c))
+        J_vals.append(ca.DM(np.asarray(con_v, dtype=float)))
+    n_w = w.numel()
+    jac = _scatter(np.concatenate(J_rows), np.concatenate(J_cols), ca.vertcat(*J_vals), nlp.lbg.size, n_w,
+                   upper=False)
+    hess = _scatter(np.concatenate(H_rows), np.concatenate(H_cols), ca.vertcat(*H_vals), n_w, n_w, upper=True)
+    jac_g = ca.Function("nlp_jac_g", [w, p_empty], [g, jac], ["x", "p"], ["g", "jac_g_x"])
+    hess_lag = ca.Function("nlp_hess_l", [w, p_empty, lam_f, lam_g], [hess],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    return jac_g, hess_lag
+
+
+def _interval_derivatives(nlp: "CollocationNLP") -> dict:
+    """The derivatives of one interval and of one objective term, as SX functions with the triplets of
+    their nonzeros: ``jac`` (Jacobian of the interval's constraints in ``z``), ``hess`` (upper triangle
+    of the Hessian of ``lam . g_k``), ``obj`` (upper triangle of the Hessian of one objective term in
+    ``v = (x_k, p_k)``)."""
+    import casadi as ca
+
+    model, free, p_scale_free, K = nlp.model, nlp.free, nlp.p_scale_free, nlp.degree
+    nx, nu, n_free, n_par = model.n_states, model.n_inputs, len(free), model.n_params
+    nzz = nx * (K + 2) + n_free
+    z = ca.SX.sym("z", nzz)
+    uk, uk1, hk = ca.SX.sym("uk", nu), ca.SX.sym("uk1", nu), ca.SX.sym("h")
+    pf, sx = ca.SX.sym("pf", n_par), ca.SX.sym("sx", nx)
+    pk = z[nx * (K + 2):]
+    ps = ca.vertcat(*[pk[free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+                      for j, n in enumerate(model.param_names)])
+    res, xend = nlp.interval(z[:nx], ca.reshape(z[nx: nx + nx * K], nx, K), uk, uk1, hk, ps, sx)
+    gk = ca.vertcat(res, xend - z[nx + nx * K: nx * (K + 2)])
+    Jk = ca.jacobian(gk, z)
+    lam = ca.SX.sym("lam", nx * K + nx)
+    Hk = ca.triu(ca.hessian(ca.dot(lam, gk), z)[0])
+    args = [z, uk, uk1, hk, pf, sx]
+    # one objective term: 0.5 * w * ((y_hat - y) / y_norm)^2 of v = (x_k, p_k)
+    v = ca.SX.sym("v", nx + n_free)
+    uo, yk, wk, lf = ca.SX.sym("u", nu), ca.SX.sym("y"), ca.SX.sym("wk"), ca.SX.sym("lam_f")
+    pv = ca.vertcat(*[v[nx + free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+                      for j, n in enumerate(model.param_names)])
+    ok = 0.5 * wk * ((nlp.out_fn(v[:nx] * sx, uo, pv) - yk) / nlp.y_norm) ** 2
+    Ho = ca.triu(ca.hessian(lf * ok, v)[0])
+
+    def triplet(M):
+        return tuple(np.asarray(a, dtype=np.int64) for a in M.sparsity().get_triplet())
+
+    return {"jac": (ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())]), *triplet(Jk)),
+            "hess": (ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())]), *triplet(Hk)),
+            "obj": (ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())]),
+                    *triplet(Ho))}
+
+
+def _block_entries(nlp: "CollocationNLP", fns: dict, b: RecordBlock, lam_f, lam_g):
+    """One record's entries of the Jacobian and of the Hessian: ``(rows, cols, vals)`` lists of each."""
+    import casadi as ca
+
+    w, nx, K, stride = nlp.wsym, nlp.model.n_states, nlp.degree, nlp.stride
+    n_free = len(nlp.free)
+    nzz, n_rows = nx * (K + 2) + n_free, nx * K + nx
+    (jfun, jr, jc), (hfun, hr, hc), (ofun, orr, occ) = fns["jac"], fns["hess"], fns["obj"]
+    o, N, U = b.offset, b.N, b.U
+    k = np.arange(N - 1)
+    xs_idx = o + np.arange(nx)[:, None] + nx * np.arange(N)[None, :]                     # (nx, N)
+    xc_idx = o + nx * N + np.arange(nx * K)[:, None] + nx * K * k[None, :]              # (nx K, N-1)
+    nb = -(-N // stride)
+    pb_idx = o + nx * N + nx * K * (N - 1) + np.arange(n_free)[:, None] + n_free * np.arange(nb)[None, :]
+    p_idx = pb_idx[:, np.arange(N) // stride]                                          # (n_free, N)
+    zi = np.vstack([xs_idx[:, :-1], xc_idx, xs_idx[:, 1:], p_idx[:, :-1]])            # (nzz, N-1)
+    c0 = b.g_offset
+    c1 = c0 + nx * K * (N - 1)
+    c2 = c1 + nx * (N - 1)
+    c3 = c2 + n_free
+    gi = np.vstack([c0 + np.arange(nx * K)[:, None] + nx * K * k[None, :],
+                    c1 + np.arange(nx)[:, None] + nx * k[None, :]])                   # (n_rows, N-1)
+    Z = ca.reshape(w[zi.ravel(order="F").tolist()], nzz, N - 1)
+    L = ca.reshape(lam_g[gi.ravel(order="F").tolist()], n_rows, N - 1)
+    common = (U[:-1].T, U[1:].T, b.h[None, :], b.pf, b.S)
+    J_vals = [ca.vec(jfun.map(N - 1)(Z, *common))]
+    J_rows = [gi[jr, :].ravel(order="F")]
+    J_cols = [zi[jc, :].ravel(order="F")]
+    vi = np.vstack([xs_idx, p_idx])
+    V = ca.reshape(w[vi.ravel(order="F").tolist()], nx + n_free, N)
+    H_vals = [ca.vec(hfun.map(N - 1)(Z, *common, L)),
+              ca.vec(ofun.map(N)(V, U.T, b.y[None, :], b.wts[None, :], b.pf, b.S, lam_f))]
+    H_rows = [zi[hr, :].ravel(order="F"), vi[orr, :].ravel(order="F")]
+    H_cols = [zi[hc, :].ravel(order="F"), vi[occ, :].ravel(order="F")]
+    # linear constraints: p_0 - theta = 0 and p_b+1 - p_b = 0 between consecutive copies
+    jf = np.arange(n_free)
+    chain = (c3 + jf[:, None] + n_free * np.arange(nb - 1)[None, :]).ravel(order="F")
+    J_rows += [c2 + jf, c2 + jf, chain, chain]
+    J_cols += [pb_idx[:, 0], np.asarray(b.sidx), pb_idx[:, 1:].ravel(order="F"), pb_idx[:, :-1].ravel(order="F")]
+    n_lin = n_free * (nb - 1)
+    J_vals.append(ca.DM(np.concatenate([np.ones(n_free), -np.ones(n_free), np.ones(n_lin), -np.ones(n_lin)])))
+    return (J_rows, J_cols, J_vals), (H_rows, H_cols, H_vals)
+
+
+def _scatter(rows, cols, vals, n_rows, n_cols, *, upper):
+    """Sparse ``n_rows x n_cols`` MX matrix whose entry (rows[t], cols[t]) sums ``vals[t]``.
+
+    With ``upper``, entries below the diagonal move to their mirror image above it (the symmetric
+    Hessian's upper triangle).
+    """
+    import casadi as ca
+
+    rows = np.asarray(rows, dtype=np.int64)
+    cols = np.asarray(cols, dtype=np.int64)
+    if upper:
+        rows, cols = np.minimum(rows, cols), np.maximum(rows, cols)
+    key = cols * n_rows + rows
+    uniq, inverse = np.unique(key, return_inverse=True)
+    r_u, c_u = uniq % n_rows, uniq // n_rows
+    colind = np.searchsorted(c_u, np.arange(n_cols + 1))
+    sp = ca.Sparsity(n_rows, n_cols, colind.tolist(), r_u.tolist())
+    if uniq.size == key.size:
+        order = np.empty_like(inverse)
+        order[inverse] = np.arange(inverse.size)
+        nz = vals[order.tolist()]
+    else:
+        A = ca.DM(ca.Sparsity(uniq.size, key.size, np.arange(key.size + 1).tolist(), inverse.tolist()), 1.0)
+        nz = ca.mtimes(A, vals)
+    return ca.MX(sp, nz)
+
+
+def ipopt_status(name) -> Status | str:
+    """IPOPT's return status ``name`` as a :class:`~duffsym.status.Status` member (same string value), or the
+    string itself when no member carries it (the JSON outputs keep IPOPT's text either way)."""
+    try:
+        return Status(str(name))
+    except ValueError:
+        return str(name)
+
+
+def _status_message(status: str, success: bool, max_iter: int) -> str:
+    """The message of a run that ended with IPOPT's ``status``: what to try when it did not converge."""
+    if success:
+        return f"IPOPT converged ({status})"
+    hints = {
+        "Maximum_Iterations_Exceeded": f"IPOPT reached max_iter={max_iter} before converging; raise max_iter or "
+                                       "give a better start",
+        "Infeasible_Problem_Detected": "IPOPT found the collocation constraints locally infeasible; check the "
+                                       "parameter bounds and the model's stability for this input",
+        "Restoration_Failed": "IPOPT's restoration phase failed; try another start or looser bounds",
+        "Invalid_Number_Detected": "IPOPT met NaN/inf in the model functions; the start or bounds allow a "
+                                   "blow-up, tighten the bounds",
+    }
+    return hints.get(status, f"IPOPT did not converge ({status}); inspect the problem or try another start")
 
 
 def _make_hook_class():

@@ -9,7 +9,10 @@ import numpy as np
 from duffsym._json import finite_or_none
 from duffsym.data.record import Record
 from duffsym.errors import ModelError
+from duffsym.identify.problem import check_command
 from duffsym.identify.result import IdentificationResult, nrmse
+from duffsym.identify.states import driven_states, initial_states
+from duffsym.simulate import simulate_record
 
 
 @dataclass(frozen=True, eq=False)
@@ -98,12 +101,6 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     group : for a fit with groups, the group whose parameters to use; by default the record's
         current (``"0.5A"``) or voltage (``"0.4V"``) label.
     """
-    from duffsym.identify.collocation import _input_matrix, free_run_trajectory, initial_states
-
-    from duffsym.identify.problem import check_command
-
-    from duffsym.identify.problem import check_command
-
     model = model if model is not None else model_from_result(result)
     check_command(model, [record])
     if result.group_params and group is None:
@@ -111,10 +108,9 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
             if value is not None and f"{value:g}{unit}" in result.group_params:
                 group = f"{value:g}{unit}"
     p = model.param_vector(result.params_for(group))
-    U = _input_matrix(model, record)
     X = initial_states(model, record, p)
-    x0, note = _bounded_x0(_estimate_x0(model, p, record, U, X[0]), X)
-    tr = free_run_trajectory(model, p, record, U, x0)
+    x0, note = _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
+    tr = simulate_record(model, p, record, x0=x0, on_failure="return")
     y_sim = np.asarray(tr.y, dtype=float)
     effects = tuple(model.effects)
     if not tr.success:
@@ -153,7 +149,7 @@ def _bounded_x0(x0, X) -> tuple[np.ndarray, str]:
         "the range of the record's states (it would absorb a level difference): the free run starts from the data")
 
 
-def _estimate_x0(model, p, record, U, guess):
+def _estimate_x0(model, p, record, guess):
     """Initial state minimising the output error over the first input period."""
     from scipy.optimize import least_squares
 
@@ -165,6 +161,7 @@ def _estimate_x0(model, p, record, U, guess):
         period = record.duration
     n = int(min(record.n_times, max(50, np.searchsorted(record.t, record.t[0] + period)), 1000))
     t = np.asarray(record.t[:n])
+    U = record.input_matrix(model)
     chans = {c.name: U[:n, j] for j, c in enumerate(model.inputs)}
     y = np.asarray(record.y[:n])
     ref = simulate(model, p, t, chans, x0=guess, on_failure="return")
@@ -178,8 +175,6 @@ def _estimate_x0(model, p, record, U, guess):
         tr = simulate(model, p, t, chans, x0=z * scale, substeps=sub, method=ref.method, on_failure="return")
         r = tr.y - y
         return np.where(np.isfinite(r), r, 1e6)
-
-    from duffsym.identify.collocation import driven_states
 
     keep = sorted(driven_states(model, record, p))  # input-driven states (the field) start at their equilibrium
     free = np.array([j for j in range(len(guess)) if j not in keep], dtype=int)
