@@ -139,3 +139,25 @@ def test_the_fit_reports_its_iteration_times_and_regularisation(problem):
     import json
 
     assert json.loads(json.dumps(res.to_dict()))["settings"]["iterations"][0]["n"] == res.n_iter + 1
+
+
+def test_fit_options_and_keywords_are_the_same_settings(problem):
+    """``fit``'s settings are one FitOptions; the keywords callers use replace its fields, an unknown keyword
+    is refused by name, and the statuses are the Status members with IPOPT's strings."""
+    from duffsym.identify import FitOptions
+    from duffsym.status import Status
+
+    start = {k: TRUTH[k] * 1.5 for k in problem.slot_names}
+    with pytest.raises(TypeError, match="'max_iters'"):
+        fit(problem, start, max_iters=5)
+    with pytest.raises(TypeError, match="FitOptions"):
+        fit(problem, start, {"max_iter": 5})
+    by_kw = fit(problem, start, max_iter=3, compute_stderr=False, flags=False)
+    by_opts = fit(problem, start, FitOptions(max_iter=3, compute_stderr=False, flags=False))
+    mixed = fit(problem, start, FitOptions(max_iter=500, compute_stderr=False), max_iter=3, flags=False)
+    for r in (by_kw, by_opts, mixed):
+        assert r.status is Status.MAX_ITER and r.status == "Maximum_Iterations_Exceeded" and not r.success
+        assert r.n_iter == 3 and r.settings["max_iter"] == 3
+        assert "max_iter=3" in r.message
+    assert by_opts.cost == by_kw.cost == mixed.cost
+    assert FitOptions().max_iter == 500 and FitOptions().tol == 1e-10 and FitOptions().param_stride == 8
