@@ -9,12 +9,13 @@ import sys, time, json
 import numpy as np
 from duffsym.data.loaders import load_friction_damper_json
 from duffsym.diagnose.prepare import decimate_record
-from duffsym.diagnose.search import _fit, _free_run, _part, split_record, with_default_af, smooth_form
+from duffsym.diagnose.search import _fit, _part, split_record, with_default_af
 from duffsym.effects import CATALOGUE, apply_effects
 from duffsym.effects.inputs import plateau_half_width
 from duffsym.identify.initial import auto_mask
 from duffsym.identify.result import nrmse
 from duffsym.model.library import mr_damper
+from duffsym.simulate import simulate_record
 name, q = sys.argv[1], int(sys.argv[2])
 import os; NOMASK = os.environ.get("NOMASK") == "1"
 rec0 = load_friction_damper_json(f"/work/shared/data/external/friction_damper_brfd_artslab/{name}.json")
@@ -24,7 +25,7 @@ k = split_record(rec, 0.3); rf = _part(rec, k); y = np.asarray(rec.y)
 t0, c0 = time.perf_counter(), time.process_time()
 m0 = mr_damper(); fx = with_default_af(m0, None, rf)
 b = _fit(m0, rf, fx, None, mask=None if NOMASK else mask[:k], bound_restart=True)
-yb = _free_run(m0, b.params, rec, b.x0[0])
+yb = simulate_record(m0, b.params, rec, x0=b.x0[0], on_failure="return").y
 print("base", b.status, nrmse(y[k:], yb[k:]), time.perf_counter() - t0, flush=True)
 extra = sys.argv[3].split(",") if len(sys.argv) > 3 else []
 m1 = apply_effects(m0, [CATALOGUE["backlash"]] + [CATALOGUE[e] for e in extra])
@@ -41,7 +42,8 @@ if FIXH:
 fs = _fit(soft, rf, fx, start, mask=None if NOMASK else mask[:k], max_iter=300, flags=False)
 print("smooth", fs.status, fs.params["bl_h"], time.perf_counter() - t0, flush=True)
 fr = _fit(m1, rf, fx, {**start, **fs.params}, mask=None if NOMASK else mask[:k], max_iter=300, flags=False)
-yp = _free_run(m1, fr.params, rec, fr.x0[0])
+tr = simulate_record(m1, fr.params, rec, x0=fr.x0[0], on_failure="return")
+yp = tr.y if tr.success else None
 secs, cpu = time.perf_counter() - t0, time.process_time() - c0
 print(json.dumps(dict(record=name, q=q, rate=1 / rec.dt, n_fit=k, n=rec.n_times, seconds=secs, cpu=cpu,
       base=dict(status=b.status, heldout=nrmse(y[k:], yb[k:]), fit=nrmse(y[:k], yb[:k])),

@@ -36,7 +36,7 @@ def main(argv=None) -> int:
 
     import duffsym.identify.nlp as nlp_module
     from duffsym.diagnose.prepare import prepare_record
-    from duffsym.diagnose.search import _fit, _free_run, _part, split_record, with_default_af
+    from duffsym.diagnose.search import _fit, _part, split_record, with_default_af
     from duffsym.effects import CATALOGUE, apply_effects
     try:
         from duffsym.identify import extended_start
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
         from duffsym.effects import extended_start
     from duffsym.identify.result import nrmse
     from duffsym.model.library import mr_damper
-    from duffsym.simulate import simulate
+    from duffsym.simulate import simulate_record
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--case", default="synth1600")
@@ -58,9 +58,8 @@ def main(argv=None) -> int:
     prep, rf = prepare_record(_part(rec, k))
     q = prep.factor
     base = _fit(model, rf, fixed, None)
-    y_base = _free_run(model, base.params, rec, base.x0[0])
-    traj = simulate(model, model.param_vector(base.params), np.asarray(rf.t), rf.input_matrix(model),
-                    x0=base.x0[0], on_failure="return")
+    y_base = simulate_record(model, base.params, rec, x0=base.x0[0], on_failure="return").y
+    traj = simulate_record(model, base.params, rf, x0=base.x0[0], on_failure="return")
     X_base = np.asarray(traj.x, dtype=float)
     data_states = nlp_module.initial_states
 
@@ -86,7 +85,8 @@ def main(argv=None) -> int:
                 secs = time.perf_counter() - t0
             finally:
                 nlp_module.initial_states = data_states
-            ye = _free_run(ext, fr.params, rec, fr.x0[0])
+            tr = simulate_record(ext, fr.params, rec, x0=fr.x0[0], on_failure="return")
+            ye = tr.y if tr.success else None
             row = dict(effect=name, states=how, n_iter=fr.n_iter, status=fr.status, seconds=secs,
                        solve=fr.timings["solve"], heldout=nrmse(y[k:], ye[k:]) if ye is not None else None,
                        params={p: fr.params[p] for p in ext.param_names if p not in model.param_names})

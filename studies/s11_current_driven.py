@@ -40,7 +40,6 @@ Without the external data the study prints how to get it and exits 0.
 """
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time

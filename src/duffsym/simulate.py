@@ -22,6 +22,7 @@ from duffsym._typing import Float1D, Float2D
 from duffsym.errors import DataError, ModelError, SimulationError
 from duffsym.excitation import Excitation
 from duffsym.model.core import SymbolicModel
+from duffsym.status import Status
 
 #: Default stiffness target h*rho(J) per RK4 substep, at both ends of each sample interval (RK4's
 #: real-axis stability limit is 2.785). 0.6 keeps the Table 2 trajectories (2 Hz, unit amplitude,
@@ -29,7 +30,9 @@ from duffsym.model.core import SymbolicModel
 H_LAMBDA = 0.6
 MAX_SUBSTEPS = 5000
 BLOWUP = 1e8
-STATUS_MESSAGES = {0: "ok", 1: "blow-up", 2: "too stiff"}
+#: The compiled integrators' status codes as :class:`~duffsym.status.Status` members (the strings "ok",
+#: "blow-up", "too stiff" of the JSON outputs).
+STATUS_MESSAGES = {0: Status.OK, 1: Status.BLOW_UP, 2: Status.TOO_STIFF}
 METHODS = ("auto", "rk4", "rosenbrock", "radau")
 #: Error tolerances of the compiled implicit integrator (ROS2, second order): scaled RMS of the
 #: embedded error per step. At these values the Dyke record's free run agrees with the Radau
@@ -55,7 +58,8 @@ class Trajectory:
     y : (n_times,) output
     u : (n_times, n_inputs) inputs as used
     params : parameter values by name
-    success, status, message : outcome (status one of ``"ok"``, ``"blow-up"``, ``"too stiff"``)
+    success, status, message : outcome (status a :class:`~duffsym.status.Status`: ``"ok"``, ``"blow-up"`` or
+        ``"too stiff"``)
     substeps : (n_times - 1,) RK4 substeps used per sample interval (empty for Radau)
     failed_at : index of the first failed sample, or -1
     input_names, state_names, output_name : the model's channel names (columns of u, x; y)
@@ -68,7 +72,7 @@ class Trajectory:
     u: Float2D
     params: dict
     success: bool
-    status: str
+    status: Status
     message: str
     method: str
     substeps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))

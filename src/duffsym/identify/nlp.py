@@ -2,7 +2,11 @@ r"""The collocation NLP of a :class:`~duffsym.identify.Problem`, built once and 
 
 :class:`CollocationNLP` holds the transcription described in :mod:`duffsym.identify.collocation`
 (decision variables, bounds, constraints, the IPOPT solver with its structured derivatives);
-:meth:`CollocationNLP.solve` runs IPOPT from one parameter start and returns a :class:`Run`.
+:meth:`CollocationNLP.solve` runs IPOPT from one parameter start and returns a :class:`Run`. Each record
+is one :class:`RecordBlock` (where its variables and constraints sit, and its data); the states start
+from the data (:mod:`duffsym.identify.states`). The structured derivatives (the default) assemble the
+constraint Jacobian and the Lagrangian's Hessian from one interval's, generated once
+(:func:`_structured_derivatives`); :func:`collocation_coefficients` gives the collocation polynomial.
 An IPOPT intermediate callback (:func:`_iteration_hook`) counts iterations, reports progress
 through a ``progress`` callable and stops the solve when the user presses Ctrl-C
 (:class:`FitInterrupted`, a :class:`KeyboardInterrupt`).

@@ -224,6 +224,121 @@ def check_fit_memory(model, records) -> None:
         )
 
 
+def _checked_names(model, free, fixed, bounds) -> tuple[list[str] | None, dict[str, float]]:
+    """``(free, fixed values)``: every name known, none both free and fixed, each fixed value a finite number
+    not below a non-negative lower bound (a sign the model needs)."""
+    names = list(model.param_names)
+    fixed_in = dict(fixed or {})
+    for label, group in (("fixed", fixed_in), ("bounds", dict(bounds or {}))):
+        unknown = sorted(set(group) - set(names))
+        if unknown:
+            raise ModelError(f"{label}: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
+    if free is not None:
+        if isinstance(free, str):
+            free = [free]
+        unknown = sorted(set(free) - set(names))
+        if unknown:
+            raise ModelError(f"free: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
+        both = sorted(set(free) & set(fixed_in))
+        if both:
+            raise ModelError(f"parameter(s) {both} are both free and fixed; choose one")
+    fixed_vals: dict[str, float] = {}
+    for k, v in fixed_in.items():
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise ModelError(f"fixed value of {k} must be a number; got {v!r}") from None
+        if not math.isfinite(v):
+            raise ModelError(f"fixed value of {k} must be finite; got {v}")
+        lower = model.param(k).lower
+        if lower >= 0 and v < lower:  # a sign the model needs (A_f > 0, c1 > 0, c3 >= 0, ...)
+            raise ModelError(f"fixed value of {k} = {v:g} is below its lower bound {lower:g} (the model needs "
+                             f"{k} {'> 0' if lower > 0 else '>= 0'}); give a value >= {lower:g}")
+        fixed_vals[k] = v
+    return free, fixed_vals
+
+
+def _applied_defaults(model, recs, labels, groups, free, fixed_vals):
+    """``(free, fixed, defaults applied with their reasons, per-group fixed values)``: the defaults of the
+    module docstring (``A_f``, ``k3``, held parameters, parameters neither free nor fixed) applied."""
+    names = list(model.param_names)
+    fixed_vals = dict(fixed_vals)
+    defaults: dict[str, str] = {}
+    requested = set(free or ()) | set(fixed_vals)
+    group_fixed: dict[tuple[str, str], float] = {}
+    af_inside = "A_f" in names and bool(getattr(model, "composition", ()))
+    if af_inside:  # each element's gain inside a composed model (A_f, A_f_2, ...)
+        for name in (n for n in names if n == "A_f" or n.startswith("A_f_")):
+            if name not in requested:
+                fixed_vals[name] = model.param(name).default
+                defaults[name] = REASON_AF_ELEMENT.format(value=fixed_vals[name])
+    elif "A_f" in names and "A_f" not in requested:
+        peak = max(float(np.max(np.abs(r.y))) for r in recs)
+        fixed_vals["A_f"] = peak
+        defaults["A_f"] = REASON_AF.format(value=peak)
+        if groups is not None:
+            for lab in dict.fromkeys(labels):
+                gp = max(float(np.max(np.abs(r.y))) for r, lr in zip(recs, labels) if lr == lab)
+                group_fixed[("A_f", lab)] = gp
+            defaults["A_f"] = REASON_AF.format(value=peak).replace(
+                f"fixed to max|y| = {peak:.6g}", "fixed per group to the group's max|y| ("
+                + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
+    for spec in model.params:  # a parameter its model holds (a scaling symmetry), unless requested
+        if spec.held and spec.name not in requested and spec.name not in fixed_vals:
+            fixed_vals[spec.name] = spec.default
+            defaults[spec.name] = f"fixed at {spec.default:.6g}: {spec.held}"
+    if "k3" in names and "k3" not in requested:
+        fixed_vals["k3"] = 0.0
+        defaults["k3"] = REASON_K3 if all(single_sine(r.d) for r in recs) else REASON_K3_OTHER
+    if free is None:
+        free_t = tuple(n for n in names if n not in fixed_vals)
+    else:
+        free_t = tuple(n for n in names if n in set(free))
+        for n in names:
+            if n not in free_t and n not in fixed_vals:
+                fixed_vals[n] = model.param(n).default
+                defaults[n] = REASON_HELD.format(value=fixed_vals[n])
+    if not free_t:
+        raise ModelError(f"no free parameter left for model {model.name}; list some in free=")
+    return free_t, fixed_vals, defaults, group_fixed
+
+
+def _free_bounds(model, recs, free_t, bounds) -> dict[str, tuple[float, float]]:
+    """The bounds of the free parameters: given, else the effects' record-scaled ones, else the model's."""
+    bnds: dict[str, tuple[float, float]] = {}
+    bounds = {**effect_record_bounds(model, recs), **dict(bounds or {})}
+    for n in free_t:
+        spec = model.param(n)
+        lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))
+        lo, hi = float(lo), float(hi)
+        if math.isnan(lo) or math.isnan(hi) or not lo < hi:
+            raise ModelError(f"bounds of {n} must satisfy lower < upper; got ({lo}, {hi}); swap or widen them")
+        bnds[n] = (lo, hi)
+    return bnds
+
+
+def _weights_and_mask(recs, weights, mask, n_free: int):
+    """The per-record weights and masks, checked, with more samples left in the objective than free values."""
+    w = _per_record("weights", weights, recs, float)
+    if w is not None:
+        for i, a in enumerate(w):
+            if not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise DataError(f"weights[{i}] must be finite and >= 0")
+    m = _per_record("mask", mask, recs, bool)
+    eff = [np.ones(r.n_times) for r in recs]
+    if w is not None:
+        eff = [e * a for e, a in zip(eff, w)]
+    if m is not None:
+        eff = [e * ~a for e, a in zip(eff, m)]
+    n_used = sum(int(np.count_nonzero(e)) for e in eff)
+    if n_used <= n_free:
+        raise DataError(
+            f"only {n_used} sample(s) left in the objective after weights/mask for {n_free} free "
+            "parameter(s); mask fewer samples"
+        )
+    return w, m
+
+
 @dataclass(frozen=True, eq=False, init=False)
 class Problem:
     """A model, its records and the parameters to identify.
@@ -285,71 +400,8 @@ class Problem:
                  constraints=None):
         recs = _as_records(records)
         labels = _group_labels(groups, recs)
-        names = list(model.param_names)
-        fixed_in = dict(fixed or {})
-        for label, group in (("fixed", fixed_in), ("bounds", dict(bounds or {}))):
-            unknown = sorted(set(group) - set(names))
-            if unknown:
-                raise ModelError(f"{label}: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
-        if free is not None:
-            if isinstance(free, str):
-                free = [free]
-            unknown = sorted(set(free) - set(names))
-            if unknown:
-                raise ModelError(f"free: unknown parameter(s) {unknown} for model {model.name}; known: {names}")
-            both = sorted(set(free) & set(fixed_in))
-            if both:
-                raise ModelError(f"parameter(s) {both} are both free and fixed; choose one")
-        fixed_vals: dict[str, float] = {}
-        for k, v in fixed_in.items():
-            try:
-                v = float(v)
-            except (TypeError, ValueError):
-                raise ModelError(f"fixed value of {k} must be a number; got {v!r}") from None
-            if not math.isfinite(v):
-                raise ModelError(f"fixed value of {k} must be finite; got {v}")
-            lower = model.param(k).lower
-            if lower >= 0 and v < lower:  # a sign the model needs (A_f > 0, c1 > 0, c3 >= 0, ...)
-                raise ModelError(f"fixed value of {k} = {v:g} is below its lower bound {lower:g} (the model needs "
-                                 f"{k} {'> 0' if lower > 0 else '>= 0'}); give a value >= {lower:g}")
-            fixed_vals[k] = v
-        defaults: dict[str, str] = {}
-        requested = set(free or ()) | set(fixed_vals)
-        group_fixed: dict[tuple[str, str], float] = {}
-        af_inside = "A_f" in names and bool(getattr(model, "composition", ()))
-        if af_inside:  # each element's gain inside a composed model (A_f, A_f_2, ...)
-            for name in (n for n in names if n == "A_f" or n.startswith("A_f_")):
-                if name not in requested:
-                    fixed_vals[name] = model.param(name).default
-                    defaults[name] = REASON_AF_ELEMENT.format(value=fixed_vals[name])
-        elif "A_f" in names and "A_f" not in requested:
-            peak = max(float(np.max(np.abs(r.y))) for r in recs)
-            fixed_vals["A_f"] = peak
-            defaults["A_f"] = REASON_AF.format(value=peak)
-            if groups is not None:
-                for lab in dict.fromkeys(labels):
-                    gp = max(float(np.max(np.abs(r.y))) for r, lr in zip(recs, labels) if lr == lab)
-                    group_fixed[("A_f", lab)] = gp
-                defaults["A_f"] = REASON_AF.format(value=peak).replace(
-                    f"fixed to max|y| = {peak:.6g}", "fixed per group to the group's max|y| ("
-                    + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
-        for spec in model.params:  # a parameter its model holds (a scaling symmetry), unless requested
-            if spec.held and spec.name not in requested and spec.name not in fixed_vals:
-                fixed_vals[spec.name] = spec.default
-                defaults[spec.name] = f"fixed at {spec.default:.6g}: {spec.held}"
-        if "k3" in names and "k3" not in requested:
-            fixed_vals["k3"] = 0.0
-            defaults["k3"] = REASON_K3 if all(single_sine(r.d) for r in recs) else REASON_K3_OTHER
-        if free is None:
-            free_t = tuple(n for n in names if n not in fixed_vals)
-        else:
-            free_t = tuple(n for n in names if n in set(free))
-            for n in names:
-                if n not in free_t and n not in fixed_vals:
-                    fixed_vals[n] = model.param(n).default
-                    defaults[n] = REASON_HELD.format(value=fixed_vals[n])
-        if not free_t:
-            raise ModelError(f"no free parameter left for model {model.name}; list some in free=")
+        free, fixed_vals = _checked_names(model, free, fixed, bounds)
+        free_t, fixed_vals, defaults, group_fixed = _applied_defaults(model, recs, labels, groups, free, fixed_vals)
         check_command(model, recs, free_t)
         per_group = (per_group,) if isinstance(per_group, str) else tuple(per_group)
         if per_group and groups is None:
@@ -360,32 +412,8 @@ class Problem:
         order = tuple(dict.fromkeys(labels))
         slots = [(n, None) for n in free_t if n not in per_group]
         slots += [(n, lab) for n in free_t if n in per_group for lab in order]
-        bnds: dict[str, tuple[float, float]] = {}
-        bounds = {**effect_record_bounds(model, recs), **dict(bounds or {})}
-        for n in free_t:
-            spec = model.param(n)
-            lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))
-            lo, hi = float(lo), float(hi)
-            if math.isnan(lo) or math.isnan(hi) or not lo < hi:
-                raise ModelError(f"bounds of {n} must satisfy lower < upper; got ({lo}, {hi}); swap or widen them")
-            bnds[n] = (lo, hi)
-        w = _per_record("weights", weights, recs, float)
-        if w is not None:
-            for i, a in enumerate(w):
-                if not np.all(np.isfinite(a)) or np.any(a < 0):
-                    raise DataError(f"weights[{i}] must be finite and >= 0")
-        m = _per_record("mask", mask, recs, bool)
-        eff = [np.ones(r.n_times) for r in recs]
-        if w is not None:
-            eff = [e * a for e, a in zip(eff, w)]
-        if m is not None:
-            eff = [e * ~a for e, a in zip(eff, m)]
-        n_used = sum(int(np.count_nonzero(e)) for e in eff)
-        if n_used <= len(free_t):
-            raise DataError(
-                f"only {n_used} sample(s) left in the objective after weights/mask for {len(free_t)} free "
-                "parameter(s); mask fewer samples"
-            )
+        bnds = _free_bounds(model, recs, free_t, bounds)
+        w, m = _weights_and_mask(recs, weights, mask, len(free_t))
         object.__setattr__(self, "model", model)
         object.__setattr__(self, "records", recs)
         object.__setattr__(self, "free", free_t)

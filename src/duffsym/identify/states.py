@@ -100,7 +100,7 @@ def _free_run_states(model, record, params: np.ndarray, X: np.ndarray) -> np.nda
 def _position_rate(model, record, params: np.ndarray) -> np.ndarray | float:
     """``dx1/dt / x2``: 1 for a clock-time element, the path rate rho(d_dot) of a path-time one
     (:func:`duffsym.model.library.path_time`); 1 when it is not a function of the inputs and parameters."""
-    ip, iv = model.states.index(model.position), model.states.index(model.velocity)
+    ip = model.states.index(model.position)
     rate = sp.simplify(model.rhs[ip] / model.velocity)
     if rate == 1 or rate.free_symbols & set(model.states):
         return 1.0
