@@ -183,12 +183,7 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
         coef, *_ = np.linalg.lstsq(A, rhs, rcond=None)
         return (rhs - A @ coef) / np.std(F_lp)
 
-    gen = np.random.default_rng(rng)
-    n_near = (n_random + 1) // 2  # half near the defaults (factor 10), half within the wide spread
-    inits = [np.ones(len(free))] + [np.exp(gen.uniform(-np.log(f), np.log(f), len(free)))
-                                    for f in [10.0] * n_near + [spread] * (n_random - n_near)]
-    if starts is not None:
-        inits = [np.array([s[n] for n in free]) / scale for s in starts] + inits
+    inits = _scaled_starts(free, scale, n_random, spread, starts, rng)
     lo = np.array([model.param(n).lower for n in free]) / scale
     hi = np.array([model.param(n).upper for n in free]) / scale
     best = None
@@ -207,6 +202,18 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
             out[k] = float(np.clip(v, spec.lower, spec.upper))
     out["_equation_nrmse"] = float(np.sqrt(2 * best.cost / A.shape[0]))
     return out
+
+
+def _scaled_starts(free, scale, n_random, spread, starts, rng) -> list[np.ndarray]:
+    """The starts of :func:`equation_error_start`, scaled: the given ``starts``, the defaults (ones), then
+    ``n_random`` log-uniform factors, half within 10 and half within ``spread``."""
+    gen = np.random.default_rng(rng)
+    n_near = (n_random + 1) // 2  # half near the defaults (factor 10), half within the wide spread
+    inits = [np.ones(len(free))] + [np.exp(gen.uniform(-np.log(f), np.log(f), len(free)))
+                                    for f in [10.0] * n_near + [spread] * (n_random - n_near)]
+    if starts is not None:
+        inits = [np.array([s[n] for n in free]) / scale for s in starts] + inits
+    return inits
 
 
 def rescaled_problem(problem, start: Mapping[str, float]):
