@@ -23,7 +23,7 @@ from duffsym.effects.discovered import DiscoveredEffect
 from duffsym.effects.drift import ParameterDrift
 from duffsym.effects.mechanical import DirectionalDamping
 from duffsym.effects.rate import FieldYield, MaxwellBranch
-from duffsym.effects.spec import effect_types, model_from_spec, model_spec
+from duffsym.effects.spec import effect_types, model_from_spec
 from duffsym.errors import ModelError
 from duffsym.identify.result import IdentificationResult, load_result
 from duffsym.model import MODELS, get_model

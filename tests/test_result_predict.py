@@ -5,17 +5,17 @@ from __future__ import annotations
 
 import json
 
+import independent_sim as sim
 import numpy as np
 import pytest
 
-import independent_sim as sim
 from duffsym.cli import main
 from duffsym.data import read_csv
 from duffsym.data.record import Record
+from duffsym.effects import CATALOGUE
 from duffsym.identify import Problem, fit, load_result, nrmse
 from duffsym.identify.validation import model_from_result
 from duffsym.model import get_model
-from duffsym.effects import CATALOGUE
 
 TRUTH = sim.table2(0.4)
 

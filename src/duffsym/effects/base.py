@@ -26,7 +26,7 @@ is in :mod:`duffsym.identify.extended`: effects never import the fitting code.
 from __future__ import annotations
 
 import math
-from typing import Iterable, Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import sympy as sp

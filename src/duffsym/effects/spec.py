@@ -27,8 +27,14 @@ from typing import Any
 from duffsym.effects.base import Effect, apply_effects, effect_chain
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
-from duffsym.model.serial import (float_from_data, float_to_data, model_from_data, model_to_data, value_from_data,
-                                  value_to_data)
+from duffsym.model.serial import (
+    float_from_data,
+    float_to_data,
+    model_from_data,
+    model_to_data,
+    value_from_data,
+    value_to_data,
+)
 
 #: Version of the ``model_spec`` layout.
 SPEC_FORMAT = 1
@@ -38,12 +44,21 @@ _TEXT_FIELDS = ("physics", "signature", "form", "guess")
 
 def effect_types() -> dict[str, type]:
     """Every effect class of :mod:`duffsym.effects` by class name (what a saved ``model_spec`` may name)."""
-    from duffsym.effects import discovered, drift, inputs, mechanical, output, polynomial, rate
+    from duffsym.effects import (
+        discovered,
+        drift,
+        inputs,
+        mechanical,
+        output,
+        polynomial,
+        rate,
+    )
 
     out = {}
     for mod in (output, mechanical, inputs, polynomial, rate, discovered, drift):
         for obj in vars(mod).values():
-            if isinstance(obj, type) and issubclass(obj, Effect) and obj is not Effect and obj.__module__ == mod.__name__:
+            ours = isinstance(obj, type) and obj.__module__ == mod.__name__
+            if ours and issubclass(obj, Effect) and obj is not Effect:
                 out[obj.__name__] = obj
     return out
 
@@ -65,7 +80,8 @@ def effect_to_spec(effect: Effect) -> dict:
 
 def effect_from_spec(data, *, source: str = "model_spec") -> Effect:
     """The effect written by :func:`effect_to_spec` (a :class:`ModelError` naming ``source`` if it is not)."""
-    if not isinstance(data, dict) or not isinstance(data.get("type"), str) or not isinstance(data.get("settings", {}), dict):
+    if not isinstance(data, dict) or not isinstance(data.get("type"), str) \
+            or not isinstance(data.get("settings", {}), dict):
         raise ModelError(f"{source}: an effect must be {{'effect': name, 'type': class, 'settings': {{...}}}}; "
                          f"got {str(data)[:60]}")
     types = effect_types()
@@ -163,7 +179,8 @@ def model_from_spec(spec, *, source: str = "model_spec") -> SymbolicModel:
     model = _with_param_settings(model, spec.get("params", {}), source)
     if model.key != spec.get("key"):
         raise ModelError(f"{source}: the rebuilt model {model.name} has other equations than the saved one "
-                         f"(hash {model.key} vs {spec.get('key')}); this duffsym builds it differently")
+                         f"(hash {model.key} vs {spec.get('key')}): the file was edited, or this duffsym builds "
+                         "the model differently; use the duffsym of the fit")
     return model
 
 

@@ -3,16 +3,16 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from duffsym._json import finite_or_none, jsonable
 from duffsym.errors import DataError, ModelError
 from duffsym.status import Status
-
 
 #: FIT.json keys about the data that :attr:`IdentificationResult.extras` carries (each an object)
 EXTRA_KEYS = ("training_ranges", "decimation", "data_sanity")
@@ -249,7 +249,7 @@ class IdentificationResult:
             **({"model_spec": spec} if (spec := self._spec()) else {}),
         }
 
-    def with_extras(self, **extras) -> "IdentificationResult":
+    def with_extras(self, **extras) -> IdentificationResult:
         """This result with FIT.json keys of :data:`EXTRA_KEYS` added (None values are left out)."""
         import dataclasses
 
@@ -264,14 +264,14 @@ class IdentificationResult:
 
         return write_json_atomic(path, self.to_dict())
 
-    def with_sampling(self, records) -> "IdentificationResult":
+    def with_sampling(self, records) -> IdentificationResult:
         """This result with each record's time-base description (``metadata["sampling"]``) attached."""
         import dataclasses
 
         return dataclasses.replace(self, sampling=tuple(dict(r.metadata.get("sampling", {})) for r in records))
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> "IdentificationResult":
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> IdentificationResult:
         """Rebuild a result from its JSON form (the masks come back; the sample arrays are not stored).
 
         Every field is checked: a tampered or truncated file gives a :class:`DataError` naming the
@@ -339,7 +339,8 @@ def _model_from_names(result: IdentificationResult):
     if result.effects:
         from duffsym.effects import CATALOGUE, apply_effects
         from duffsym.effects.discovered import PREFIX, from_name
-        from duffsym.effects.drift import PREFIX as DRIFT, from_name as drift_from_name
+        from duffsym.effects.drift import PREFIX as DRIFT
+        from duffsym.effects.drift import from_name as drift_from_name
 
         missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith((PREFIX, DRIFT))]
         if missing:

@@ -8,7 +8,6 @@ import numpy as np
 
 from duffsym._json import finite_or_none
 from duffsym.data.record import Record
-from duffsym.errors import ModelError
 from duffsym.identify.result import IdentificationResult, nrmse
 from duffsym.simulate import simulate_record
 

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -205,14 +205,14 @@ class SymbolicModel:
 
     # ------------------------------------------------------------------ effects held as objects
     @property
-    def applied(self) -> tuple["SymbolicModel", object] | None:
+    def applied(self) -> tuple[SymbolicModel, object] | None:
         """``(parent, effect)``: the model the last effect was applied to and that effect object; None when
         the model was not built by :meth:`duffsym.effects.Effect.apply` (or its equations changed since)."""
         if len(self.lineage) == 3 and self.lineage[0] == self._key:
             return self.lineage[1], self.lineage[2]
         return None
 
-    def effect_steps(self) -> tuple[tuple[object, "SymbolicModel"], ...] | None:
+    def effect_steps(self) -> tuple[tuple[object, SymbolicModel], ...] | None:
         """Each effect object applied, in order, with the model after it; None if a step is not known."""
         steps, m = [], self
         while m.effects:
@@ -224,7 +224,7 @@ class SymbolicModel:
         return tuple(steps[::-1])
 
     @property
-    def base_model(self) -> "SymbolicModel | None":
+    def base_model(self) -> SymbolicModel | None:
         """The model before every effect (``self`` when it has none); None if the chain is not known."""
         m = self
         while m.effects:
@@ -251,8 +251,8 @@ class SymbolicModel:
         rhs_add: Mapping[sp.Symbol, sp.Expr] | None = None,
         substitute: Mapping[sp.Symbol, sp.Expr] | None = None,
         output: sp.Expr | None = None,
-        output_add: sp.Expr = sp.Integer(0),
-    ) -> "SymbolicModel":
+        output_add: sp.Expr = sp.S.Zero,
+    ) -> SymbolicModel:
         """A new model with an effect's terms, states and parameters added.
 
         Parameters
@@ -298,7 +298,7 @@ class SymbolicModel:
             lineage=(),  # Effect.apply records the parent and the effect object
         )
 
-    def with_params(self, **values: float) -> "SymbolicModel":
+    def with_params(self, **values: float) -> SymbolicModel:
         """A copy whose parameter defaults are replaced (the equations are unchanged)."""
         for k in values:
             self.param(k)

@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Callable
 from dataclasses import fields
-from typing import Any, Callable
+from typing import Any
 
 import sympy as sp
 
@@ -190,7 +191,7 @@ def value_from_data(v, decode_model: Callable[[Any], SymbolicModel], source: str
 def model_to_data(model: SymbolicModel, encode_model: Callable[[SymbolicModel], Any]) -> dict:
     """Every field of ``model`` as JSON-safe data (its equations whole; see :func:`model_from_data`)."""
     text = expr_to_text
-    opt = (lambda e: None if e is None else text(e))  # noqa: E731
+    opt = (lambda e: None if e is None else text(e))
     return {
         "name": model.name, "states": [text(s) for s in model.states],
         "inputs": [[c.signal, c.order] for c in model.inputs], "params": [param_to_data(p) for p in model.params],
@@ -209,8 +210,8 @@ def model_from_data(data, decode_model: Callable[[Any], SymbolicModel], *, sourc
         missing = [k for k in need if not isinstance(data, dict) or k not in data]
         raise ModelError(f"{source}: a stored model needs the fields {missing}; the file is damaged or edited")
     src = f"{source} ({data['name']})"
-    expr = (lambda t: expr_from_text(t, source=src))  # noqa: E731
-    opt = (lambda t: None if t is None else expr(t))  # noqa: E731
+    expr = (lambda t: expr_from_text(t, source=src))
+    opt = (lambda t: None if t is None else expr(t))
     try:
         return SymbolicModel(
             name=str(data["name"]), states=tuple(expr(s) for s in data["states"]),
