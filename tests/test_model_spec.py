@@ -153,7 +153,20 @@ BUILT = {
     "mr-damper with new defaults + seal-friction": lambda: CATALOGUE["seal-friction"].apply(
         mr_damper(5).with_params(c3=250.0)),
     "chain of five effects": lambda: apply_effects(get_model("mr-damper", 3), CHAIN),
+    "extended without an Effect object (as diagnose/scenarios.py does)": lambda: _extended_by_hand(),
 }
+
+
+def _extended_by_hand():
+    """A term added by SymbolicModel.extend directly: the model has an effect name but no effect object; it is
+    saved as its equations whole (the name kept)."""
+    from duffsym.model.symbols import ParamSpec
+
+    m = get_model("mr-damper", 3)
+    cx = ParamSpec("cx", "c_x", 0.2, -10.0, 10.0)
+    out = m.extend(effect="hand-made", params=(cx,), output_add=cx.symbol * sp.sin(m.position))
+    assert out.effects == ("hand-made",) and out.effect_objects is None
+    return out
 #: Every case by name: each library model (default power, and other powers), each effect, each built model.
 CASES = {
     **{f"model {n}": (lambda n=n: get_model(n)) for n in sorted(MODELS)},

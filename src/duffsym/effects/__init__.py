@@ -31,6 +31,10 @@ x'' += -dir_c d' |x'|, for path-time elements inside a structure; ``duffsym benc
 its element; the ladder does not try it), and ``discovered: ...`` terms
 (:class:`duffsym.effects.discovered.DiscoveredEffect`,
 found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --discover``).
+
+A model holds the effect objects applied to it (:attr:`~duffsym.model.SymbolicModel.effect_objects`, its
+:attr:`~duffsym.model.SymbolicModel.base_model`); :mod:`duffsym.effects.spec` writes a model as its base and
+effects with their settings (FIT.json's ``model_spec``) and rebuilds it.
 """
 from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift

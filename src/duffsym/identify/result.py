@@ -64,6 +64,8 @@ class IdentificationResult:
         (:data:`EXTRA_KEYS`): ``training_ranges`` (the command, amplitude and frequency ranges the fit saw,
         :func:`duffsym.data.sanity.training_ranges`), ``decimation`` (the rate the fit ran at) and
         ``data_sanity`` (the invalid stretches left out).
+    model_spec : the recipe read from a FIT.json (:func:`duffsym.effects.spec.model_spec`); a fit in memory writes
+        its model's recipe instead. ``fitted_model``: the model object the fit ran with (None for a loaded fit).
     """
 
     model: str
