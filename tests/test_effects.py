@@ -3,7 +3,9 @@ the data-based initial states and guesses, the input helpers (d_ddot, smooth pla
 and ``duffsym effects``. Parameter recovery by fitting is in test_effects_recovery.py."""
 from __future__ import annotations
 
+import dataclasses
 import json
+import pickle
 
 import numpy as np
 import pytest
@@ -98,7 +100,7 @@ def test_each_effect_adds_the_hand_written_terms(name):
         exp_rhs, exp_out = [v, accel(d - tau * dd, dd - tau * dddot)], A_f * v
     else:  # backlash
         b, h = sym("b_backlash"), sp.Float(0.87) * P["bl_h"]  # calibrated to the exact play (Backlash doc)
-        sig = lambda u: (1 + sp.tanh(u)) / 2  # noqa: E731
+        sig = lambda u: (1 + sp.tanh(u)) / 2
         eps, g, w = h / 5, d - b, sp.Rational(1, 10) * dd / h
         b_dot = dd * (sig((g - h) / eps + 1) * sig(w) + sig((-g - h) / eps + 1) * sig(-w))
         exp_rhs, exp_out = [v, accel(b, b_dot), b_dot], A_f * v
@@ -161,17 +163,23 @@ def test_not_applicable_or_duplicate_effects_raise_clear_errors():
         CATALOGUE["backlash"].apply(plain)
 
 
-def test_effect_chain_is_remembered_and_rebuilt_from_the_library():
+def test_effect_chain_is_held_by_the_model_and_rebuilt_from_the_library():
     E = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["output-lag"]])
     base, steps = effect_chain(E)
     assert base == M and [e.name for e, _ in steps] == ["force-offset", "output-lag"] and steps[-1][1] == E
-    saved = dict(effects_base._PARENTS)
-    effects_base._PARENTS.clear()
-    try:  # e.g. a model unpickled in a worker process
-        base, steps = effect_chain(E)
-        assert base == M and steps[-1][1].key == E.key
-    finally:
-        effects_base._PARENTS.update(saved)
+    assert E.base_model is base and E.effect_objects == (CATALOGUE["force-offset"], CATALOGUE["output-lag"])
+    assert not hasattr(effects_base, "_PARENTS")  # no process-global cache: the model holds its chain
+    # a pickled model (a worker process) keeps its chain, its parent's equations included
+    back = pickle.loads(pickle.dumps(E))
+    assert [e.name for e in back.effect_objects] == ["force-offset", "output-lag"] and back.base_model.key == M.key
+    # new parameter defaults keep the chain (same equations); new equations drop it
+    assert E.with_params(off_y0=1.0).effect_objects == E.effect_objects
+    bare = dataclasses.replace(E, lineage=())  # a model built without Effect.apply: rebuilt from the library
+    assert bare.effect_objects is None
+    base, steps = effect_chain(bare)
+    assert base == M and steps[-1][1].key == E.key
+    changed = dataclasses.replace(E, output=E.output + 1)  # equations edited after the effects: chain unknown
+    assert changed.applied is None and changed.base_model is None
 
 
 def test_extended_models_start_their_states_from_the_data():

@@ -31,12 +31,29 @@ x'' += -dir_c d' |x'|, for path-time elements inside a structure; ``duffsym benc
 its element; the ladder does not try it), and ``discovered: ...`` terms
 (:class:`duffsym.effects.discovered.DiscoveredEffect`,
 found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --discover``).
+
+A model holds the effect objects applied to it (:attr:`~duffsym.model.SymbolicModel.effect_objects`, its
+:attr:`~duffsym.model.SymbolicModel.base_model`); :mod:`duffsym.effects.spec` writes a model as its base and
+effects with their settings (FIT.json's ``model_spec``) and rebuilds it.
 """
-from duffsym.effects.base import Effect, apply_effects, effect_chain, initial_states_with_effects
+from duffsym.effects.base import (
+                                    Effect,
+                                    apply_effects,
+                                    effect_chain,
+                                    initial_states_with_effects,
+)
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
-from duffsym.effects.output import (Asymmetry, FieldAsymmetry, ForceOffset, GasAccumulator, OutputLag, ParallelDamping, PistonInertia,
-                                    SealFriction)
+from duffsym.effects.output import (
+                                    Asymmetry,
+                                    FieldAsymmetry,
+                                    ForceOffset,
+                                    GasAccumulator,
+                                    OutputLag,
+                                    ParallelDamping,
+                                    PistonInertia,
+                                    SealFriction,
+)
 from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
 
 #: Effects by name.
@@ -46,7 +63,25 @@ CATALOGUE: dict[str, Effect] = {e.name: e for e in (
     InputDelay(), InputShift(), Backlash(), QuadraticStiffness(), CubicDamping(), InputCurvature(),
 )}
 
-__all__ = ["Effect", "ForceOffset", "GasAccumulator", "PistonInertia", "ParallelDamping", "CoulombFriction", "SealFriction", "Asymmetry",
-           "OutputLag", "FieldAsymmetry", "InputDelay", "InputShift", "Backlash", "QuadraticStiffness", "CubicDamping", "InputCurvature", "apply_effects", "effect_chain",
-           "initial_states_with_effects",
-           "CATALOGUE"]
+__all__ = [
+                                    "CATALOGUE",
+                                    "Asymmetry",
+                                    "Backlash",
+                                    "CoulombFriction",
+                                    "CubicDamping",
+                                    "Effect",
+                                    "FieldAsymmetry",
+                                    "ForceOffset",
+                                    "GasAccumulator",
+                                    "InputCurvature",
+                                    "InputDelay",
+                                    "InputShift",
+                                    "OutputLag",
+                                    "ParallelDamping",
+                                    "PistonInertia",
+                                    "QuadraticStiffness",
+                                    "SealFriction",
+                                    "apply_effects",
+                                    "effect_chain",
+                                    "initial_states_with_effects",
+]

@@ -26,7 +26,7 @@ is in :mod:`duffsym.identify.extended`: effects never import the fitting code.
 from __future__ import annotations
 
 import math
-from typing import Iterable, Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 import sympy as sp
@@ -34,10 +34,6 @@ import sympy as sp
 from duffsym.errors import DataError, ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
-
-#: The model before each effect, keyed by the extended model's equation hash (see :func:`effect_chain`).
-_PARENTS: dict[str, tuple[SymbolicModel, "Effect"]] = {}
-_PARENTS_MAX = 512
 
 
 def _not_significant(name: str, params: Mapping[str, float], stderr: Mapping[str, float]) -> str:
@@ -85,9 +81,8 @@ class Effect:
         """
         self._check_not_applied(model)
         new = self._extend(model)
-        if len(_PARENTS) >= _PARENTS_MAX:
-            _PARENTS.pop(next(iter(_PARENTS)))
-        _PARENTS[new.key] = (model, self)
+        # the new model holds its parent and this effect (SymbolicModel.lineage): a fresh object, set once
+        object.__setattr__(new, "lineage", (new.key, model, self))
         return new
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:  # pragma: no cover - interface
@@ -190,18 +185,14 @@ def apply_effects(model: SymbolicModel, effects: Iterable[Effect]) -> SymbolicMo
 def effect_chain(model: SymbolicModel) -> tuple[SymbolicModel, list[tuple[Effect, SymbolicModel]]] | None:
     """The base model and, in order, each effect applied to it with the model after it; None if unknown.
 
-    Models built by :meth:`Effect.apply` in this process are remembered; others are rebuilt from the
-    model library (by name and power, as :func:`duffsym.identify.model_from_result` does) and
-    accepted only if the rebuilt equations are identical.
+    A model built by :meth:`Effect.apply` holds its parent and the effect object
+    (:meth:`SymbolicModel.effect_steps`); others are rebuilt from the model library (by name and power,
+    as :func:`duffsym.identify.model_from_result` does for a fit saved without its model) and accepted
+    only if the rebuilt equations are identical.
     """
-    steps: list[tuple[Effect, SymbolicModel]] = []
-    m = model
-    while m.effects and m.key in _PARENTS:
-        parent, eff = _PARENTS[m.key]
-        steps.append((eff, m))
-        m = parent
-    if not m.effects:
-        return m, steps[::-1]
+    held = model.effect_steps()
+    if held is not None:
+        return model.base_model, list(held)
     from duffsym.effects import CATALOGUE
     from duffsym.model.library import get_model
 

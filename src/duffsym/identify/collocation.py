@@ -500,7 +500,7 @@ def _result(problem, nlp, best: Run, fitted: Evaluation, slot_values, x0s, setti
     flags = fit_flags(problem, nlp, best.w, fitted.rec_params, r2) if fitted.ok and flags else ()
     t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions (~0.4 s)
     return IdentificationResult(
-        model=model.name, params=params, free=tuple(nlp.slot_names), fixed=dict(problem.fixed), stderr=stderr,
+        model=model, params=params, free=tuple(nlp.slot_names), fixed=dict(problem.fixed), stderr=stderr,
         covariance=cov, cost=best.cost * 2 * nlp.y_norm**2, nrmse=nrmse, r2=r2,
         status=status, success=success, message=message, n_iter=best.n_iter,
         timings={**timings, "free_run": fitted.t_free, "stderr": fitted.t_se, "flags": t_flags},

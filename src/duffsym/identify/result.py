@@ -3,15 +3,16 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
 from duffsym._json import finite_or_none, jsonable
-from duffsym.errors import DataError
-
+from duffsym.errors import DataError, ModelError
+from duffsym.status import Status
 
 #: FIT.json keys about the data that :attr:`IdentificationResult.extras` carries (each an object)
 EXTRA_KEYS = ("training_ranges", "decimation", "data_sanity")
@@ -33,6 +34,11 @@ class IdentificationResult:
     Attributes
     ----------
     model : model name; ``effects`` the effects applied to it; ``structural`` its structural integers.
+        :attr:`model_obj` is the model object itself: the one the fit ran with (``fitted_model``; the
+        constructor also takes the object as ``model=``), or for a loaded fit the model rebuilt from
+        ``model_spec`` (FIT.json's recipe, :mod:`duffsym.effects.spec`), or, for a file written before
+        ``model_spec`` existed, from the name, powers and catalogue effects. :meth:`simulate` and
+        :meth:`predict` run it on a record (lmfit's ``ModelResult.eval``).
     params : every parameter by name (free and fixed).
     free : names of the identified parameters; ``fixed`` the held ones with their values.
     stderr : standard error of each free parameter (Laplace approximation, see :func:`~duffsym.identify.fit`).
@@ -42,7 +48,8 @@ class IdentificationResult:
     nrmse : free-run simulation error over all samples of all records, RMS(y - yhat) / RMS(y - mean y)
         (pooled); ``r2 = 1 - nrmse**2``; ``nrmse_records`` per record; ``nrmse_objective`` over
         the samples in the objective only (unmasked).
-    status, success, message : IPOPT's return status, whether it converged and the free run
+    status, success, message : IPOPT's return status (a :class:`~duffsym.status.Status`, whose value is
+        IPOPT's name; a string no member has is kept as it is), whether it converged and the free run
         succeeded, and a sentence for people.
     n_iter : IPOPT iterations. ``timings``: seconds spent in ``build``, ``solve``, ``free_run``, ``stderr``,
         ``flags`` (the quality checks).
@@ -57,6 +64,8 @@ class IdentificationResult:
         (:data:`EXTRA_KEYS`): ``training_ranges`` (the command, amplitude and frequency ranges the fit saw,
         :func:`duffsym.data.sanity.training_ranges`), ``decimation`` (the rate the fit ran at) and
         ``data_sanity`` (the invalid stretches left out).
+    model_spec : the recipe read from a FIT.json (:func:`duffsym.effects.spec.model_spec`); a fit in memory writes
+        its model's recipe instead. ``fitted_model``: the model object the fit ran with (None for a loaded fit).
     """
 
     model: str
@@ -91,6 +100,77 @@ class IdentificationResult:
     flags: tuple = ()
     sampling: tuple = ()
     extras: dict = field(default_factory=dict)
+    model_spec: dict = field(default_factory=dict, repr=False)
+    fitted_model: Any = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.model, str) and hasattr(self.model, "param_names"):  # the model object itself
+            object.__setattr__(self, "fitted_model", self.model)
+            object.__setattr__(self, "model", self.model.name)
+        status = Status.parse(self.status)
+        if status is not Status.UNKNOWN:
+            object.__setattr__(self, "status", status)
+
+    # ------------------------------------------------------------------ the model
+    @property
+    def model_obj(self):
+        """The fitted model object (see the class docstring); rebuilt once for a loaded fit.
+
+        Raises
+        ------
+        ModelError
+            When the saved fit cannot be rebuilt by this duffsym (one line saying why).
+        """
+        if self.fitted_model is not None:
+            return self.fitted_model
+        if "_rebuilt" not in self.__dict__:
+            self.__dict__["_rebuilt"] = rebuild_model(self)
+        return self.__dict__["_rebuilt"]
+
+    def _spec(self) -> dict | None:
+        """The ``model_spec`` to save: the fitted model's recipe, else the one read from the file."""
+        if self.fitted_model is None:
+            return dict(self.model_spec) or None
+        if "_spec_cache" not in self.__dict__:
+            from duffsym.effects.spec import model_spec
+
+            try:
+                self.__dict__["_spec_cache"] = model_spec(self.fitted_model)
+            except ModelError:  # a setting that cannot be stored: the file falls back to the names
+                self.__dict__["_spec_cache"] = None
+        return self.__dict__["_spec_cache"]
+
+    def group_for(self, record) -> str | None:
+        """The group whose parameters apply to ``record`` in a fit with groups: its current (``"0.5A"``) or
+        voltage (``"0.4V"``, which wins when both match) label when the fit has that group; None otherwise."""
+        group = None
+        for value, unit in ((record.current, "A"), (record.voltage, "V")):
+            if self.group_params and value is not None and f"{value:g}{unit}" in self.group_params:
+                group = f"{value:g}{unit}"
+        return group
+
+    def simulate(self, record, *, group: str | None = None, x0=None, **options):
+        """The free run of the fitted model on ``record`` (a :class:`~duffsym.simulate.Trajectory`).
+
+        The parameters are the fit's (those of ``group``, by default :meth:`group_for` the record); the
+        initial state ``x0``, unless given, is estimated from the record's first input period as
+        ``duffsym validate`` does (:func:`duffsym.identify.validation.start_state`). ``options`` go to
+        :func:`duffsym.simulate.simulate_record` (default ``on_failure="return"``: a failed run comes
+        back with its status, not as an exception).
+        """
+        from duffsym.simulate import simulate_record
+
+        model = self.model_obj
+        p = model.param_vector(self.params_for(self.group_for(record) if group is None else group))
+        if x0 is None:
+            from duffsym.identify.validation import start_state
+
+            x0, _ = start_state(model, p, record)
+        return simulate_record(model, p, record, x0=x0, **{"on_failure": "return", **options})
+
+    def predict(self, record, **options) -> np.ndarray:
+        """The fitted model's free-run output on ``record`` (``(n_times,)``; see :meth:`simulate`)."""
+        return np.asarray(self.simulate(record, **options).y, dtype=float)
 
     def params_for(self, group: str | None = None) -> dict:
         """Every parameter by name for one group (``None`` for a fit without groups)."""
@@ -142,7 +222,7 @@ class IdentificationResult:
             "stderr": {k: finite_or_none(v) for k, v in self.stderr.items()},
             "nrmse": finite_or_none(self.nrmse),
             "r2": finite_or_none(self.r2),
-            "status": self.status,
+            "status": str(self.status),
             "success": bool(self.success),
             "message": self.message,
             "flags": jsonable([dict(f) for f in self.flags]),
@@ -168,9 +248,10 @@ class IdentificationResult:
             **({"sampling": jsonable(self.sampling[0] if len(self.sampling) == 1 else list(self.sampling))}
                if self.sampling else {}),
             **{k: jsonable(v) for k, v in self.extras.items() if k in EXTRA_KEYS},
+            **({"model_spec": spec} if (spec := self._spec()) else {}),
         }
 
-    def with_extras(self, **extras) -> "IdentificationResult":
+    def with_extras(self, **extras) -> IdentificationResult:
         """This result with FIT.json keys of :data:`EXTRA_KEYS` added (None values are left out)."""
         import dataclasses
 
@@ -185,14 +266,14 @@ class IdentificationResult:
 
         return write_json_atomic(path, self.to_dict())
 
-    def with_sampling(self, records) -> "IdentificationResult":
+    def with_sampling(self, records) -> IdentificationResult:
         """This result with each record's time-base description (``metadata["sampling"]``) attached."""
         import dataclasses
 
         return dataclasses.replace(self, sampling=tuple(dict(r.metadata.get("sampling", {})) for r in records))
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> "IdentificationResult":
+    def from_dict(cls, data: Mapping[str, Any], *, source: str = "result") -> IdentificationResult:
         """Rebuild a result from its JSON form (the masks come back; the sample arrays are not stored).
 
         Every field is checked: a tampered or truncated file gives a :class:`DataError` naming the
@@ -232,7 +313,46 @@ class IdentificationResult:
             flags=tuple(dict(f) for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
                         if isinstance(f, Mapping)),
             extras={k: r.mapping(k) for k in EXTRA_KEYS if k in data},
+            model_spec=r.mapping("model_spec"),
         )
+
+
+def rebuild_model(result: IdentificationResult):
+    """The model of a saved fit: from its ``model_spec`` (any model it was fitted with), else, for a file
+    written before ``model_spec``, from the name, structural powers and effects (the catalogue's, a
+    discovered term and a drifting parameter by their names)."""
+    if result.model_spec:
+        from duffsym.effects.spec import model_from_spec
+
+        return model_from_spec(result.model_spec, source=f"fit of {result.model}: model_spec")
+    return _model_from_names(result)
+
+
+def _model_from_names(result: IdentificationResult):
+    """The name-based rebuild of a fit saved without ``model_spec``."""
+    from duffsym.model import get_model
+
+    structural = dict(result.structural)
+    n = structural.get("n_x", structural.get("n"))
+    try:
+        model = get_model(result.model, None if n is None or result.model == "duffing" else int(n))
+    except ModelError as exc:
+        raise ModelError(f"cannot rebuild the fitted model: {exc}") from None
+    if result.effects:
+        from duffsym.effects import CATALOGUE, apply_effects
+        from duffsym.effects.discovered import PREFIX, from_name
+        from duffsym.effects.drift import PREFIX as DRIFT
+        from duffsym.effects.drift import from_name as drift_from_name
+
+        missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith((PREFIX, DRIFT))]
+        if missing:
+            raise ModelError(f"the fit uses effect(s) {missing} unknown to this duffsym; known: {sorted(CATALOGUE)}")
+        n_disc = 0
+        for e in result.effects:  # a discovered term (duffsym ladder --discover) is rebuilt from its name
+            n_disc += e.startswith(PREFIX)
+            effect = drift_from_name(e) if e.startswith(DRIFT) else CATALOGUE.get(e)
+            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else effect])
+    return model
 
 
 def _sampling_of(value) -> tuple:

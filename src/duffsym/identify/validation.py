@@ -8,7 +8,6 @@ import numpy as np
 
 from duffsym._json import finite_or_none
 from duffsym.data.record import Record
-from duffsym.errors import ModelError
 from duffsym.identify.problem import check_command
 from duffsym.identify.result import IdentificationResult, nrmse
 from duffsym.identify.states import driven_states, initial_states
@@ -60,30 +59,17 @@ class ValidationResult:
 
 
 def model_from_result(result: IdentificationResult):
-    """Rebuild the model of a fit from its name, structural powers and effects."""
-    from duffsym.model import get_model
+    """The model of a fit: the object it ran with, or rebuilt from its saved ``model_spec`` (any model), or, for
+    a file written before ``model_spec``, from its name, structural powers and effects
+    (:attr:`IdentificationResult.model_obj`)."""
+    return result.model_obj
 
-    structural = dict(result.structural)
-    n = structural.get("n_x", structural.get("n"))
-    try:
-        model = get_model(result.model, None if n is None or result.model == "duffing" else int(n))
-    except ModelError as exc:
-        raise ModelError(f"cannot rebuild the fitted model: {exc}") from None
-    if result.effects:
-        from duffsym.effects import CATALOGUE, apply_effects
 
-        from duffsym.effects.discovered import PREFIX, from_name
-        from duffsym.effects.drift import PREFIX as DRIFT, from_name as drift_from_name
-
-        missing = [e for e in result.effects if e not in CATALOGUE and not e.startswith((PREFIX, DRIFT))]
-        if missing:
-            raise ModelError(f"the fit uses effect(s) {missing} unknown to this duffsym; known: {sorted(CATALOGUE)}")
-        n_disc = 0
-        for e in result.effects:  # a discovered term (duffsym ladder --discover) is rebuilt from its name
-            n_disc += e.startswith(PREFIX)
-            effect = drift_from_name(e) if e.startswith(DRIFT) else CATALOGUE.get(e)
-            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else effect])
-    return model
+def start_state(model, p, record: Record) -> tuple[np.ndarray, str]:
+    """The initial state of a free run of ``model`` with parameters ``p`` on ``record`` and a note ("" when
+    none): started from the data as in the fit and refined over the first input period (see :func:`validate`)."""
+    X = initial_states(model, record, p)
+    return _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
 
 
 def validate(result: IdentificationResult, record: Record, model=None, *, group: str | None = None) -> ValidationResult:
@@ -103,13 +89,10 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     """
     model = model if model is not None else model_from_result(result)
     check_command(model, [record])
-    if result.group_params and group is None:
-        for value, unit in ((record.current, "A"), (record.voltage, "V")):
-            if value is not None and f"{value:g}{unit}" in result.group_params:
-                group = f"{value:g}{unit}"
+    if group is None:
+        group = result.group_for(record)
     p = model.param_vector(result.params_for(group))
-    X = initial_states(model, record, p)
-    x0, note = _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
+    x0, note = start_state(model, p, record)
     tr = simulate_record(model, p, record, x0=x0, on_failure="return")
     y_sim = np.asarray(tr.y, dtype=float)
     effects = tuple(model.effects)

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import hashlib
 import math
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -52,8 +52,13 @@ class SymbolicModel:
     structural : structural integers (e.g. ``{"n_x": 5, "n_v": 5}``), not identified.
     position, velocity : the mechanical state pair (x, x') used by the Lyapunov derivations.
     equation : the defining second-order equation in ``x, x_dot, x_ddot`` (for display), if any.
-    effects : names of the effects applied to the base model, in order.
+    effects : names of the effects applied to the base model, in order (the effect objects, with their
+        settings, are :attr:`effect_objects`; the model before them :attr:`base_model`).
     composition : the parts of a composed model (:func:`duffsym.model.structure.structure`), else empty.
+    lineage : set by :meth:`duffsym.effects.Effect.apply` on the model it builds: ``(key, parent, effect)``,
+        the model's own equation hash, the model the effect was applied to and the effect object. A copy
+        whose equations differ (``dataclasses.replace`` with new equations) no longer matches its key, so
+        its lineage is ignored; a copy with new parameter defaults (:meth:`with_params`) keeps it.
     """
 
     name: str
@@ -70,6 +75,7 @@ class SymbolicModel:
     effects: tuple[str, ...] = ()
     description: str = ""
     composition: tuple = ()  # (key, value) pairs of a composed model (duffsym.model.structure), else ()
+    lineage: tuple = field(default=(), repr=False, compare=False)  # (key, parent model, effect object) or ()
     _key: str = field(init=False, repr=False, compare=False, default="")
 
     def __hash__(self) -> int:  # the equations' hash, cheap: generated code is cached per model
@@ -197,6 +203,43 @@ class SymbolicModel:
         vec = self.param_vector(vector)
         return dict(zip(self.param_names, map(float, vec)))
 
+    # ------------------------------------------------------------------ effects held as objects
+    @property
+    def applied(self) -> tuple[SymbolicModel, object] | None:
+        """``(parent, effect)``: the model the last effect was applied to and that effect object; None when
+        the model was not built by :meth:`duffsym.effects.Effect.apply` (or its equations changed since)."""
+        if len(self.lineage) == 3 and self.lineage[0] == self._key:
+            return self.lineage[1], self.lineage[2]
+        return None
+
+    def effect_steps(self) -> tuple[tuple[object, SymbolicModel], ...] | None:
+        """Each effect object applied, in order, with the model after it; None if a step is not known."""
+        steps, m = [], self
+        while m.effects:
+            step = m.applied
+            if step is None:
+                return None
+            steps.append((step[1], m))
+            m = step[0]
+        return tuple(steps[::-1])
+
+    @property
+    def base_model(self) -> SymbolicModel | None:
+        """The model before every effect (``self`` when it has none); None if the chain is not known."""
+        m = self
+        while m.effects:
+            step = m.applied
+            if step is None:
+                return None
+            m = step[0]
+        return m
+
+    @property
+    def effect_objects(self) -> tuple | None:
+        """The effect objects applied to :attr:`base_model`, in order (with their settings); None if unknown."""
+        steps = self.effect_steps()
+        return None if steps is None else tuple(e for e, _ in steps)
+
     # ------------------------------------------------------------------ composition
     def extend(
         self,
@@ -208,8 +251,8 @@ class SymbolicModel:
         rhs_add: Mapping[sp.Symbol, sp.Expr] | None = None,
         substitute: Mapping[sp.Symbol, sp.Expr] | None = None,
         output: sp.Expr | None = None,
-        output_add: sp.Expr = sp.Integer(0),
-    ) -> "SymbolicModel":
+        output_add: sp.Expr = sp.S.Zero,
+    ) -> SymbolicModel:
         """A new model with an effect's terms, states and parameters added.
 
         Parameters
@@ -252,9 +295,10 @@ class SymbolicModel:
             output=out,
             effects=self.effects + (effect,),
             name=self.name,
+            lineage=(),  # Effect.apply records the parent and the effect object
         )
 
-    def with_params(self, **values: float) -> "SymbolicModel":
+    def with_params(self, **values: float) -> SymbolicModel:
         """A copy whose parameter defaults are replaced (the equations are unchanged)."""
         for k in values:
             self.param(k)
