@@ -21,6 +21,7 @@ import numpy as np
 
 from duffsym._json import finite_or_none
 from duffsym.errors import DataError, ModelError
+from duffsym.options import resolve
 
 #: Collocation degree (Radau IIA points).
 DEGREE = 3
@@ -170,11 +171,27 @@ def _driven_by_command(model, jc: int) -> list[int]:
     return out
 
 
-def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.ndarray, force, *,
-           limits: tuple[float, float] = (0.0, 1.0), rate: float | None = None, x0=None,
-           effort_weight: float = 1e-6, smooth_weight: float = 1e-3, tolerance: float = 0.0,
-           command_guess=None, max_iter: int = 500, command_name: str = "command") -> InverseResult:
+@dataclass(frozen=True)
+class InverseOptions:
+    """Every setting of :func:`invert` (its docstring describes each), with its default."""
+
+    limits: tuple[float, float] = (0.0, 1.0)
+    rate: float | None = None
+    x0: Sequence[float] | None = None
+    effort_weight: float = 1e-6
+    smooth_weight: float = 1e-3
+    tolerance: float = 0.0
+    command_guess: Sequence[float] | None = field(default=None, compare=False)
+    max_iter: int = 500
+    command_name: str = "command"
+
+
+def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.ndarray, force,
+           options: InverseOptions | None = None, **settings) -> InverseResult:
     """The command history within ``limits`` (and ``|dc/dt| <= rate``) that makes ``model`` produce ``force``.
+
+    The settings (``limits`` to ``command_name``) are the fields of :class:`InverseOptions`, given as an
+    ``options`` object, by keyword, or both (the keywords win); an unknown setting raises :class:`TypeError`.
 
     Parameters
     ----------
@@ -197,6 +214,9 @@ def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.n
     from duffsym.codegen.casadi_fn import casadi_functions
     from duffsym.simulate import check_time, simulate
 
+    o = resolve(InverseOptions, options, settings, "invert")
+    limits, rate, x0, effort_weight, smooth_weight = o.limits, o.rate, o.x0, o.effort_weight, o.smooth_weight
+    tolerance, command_guess, max_iter, command_name = o.tolerance, o.command_guess, o.max_iter, o.command_name
     jc = command_index(model)
     t = check_time(t)
     U = np.array(inputs, dtype=float, copy=True)
