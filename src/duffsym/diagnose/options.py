@@ -13,6 +13,12 @@ CANDIDATE_MAX_ITER = 100
 #: IPOPT CPU seconds for a candidate's fit (see :func:`diagnose`)
 CANDIDATE_CPU_TIME = 30.0
 SCREEN = 4
+#: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
+TIE = 0.05
+#: candidates (best first) whose fitted set is checked against the derived stability certificate
+STABILITY_CHECKED = 4
+#: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
+EXACT_FIT = 1e-3
 #: default time budget of a ladder run (seconds): the issue's bound for any real record
 DEFAULT_BUDGET = 600.0
 
