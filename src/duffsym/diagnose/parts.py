@@ -47,6 +47,9 @@ class Split(_ReadsAsDict):
     def to_dict(self) -> dict:
         return {"n_fit": self.n_fit, "n_heldout": self.n_heldout, "t_split": self.t_split}
 
+    def summary(self) -> str:
+        return (f"fitted on the first {self.n_fit} samples; {self.n_heldout} held out from t = {self.t_split:.4g} s")
+
 
 @dataclass(frozen=True, eq=False)
 class BaseCheck(_ReadsAsDict):
@@ -71,6 +74,13 @@ class BaseCheck(_ReadsAsDict):
                 "reference_nrmse_fit_part": self.reference_nrmse_fit_part, "start": self.start,
                 "as_good": self.as_good, "budget": list(self.budget), "stable": self.stable,
                 "stability": self.stability}
+
+    def summary(self) -> str:
+        s = (f"base fit (from the {self.start}): free-run NRMSE {self.nrmse_fit_part:.3g} on the fitting part, "
+             f"{self.reference} {self.reference_nrmse_fit_part:.3g}" + ("" if self.as_good else " (base worse)"))
+        if self.budget:
+            s += f"; stopped by the time budget: {', '.join(self.budget)}"
+        return s + ("; outside the stability certificate: " + self.stability if self.stable is False else "")
 
 
 @dataclass(frozen=True, eq=False)
@@ -107,6 +117,9 @@ class SindyCheck(_ReadsAsDict):
     def supported_terms(self) -> list[dict]:
         """The missing terms that are evidence (``supported``), not hints."""
         return [m for m in self.missing_terms if m.get("supported")]
+
+    def summary(self) -> str:
+        return f"SINDy cross-check: {self.verdict}: {self.message}"
 
     def to_dict(self) -> dict:
         out = {"verdict": self.verdict, "conclusive": self.conclusive, "missing_terms": list(self.missing_terms)}

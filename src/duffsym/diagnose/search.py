@@ -188,7 +188,7 @@ class Diagnosis:
             lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
                          f"{flag:<7} {pv}" + ("" if c.success else f"  [{why_not(c.message)}]") + mark)
         if self.sindy is not None:
-            lines.append(f"SINDy cross-check: {self.sindy.verdict}: {self.sindy.message}")
+            lines.append(self.sindy.summary())
         if self.prepare is not None:
             lines.append(self.prepare.summary())
         lines.append(f"verdict: {self.verdict}")
