@@ -41,7 +41,7 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
              f"{record.name or record.source}", "",
              f"**Verdict.** {diag.verdict}", "",
              f"Free-run NRMSE {diag.nrmse:.4g} over the whole record, {diag.nrmse_heldout:.4g} on the held-out tail "
-             f"(from t = {diag.split.t_split:.4g} s, {diag.split.n_heldout} samples); noise level "
+             f"(from t = {diag.split['t_split']:.4g} s, {diag.split['n_heldout']} samples); noise level "
              f"{diag.noise:.3g} (estimated from the measurement alone).", "",
              "## Where the model fails", ""]
     lines += [f"- {s}" for s in diag.residuals.findings()]
@@ -54,7 +54,7 @@ def write_diagnosis_report(diag, record: Record, folder) -> Path:
     if fig is not None:  # the play candidate against the plateaus after the reversals
         lines += ["## The play candidate", "", f"![the play and the plateaus]({_save(fig, folder / 'play.png')})", ""]
     if diag.sindy is not None:
-        lines += ["## SINDy cross-check", "", f"{diag.sindy.verdict}: {diag.sindy.message}", ""]
+        lines += ["## SINDy cross-check", "", f"{diag.sindy.get('verdict')}: {diag.sindy.get('message', '')}", ""]
     write_json_atomic(folder / "diagnosis.json", jsonable(diag.to_dict()), default=str)
     path = write_text_atomic(folder / "diagnosis.md", "\n".join(lines) + "\n")
     return path
