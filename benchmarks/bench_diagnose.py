@@ -114,7 +114,7 @@ def run_independent(label: str, seed: int, screen=4) -> dict:
                                 start=getattr(c, "start", 1), stable=getattr(c, "stable", None),
                                 diverged=getattr(c, "diverged", False))
                            for c in dg.candidates],
-               noise_method=getattr(dg, "noise_method", ""), base_check=getattr(dg, "base_check", {}))
+               noise_method=getattr(dg, "noise_method", ""), base_check=dg.base_check.to_dict() if dg.base_check else {})
     if hidden in RECOVER or hidden == "coulomb-friction":
         mine = next((c for c in dg.candidates if c.effect == hidden and c.success), None)
         row["heldout_ratio"] = mine.nrmse_after / dg.nrmse_heldout if mine else math.nan

@@ -46,7 +46,7 @@ def run(path: Path, budget: float | None, candidates, report: Path | None) -> di
                 message=c.message if c else "", h=c.params.get("bl_h") if c else None,
                 h_se=c.stderr.get("bl_h") if c else None, plateau_half_width=plateau_half_width(rec),
                 mask_width=info["median_displacement_width"], needed=list(dg.needed), verdict=dg.verdict,
-                prepare=dg.prepare.summary() if dg.prepare else "", base_check=dg.base_check,
+                prepare=dg.prepare.summary() if dg.prepare else "", base_check=dg.base_check.to_dict() if dg.base_check else {},
                 candidates=[dict(effect=x.effect, nrmse_after=x.nrmse_after, params=x.params, stderr=x.stderr,
                                  success=x.success, message=x.message, seconds=x.seconds) for x in dg.candidates],
                 noise=dg.noise, load=os.getloadavg()[0], stroke=float(np.ptp(rec.d)))

@@ -19,7 +19,7 @@ SRC = Path(duffsym.__file__).parent
 
 #: Bottom to top. A module may import only from its own layer or the layers listed before it.
 LAYERS = (
-    "errors", "status", "_typing", "_checks", "_json", "_io", "_progress",
+    "errors", "status", "options", "_typing", "_checks", "_json", "_io", "_progress",
     "model",
     "codegen",
     "excitation",

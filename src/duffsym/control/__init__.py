@@ -5,6 +5,6 @@ IPOPT) and reports where the desired force is unreachable; :func:`clipped_on_off
 closed-loop clipped-optimal law (Dyke et al. 1996) it is compared with.
 """
 from duffsym.control.baseline import clipped_on_off
-from duffsym.control.inverse import InverseResult, command_index, invert
+from duffsym.control.inverse import InverseOptions, InverseResult, command_index, invert
 
-__all__ = ["InverseResult", "clipped_on_off", "command_index", "invert"]
+__all__ = ["InverseOptions", "InverseResult", "clipped_on_off", "command_index", "invert"]

@@ -21,6 +21,7 @@ import numpy as np
 
 from duffsym._json import finite_or_none
 from duffsym.errors import DataError, ModelError
+from duffsym.options import resolve
 
 #: Collocation degree (Radau IIA points).
 DEGREE = 3
@@ -170,11 +171,27 @@ def _driven_by_command(model, jc: int) -> list[int]:
     return out
 
 
-def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.ndarray, force, *,
-           limits: tuple[float, float] = (0.0, 1.0), rate: float | None = None, x0=None,
-           effort_weight: float = 1e-6, smooth_weight: float = 1e-3, tolerance: float = 0.0,
-           command_guess=None, max_iter: int = 500, command_name: str = "command") -> InverseResult:
+@dataclass(frozen=True)
+class InverseOptions:
+    """Every setting of :func:`invert` (its docstring describes each), with its default."""
+
+    limits: tuple[float, float] = (0.0, 1.0)
+    rate: float | None = None
+    x0: Sequence[float] | None = None
+    effort_weight: float = 1e-6
+    smooth_weight: float = 1e-3
+    tolerance: float = 0.0
+    command_guess: Sequence[float] | None = field(default=None, compare=False)
+    max_iter: int = 500
+    command_name: str = "command"
+
+
+def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.ndarray, force,
+           options: InverseOptions | None = None, **settings) -> InverseResult:
     """The command history within ``limits`` (and ``|dc/dt| <= rate``) that makes ``model`` produce ``force``.
+
+    The settings (``limits`` to ``command_name``) are the fields of :class:`InverseOptions`, given as an
+    ``options`` object, by keyword, or both (the keywords win); an unknown setting raises :class:`TypeError`.
 
     Parameters
     ----------
@@ -192,26 +209,50 @@ def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.n
         ``UNREACHABLE_FRACTION`` of the force's RMS).
     command_guess : (n_times,) start of the command (default mid-range).
     """
-    import casadi as ca
-
-    from duffsym.codegen.casadi_fn import casadi_functions
     from duffsym.simulate import check_time, simulate
 
+    o = resolve(InverseOptions, options, settings, "invert")
+    rate, x0, command_guess = o.rate, o.x0, o.command_guess
     jc = command_index(model)
     t = check_time(t)
     U = np.array(inputs, dtype=float, copy=True)
     y_star = np.asarray(force, dtype=float)
-    lo, hi = (float(v) for v in limits)
+    lo, hi = (float(v) for v in o.limits)
     _check(model, t, U, y_star, lo, hi, rate)
     p = model.param_vector(params)
     N = t.size - 1
-    n, ni = model.n_states, model.n_inputs
+    n = model.n_states
     scale = float(np.sqrt(np.mean(y_star**2))) or 1.0
     c0 = np.full(t.size, 0.5 * (lo + hi)) if command_guess is None else np.clip(np.asarray(command_guess, float), lo, hi)
     U[:, jc] = c0
     tic = time.perf_counter()
     guess = simulate(model, p, t, U, x0=x0, on_failure="return")
     Xg = guess.x if guess.success else np.zeros((t.size, n))
+    solver, w0, (lbx, ubx, lbg, ubg) = _inverse_nlp(model, p, t, U, jc, y_star, scale, lo, hi, o, Xg, c0)
+    build = time.perf_counter() - tic
+    tic = time.perf_counter()
+    sol = solver(x0=w0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    solve = time.perf_counter() - tic
+    stats = solver.stats()
+    status = str(stats.get("return_status", "unknown"))
+    wopt = np.asarray(sol["x"]).ravel()
+    X_opt = wopt[: n * (N + 1)].reshape((N + 1, n))
+    c_opt = np.clip(wopt[-(N + 1):], lo, hi)
+    return _checked(model, p, t, U, jc, c_opt, X_opt[0], y_star, lo, hi, rate, o.tolerance, scale, status,
+                    bool(stats.get("success")) or status == "Solved_To_Acceptable_Level",
+                    {"build": build, "solve": solve}, o.command_name)
+
+
+def _inverse_nlp(model, p, t, U, jc: int, y_star, scale: float, lo: float, hi: float, o: InverseOptions, Xg, c0):
+    """The collocation NLP of the inverse: (IPOPT solver, start, bounds ``(lbx, ubx, lbg, ubg)``)."""
+    import casadi as ca
+
+    from duffsym.codegen.casadi_fn import casadi_functions
+
+    rate, x0 = o.rate, o.x0
+    effort_weight, smooth_weight, max_iter = o.effort_weight, o.smooth_weight, o.max_iter
+    N = t.size - 1
+    n, ni = model.n_states, model.n_inputs
     F = _interval_function(model).map(N)
     _, out = casadi_functions(model)
     X = ca.MX.sym("X", n, N + 1)
@@ -256,18 +297,7 @@ def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.n
     solver = ca.nlpsol("inverse", "ipopt", {"x": w, "f": J, "g": ca.vertcat(*g)},
                        {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": int(max_iter),
                                                        "tol": 1e-8, "acceptable_tol": 1e-5}})
-    build = time.perf_counter() - tic
-    tic = time.perf_counter()
-    sol = solver(x0=w0, lbx=lbx, ubx=ubx, lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
-    solve = time.perf_counter() - tic
-    stats = solver.stats()
-    status = str(stats.get("return_status", "unknown"))
-    wopt = np.asarray(sol["x"]).ravel()
-    X_opt = wopt[: n * (N + 1)].reshape((N + 1, n))
-    c_opt = np.clip(wopt[-(N + 1):], lo, hi)
-    return _checked(model, p, t, U, jc, c_opt, X_opt[0], y_star, lo, hi, rate, tolerance, scale, status,
-                    bool(stats.get("success")) or status == "Solved_To_Acceptable_Level",
-                    {"build": build, "solve": solve}, command_name)
+    return solver, w0, (lbx, ubx, np.concatenate(lbg), np.concatenate(ubg))
 
 
 def _check(model, t, U, y_star, lo, hi, rate) -> None:

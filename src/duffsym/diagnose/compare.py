@@ -242,11 +242,9 @@ def _heldout(model, res, train, held, tails) -> tuple[dict, dict]:
 
 def _continued_run(model, res, rec, i: int) -> np.ndarray:
     """The fitted model's free run over the whole record from the initial state fitted on its training part."""
-    from duffsym.simulate import input_matrix, simulate
+    from duffsym.simulate import simulate_record
 
-    p = model.param_vector(res.params)
-    U = input_matrix(model, np.asarray(rec.t), rec.inputs_for(model))
-    tr = simulate(model, p, rec.t, U, x0=np.asarray(res.x0[i], dtype=float), on_failure="return")
+    tr = simulate_record(model, res.params, rec, x0=np.asarray(res.x0[i], dtype=float), on_failure="return")
     return np.asarray(tr.y, dtype=float) if tr.success else np.full(rec.n_times, np.nan)
 
 
@@ -269,16 +267,15 @@ def _pooled(held, tails, preds) -> float:
 def simulation_cost(model, res, records) -> tuple[float, float, int, str]:
     """(seconds per sample, mean substeps per sample, largest, integrator) of the fitted model's compiled runs
     over ``records`` (the second run is timed: the first compiles)."""
-    from duffsym.simulate import input_matrix, simulate
+    from duffsym.simulate import simulate_record
 
     p = model.param_vector(res.params)
     total, n, subs, how = 0.0, 0, [], set()
     for i, rec in enumerate(records):
-        U = input_matrix(model, np.asarray(rec.t), rec.inputs_for(model))
         x0 = np.asarray(res.x0[i], dtype=float) if i < len(res.x0) else None
-        simulate(model, p, rec.t, U, x0=x0, on_failure="return")
+        simulate_record(model, p, rec, x0=x0, on_failure="return")
         t0 = time.perf_counter()
-        tr = simulate(model, p, rec.t, U, x0=x0, on_failure="return")
+        tr = simulate_record(model, p, rec, x0=x0, on_failure="return")
         total += time.perf_counter() - t0
         n += rec.n_times
         subs.append(np.asarray(tr.substeps))

@@ -46,7 +46,7 @@ def plot_where(diag, record: Record, *, title: str | None = None):
     r = y - yh
     d = np.asarray(record.d)
     v = np.asarray(record.velocity())
-    k = diag.split["n_fit"]
+    k = diag.split["n_fit"]  # a Diagnosis (its Split reads like a dict) or one rebuilt from its JSON (s07)
     fig = plt.figure(figsize=(12, 7.5), layout="constrained")
     gs = fig.add_gridspec(3, 3)
     ax = fig.add_subplot(gs[0, :2])

@@ -31,19 +31,21 @@ off is flagged in its step (``inactive``).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping
+from typing import Mapping
 
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.errors import DataError, ModelError
+from duffsym.diagnose.options import DEFAULT_BUDGET, DiagnoseOptions, LadderOptions
 from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_effects, time_left, with_default_af
+from duffsym.errors import DataError, ModelError
+from duffsym.options import field_names, resolve
 
-#: default time budget of a ladder run (seconds): the issue's bound for any real record
-DEFAULT_BUDGET = 600.0
+__all__ = ["DEFAULT_BUDGET", "LadderOptions", "Ladder", "Step", "ladder", "joint_refit", "error_fell"]
 #: share of the budget kept for the backward pass and the final fit on the whole record
 FINAL_RESERVE = 0.15
 #: share of the time left for the steps that one step's diagnosis may take (see _step_deadline)
@@ -128,11 +130,13 @@ class Ladder:
         return "\n".join(lines)
 
 
-def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterable[str] | None = None,
-           fixed: Mapping[str, float] | None = None, holdout: float = 0.3, noise: float | None = None, mask=None,
-           accept: str = "needed", discover: bool = True, progress=None, budget: float | None = None,
-           joint: bool = True, on_step=None, **rules) -> Ladder:
+def ladder(record: Record, model=None, options: LadderOptions | None = None, **settings) -> Ladder:
     """Base fit, then add the best supported effect, refit, and repeat (see the module docstring).
+
+    The settings are the fields of :class:`~duffsym.diagnose.options.LadderOptions`, given as an ``options``
+    object, by keyword, or both (the keywords win); the settings of each step's :func:`diagnose` (``screen``,
+    ``sindy``, ``bic_threshold``, ...) are also taken by keyword and go into its ``rules``. An unknown setting
+    raises :class:`TypeError`.
 
     Parameters
     ----------
@@ -155,83 +159,136 @@ def ladder(record: Record, model=None, *, max_steps: int = 4, candidates: Iterab
         (:func:`joint_refit`) and start the next diagnosis from the best.
     on_step : called with the :class:`Ladder` so far (``complete=False``, no final fit) after each step.
     rules : ``bic_threshold``, ``min_improvement``, ``min_explained`` of :func:`diagnose` (and its other
-        keywords: ``screen``, ``sindy``, ``decimate``, ``engine``, ...).
+        settings: ``screen``, ``sindy``, ``decimate``, ``engine``, ...).
     """
+    o = _ladder_options(options, settings)
+    if o.accept not in ("needed", "supported"):
+        raise ValueError(f"accept must be 'needed' or 'supported'; got {o.accept!r}")
+    run = _Run(record, o, model)
+    try:
+        _climb(run)
+    except KeyboardInterrupt:
+        if not run.steps:
+            raise
+        stopped = f"stopped at step {len(run.steps)}: interrupted (Ctrl-C)"
+        return _finish(record, run.steps, None, stopped, False, run.t0, o.budget, None,
+                       "interrupted before the final fit: the last finished step's fit (on the fitting part) is the "
+                       "result")
+    rules = dict(o.rules)
+    kw = dict(fixed=o.fixed, holdout=o.holdout, noise=o.noise, mask=o.mask, progress=o.progress, **rules)
+    model = run.model
+    if run.complete:
+        model = _simplify(record, run.base_model, model, run.steps, run.say, {**kw, "deadline": run.end})
+    return _final(record, model, run.steps, run.stopped, run.complete, run.t0, o.budget, run.end, o.fixed, rules,
+                  run.say)
+
+
+#: the settings of :func:`diagnose` a ladder sets itself for each step (the others may be given as ``rules``)
+_SET_BY_LADDER = ("start", "deadline")
+
+
+def _ladder_options(options: LadderOptions | None, settings: Mapping) -> LadderOptions:
+    """``options`` with ``settings``: the ladder's own fields, and :func:`diagnose`'s settings added to ``rules``."""
+    own = set(field_names(LadderOptions))
+    passed = set(field_names(DiagnoseOptions)) - own - set(_SET_BY_LADDER)
+    rules = {k: v for k, v in settings.items() if k in passed}
+    o = resolve(LadderOptions, options, {k: v for k, v in settings.items() if k not in passed}, "ladder")
+    return dataclasses.replace(o, rules={**o.rules, **rules}) if rules else o
+
+
+class _Run:
+    """A ladder run in progress: its options, clock and budget, the steps so far, the model being extended and
+    the start of its next diagnosis (the discovered term and the joint refit that started it)."""
+
+    def __init__(self, record: Record, o: LadderOptions, model):
+        self.record, self.o = record, o
+        self.t0 = time.perf_counter()
+        self.end = None if o.budget is None else time.monotonic() + float(o.budget)
+        self.steps_end = None if self.end is None else self.end - FINAL_RESERVE * float(o.budget)
+        self.say = o.progress or (lambda msg: None)
+        if model is None:
+            from duffsym.model.library import mr_damper
+
+            model = mr_damper()
+        self.model = self.base_model = model
+        self.steps: list[Step] = []
+        self.start = None
+        self.stopped, self.complete = "", True
+        self.found = None  # the discovered term of the next step
+        self.jinfo = None  # the joint refit that starts the next step
+
+    def stop(self, why: str, complete: bool = True) -> None:
+        self.stopped, self.complete = why, complete
+
+
+def _climb(run: _Run) -> None:
+    """The forward steps: diagnose, take the needed (or supported, or discovered) effect, refit jointly, repeat
+    until none is taken, the budget runs out or ``max_steps`` is reached (``run.stopped`` says which)."""
+    o, record = run.o, run.record
+    while True:
+        if run.steps and time_left(run.steps_end) <= 0:
+            return run.stop(f"stopped at step {len(run.steps)}: the time budget ({o.budget:g} s) ran out", False)
+        run.say(f"step {len(run.steps)}: {' + '.join(('base',) + tuple(run.model.effects))}" + _left_text(run.end))
+        t_step = time.perf_counter()
+        try:
+            dg = diagnose(record, run.model, candidates=o.candidates, fixed=o.fixed, holdout=o.holdout, noise=o.noise,
+                          mask=o.mask, start=run.start, progress=o.progress,
+                          deadline=_step_deadline(run.steps_end, run.steps, o.max_steps), **o.rules)
+        except (ModelError, DataError) as exc:
+            if not run.steps:
+                raise
+            return run.stop(f"stopped at step {len(run.steps)}: its diagnosis failed: {exc}", False)
+        run.steps.append(_step(record, run.model, dg, run.found, run.jinfo, time.perf_counter() - t_step))
+        run.found = run.jinfo = None
+        _report(o.on_step, run.steps, run.t0, o.budget, record)
+        chosen = dg.needed[0] if dg.needed else None
+        if chosen is None and o.accept == "supported":
+            chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
+        if chosen is None and o.discover and len(run.steps) <= o.max_steps and not dg.residuals.at_noise_level:
+            dg, found = _discovery_step(run, dg)
+            if found:
+                continue
+        if not _take(run, dg, chosen):
+            return
+
+
+def _discovery_step(run: _Run, dg: Diagnosis) -> tuple[Diagnosis, bool]:
+    """Look outside the catalogue (no catalogued effect was taken): (the diagnosis, with a note when nothing was
+    found or there was no time, True when a discovered term extends the model for the next step)."""
+    if run.steps_end is not None and time.monotonic() >= run.steps_end:
+        return _with_note(dg, " Term discovery outside the catalogue: not tried, the time budget ran out."), False
+    found, model, start, note = _discovered(run.record, run.model, dg, run.o.fixed, run.o.mask, run.o.progress,
+                                            run.o.rules)
+    if found is not None:
+        run.found, run.model, run.start = found, model, start
+        return dg, True
+    return _with_note(dg, note), False
+
+
+def _take(run: _Run, dg: Diagnosis, chosen: str | None) -> bool:
+    """Add ``chosen`` to the model (and refit jointly) and return True, or say why the ladder stops and return
+    False."""
     from duffsym.effects import CATALOGUE, apply_effects
 
-    if accept not in ("needed", "supported"):
-        raise ValueError(f"accept must be 'needed' or 'supported'; got {accept!r}")
-    t0 = time.perf_counter()
-    end = None if budget is None else time.monotonic() + float(budget)
-    steps_end = None if end is None else end - FINAL_RESERVE * float(budget)
-    say = progress or (lambda msg: None)
-    if model is None:
-        from duffsym.model.library import mr_damper
-
-        model = mr_damper()
-    base_model = model
-    steps: list[Step] = []
-    start = None
-    stopped = ""
-    complete = True
-    found = None  # the discovered term of the next step
-    jinfo = None  # the joint refit that starts the next step
-    try:
-        while True:
-            if steps and time_left(steps_end) <= 0:
-                stopped, complete = f"stopped at step {len(steps)}: the time budget ({budget:g} s) ran out", False
-                break
-            say(f"step {len(steps)}: {' + '.join(('base',) + tuple(model.effects))}" + _left_text(end))
-            t_step = time.perf_counter()
-            try:
-                dg = diagnose(record, model, candidates=candidates, fixed=fixed, holdout=holdout, noise=noise,
-                              mask=mask, start=start, progress=progress, deadline=_step_deadline(steps_end, steps,
-                                                                                               max_steps), **rules)
-            except (ModelError, DataError) as exc:
-                if not steps:
-                    raise
-                stopped, complete = f"stopped at step {len(steps)}: its diagnosis failed: {exc}", False
-                break
-            steps.append(_step(record, model, dg, found, jinfo, time.perf_counter() - t_step))
-            found = jinfo = None
-            _report(on_step, steps, t0, budget, record)
-            chosen = dg.needed[0] if dg.needed else None
-            if chosen is None and accept == "supported":
-                chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
-            if chosen is None and discover and len(steps) <= max_steps and not dg.residuals.at_noise_level:  # discovery
-                if steps_end is not None and time.monotonic() >= steps_end:
-                    dg = _with_note(dg, " Term discovery outside the catalogue: not tried, the time budget ran out.")
-                else:
-                    found, model, start, note = _discovered(record, model, dg, fixed, mask, progress, rules)
-                    if found is not None:
-                        continue
-                    dg = _with_note(dg, note)
-            if chosen is None and _out_of_time(dg):
-                stopped, complete = (f"stopped at step {len(steps) - 1}: the time budget ran out before every "
-                                     f"candidate was fitted ({_out_of_time(dg)}): {dg.verdict}"), False
-                break
-            if chosen is None:
-                stopped = "no further effect is supported by the evidence: " + dg.verdict
-                break
-            if len(steps) > max_steps:
-                stopped = f"reached max_steps={max_steps}; the last diagnosis still supported {chosen}"
-                break
-            best = next(c for c in dg.candidates if c.effect == chosen)
-            model = apply_effects(model, [CATALOGUE[best.effect]])
-            start = dict(best.all_params)
-            if joint:
-                start, jinfo = joint_refit(record, base_model, model, steps, start, fixed=fixed, holdout=holdout,
-                                           mask=mask, deadline=steps_end, say=say, decimate=rules.get("decimate", True))
-    except KeyboardInterrupt:
-        if not steps:
-            raise
-        stopped, complete = f"stopped at step {len(steps)}: interrupted (Ctrl-C)", False
-        return _finish(record, steps, None, stopped, complete, t0, budget, None, "interrupted before the final fit: "
-                       "the last finished step's fit (on the fitting part) is the result")
-    kw = dict(fixed=fixed, holdout=holdout, noise=noise, mask=mask, progress=progress, **rules)
-    if complete:
-        model = _simplify(record, base_model, model, steps, say, {**kw, "deadline": end})
-    return _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say)
+    o, n = run.o, len(run.steps)
+    if chosen is None and _out_of_time(dg):
+        run.stop(f"stopped at step {n - 1}: the time budget ran out before every candidate was fitted "
+                 f"({_out_of_time(dg)}): {dg.verdict}", False)
+        return False
+    if chosen is None:
+        run.stop("no further effect is supported by the evidence: " + dg.verdict)
+        return False
+    if n > o.max_steps:
+        run.stop(f"reached max_steps={o.max_steps}; the last diagnosis still supported {chosen}")
+        return False
+    best = next(c for c in dg.candidates if c.effect == chosen)
+    run.model = apply_effects(run.model, [CATALOGUE[best.effect]])
+    run.start = dict(best.all_params)
+    if o.joint:
+        run.start, run.jinfo = joint_refit(run.record, run.base_model, run.model, run.steps, run.start, fixed=o.fixed,
+                                           holdout=o.holdout, mask=o.mask, deadline=run.steps_end, say=run.say,
+                                           decimate=o.rules.get("decimate", True))
+    return True
 
 
 def _step_deadline(steps_end, steps, max_steps: int):
@@ -262,7 +319,7 @@ def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
     from duffsym.identify.result import nrmse as _nrmse
 
     y = np.asarray(record.y, dtype=float)
-    k = dg.split["n_fit"]
+    k = dg.split.n_fit
     params = dict(dg.base_fit.params)
     return Step(effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
                 nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=params, stderr=dict(dg.base_fit.stderr),
@@ -355,7 +412,7 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
                 say(f"  not simpler: {exc}")
                 continue
             if dg.base_fit.success and dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
-                k = dg.split["n_fit"]
+                k = dg.split.n_fit
                 steps.append(Step(
                     effects=tuple(trial.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
                     nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
@@ -412,8 +469,8 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
     """
     import dataclasses
 
-    from duffsym.diagnose.search import (BUDGET_SAMPLES, SMOOTH_FORMS, _time_share, _fit, _free_run, _part,
-                                         _prepare_fit, _within_range, split_record)
+    from duffsym.diagnose.search import (BUDGET_SAMPLES, SMOOTH_FORMS, _fit, _part, _prepare_fit, _time_share,
+                                         _within_range, free_run, split_record)
     from duffsym.effects import CATALOGUE, apply_effects
 
     say = say or (lambda msg: None)
@@ -428,7 +485,7 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
     fixed_m = with_default_af(model, fixed, rec_fit)
 
     def score(m, params, x0):
-        yy = _free_run(m, params, record, x0)
+        yy = free_run(m, params, record, x0)
         return math.inf if not _within_range(yy, y) else float(np.sqrt(np.mean((y[:k] - yy[:k]) ** 2)) / np.std(y[:k]))
 
     def run(m, p0, label):

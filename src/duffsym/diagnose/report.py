@@ -5,7 +5,7 @@ from pathlib import Path
 
 from duffsym._io import write_json_atomic, write_text_atomic
 from duffsym.data.record import Record
-from duffsym.diagnose.search import _why_not
+from duffsym.diagnose.search import why_not
 
 
 def _save(fig, path: Path) -> str:
@@ -20,7 +20,7 @@ def _candidates_table(diag) -> list[str]:
              "|---|---|---|---|---|---|"]
     for c in diag.candidates:
         if not c.success:
-            lines.append(f"| {c.effect} | – | – | – | {_why_not(c.message)} | |")
+            lines.append(f"| {c.effect} | – | – | – | {why_not(c.message)} | |")
             continue
         pv = ", ".join(f"{k} = {v:.4g} ± {c.stderr.get(k, float('nan')):.2g}" for k, v in c.params.items())
         flag = "needed" if c.needed else ("helps partly" if c.supported else "not supported")

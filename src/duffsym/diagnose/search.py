@@ -27,40 +27,37 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, Sequence
+from typing import Iterable, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
 from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore
+from duffsym.diagnose.options import (BIC_THRESHOLD, CANDIDATE_CPU_TIME, CANDIDATE_MAX_ITER,
+                                      MIN_EXPLAINED, MIN_IMPROVEMENT, SCREEN, STABILITY_CHECKED, TIE,
+                                      DiagnoseOptions)
+from duffsym.diagnose.parts import BaseCheck, BaseEvidence, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
+from duffsym.diagnose.verdict import full_verdict, why_not
 from duffsym.errors import DataError, ModelError
+from duffsym.options import resolve
+from duffsym.simulate import simulate_record
+from duffsym.status import Status
 
-BIC_THRESHOLD = -10.0
-MIN_IMPROVEMENT = 0.10
-MIN_EXPLAINED = 0.50
-#: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
-TIE = 0.05
-#: IPOPT iterations for a candidate's fit (see :func:`diagnose`)
-CANDIDATE_MAX_ITER = 100
-#: IPOPT CPU seconds for a candidate's fit (see :func:`diagnose`)
-CANDIDATE_CPU_TIME = 30.0
+__all__ = ["BIC_THRESHOLD", "MIN_IMPROVEMENT", "MIN_EXPLAINED", "CANDIDATE_MAX_ITER", "CANDIDATE_CPU_TIME", "SCREEN",
+           "DiagnoseOptions", "Candidate", "Diagnosis", "diagnose", "split_record"]
+
 #: IPOPT iterations of a candidate's first, screening fit; candidates continued after it (see :func:`diagnose`)
 SCREEN_ITER = 30
-SCREEN = 4
 #: a free run whose largest |output| exceeds this multiple of the data's is called diverged
 DIVERGED = 10.0
-#: candidates (best first) whose fitted set is checked against the derived stability certificate
-STABILITY_CHECKED = 4
-#: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
-EXACT_FIT = 1e-3
 #: with a time budget (``deadline``), the shares of the time left that the base fit and the plain-fit
 #: reference may take (IPOPT CPU seconds); the candidates share the rest equally, each at most
 #: ``candidate_cpu_time``
 BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
 #: IPOPT statuses of a fit stopped by a time limit
-OUT_OF_TIME = ("Maximum_CpuTime_Exceeded", "Maximum_WallTime_Exceeded")
+OUT_OF_TIME = (Status.CPU_TIME, Status.IPOPT_WALL_TIME)
 #: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
 #: computed at the record's rate); a 10 000-sample fitting part at 1 kHz otherwise costs minutes per fit
 BUDGET_SAMPLES = 2000
@@ -132,6 +129,8 @@ class Diagnosis:
     verdict : one or two sentences for a person.
     base_fit : the base model's fit on the fitting part; ``y_base`` its free run on the whole record.
     split : the fitting/held-out split (sample counts, time).
+    base_check : the base fit against a plain fit of the record (:class:`~duffsym.diagnose.parts.BaseCheck`).
+    sindy : the SINDy cross-check's evidence (:class:`~duffsym.diagnose.parts.SindyCheck`), None when not run.
     """
 
     model: str
@@ -144,14 +143,14 @@ class Diagnosis:
     verdict: str
     base_fit: object
     y_base: np.ndarray
-    split: dict
+    split: Split
     noise: float
     bic_base: float
     timings: dict = field(default_factory=dict)
     y_candidates: dict = field(default_factory=dict)
-    sindy: dict | None = None
+    sindy: SindyCheck | None = None
     noise_method: str = "given"
-    base_check: dict = field(default_factory=dict)
+    base_check: BaseCheck | None = None
     prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
     noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
     inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
@@ -165,9 +164,10 @@ class Diagnosis:
         return dict(
             nrmse=self.nrmse, candidates=[c.to_dict() for c in self.candidates], needed=list(self.needed),
             verdict=self.verdict, model=self.model, effects=list(self.effects), nrmse_heldout=self.nrmse_heldout,
-            noise=self.noise, bic_base=self.bic_base, split=self.split, findings=self.residuals.findings(),
+            noise=self.noise, bic_base=self.bic_base, split=self.split.to_dict(), findings=self.residuals.findings(),
             residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
-            sindy=self.sindy, noise_method=self.noise_method, base_check=self.base_check,
+            sindy=None if self.sindy is None else self.sindy.to_dict(), noise_method=self.noise_method,
+            base_check={} if self.base_check is None else self.base_check.to_dict(),
             prepare=self.prepare.to_dict() if self.prepare is not None else None,
             noise_estimate=self.noise_estimate.to_dict() if self.noise_estimate is not None else None,
             inactive=self.inactive,
@@ -186,20 +186,13 @@ class Diagnosis:
             pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
             mark = "" if c.stable is not False else f"  [outside the stability certificate: {c.stability}]"
             lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
-                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{_why_not(c.message)}]") + mark)
+                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{why_not(c.message)}]") + mark)
         if self.sindy is not None:
-            lines.append(f"SINDy cross-check: {self.sindy.get('verdict')}: {self.sindy.get('message', '')}")
+            lines.append(self.sindy.summary())
         if self.prepare is not None:
             lines.append(self.prepare.summary())
         lines.append(f"verdict: {self.verdict}")
         return "\n".join(lines)
-
-
-def _why_not(message: str) -> str:
-    """Why a candidate has no result: screened out, its free run diverged, or its fit failed."""
-    if "WallTime_Exceeded" in message:
-        return f"not converged: its share of the time budget ran out ({message})"
-    return message if message.startswith(("screened out", "free run", "not tried")) else f"fit failed: {message}"
 
 
 # ---------------------------------------------------------------------------------------------- split
@@ -228,12 +221,16 @@ def _part(record: Record, stop: int) -> Record:
 
 
 # ---------------------------------------------------------------------------------------------- fits
-def _free_run(model, params: Mapping[str, float], record: Record, x0) -> np.ndarray | None:
-    """The fit's free run (identify's own) over ``record``; None when it fails or is not finite."""
-    from duffsym.identify.collocation import _free_run as free_run, _input_matrix
+def free_run(model, params: Mapping[str, float], record: Record, x0) -> np.ndarray | None:
+    """The free run of ``model`` at ``params`` over ``record`` from ``x0``
+    (:func:`~duffsym.simulate.simulate_record`); None when it fails or is not finite."""
+    tr = simulate_record(model, params, record, x0=x0, on_failure="return")
+    y = np.asarray(tr.y, dtype=float)
+    return y if tr.success and np.all(np.isfinite(y)) else None
 
-    y, ok, _ = free_run(model, model.param_vector(params), record, _input_matrix(model, record), x0)
-    return y if ok and np.all(np.isfinite(y)) else None
+
+#: the name this module gave :func:`free_run` before (``diagnose/discover.py`` and two benchmarks still call it)
+_free_run = free_run
 
 
 def with_default_af(model, fixed: Mapping[str, float] | None, record: Record) -> dict:
@@ -342,13 +339,22 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
                ipopt_options=options, bound_restart=bound_restart, flags=flags)
 
 
+class CandidateTask(NamedTuple):
+    """One candidate fit to make: the effect's name, the extended model, the IPOPT iteration budget and the
+    start (None: the effect's own guess from the base optimum)."""
+
+    name: str
+    model: object
+    budget: int
+    start: Mapping[str, float] | None
+
+
 class _CandidateFit:
     """One candidate's fit on the fitting part and its free run over the whole record: a picklable callable,
     so that an :class:`~duffsym.engine.Engine` can fit the candidates in worker processes.
 
-    Called with ``(name, extended model, iteration budget, start)`` (start None: the effect's own guess
-    from the base optimum); returns ``(ss_fit, fit, y_free_run, seconds)``, or ``(message, seconds)``
-    when the fit raised on bad input."""
+    Called with a :class:`CandidateTask`; returns a :class:`~duffsym.diagnose.parts.FitOutcome` (its
+    ``error`` set when the fit raised on bad input or was not tried)."""
 
     def __init__(self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time, deadline=None,
                  n_tasks=1):
@@ -373,10 +379,10 @@ class _CandidateFit:
         fs = _fit(soft, self.rec_fit, self.fixed, start, mask=unmasked(soft, self.mask_fit), max_iter=budget,
                   max_cpu_time=half,
                   max_wall_time=None if wall is None else 0.5 * wall, flags=False)
-        ok = fs.success or fs.status in ("Maximum_Iterations_Exceeded",) + OUT_OF_TIME
+        ok = fs.success or fs.status in (Status.MAX_ITER,) + OUT_OF_TIME
         return {**start, **dict(fs.params)} if ok and all(np.isfinite(list(fs.params.values()))) else start
 
-    def __call__(self, task):
+    def __call__(self, task: CandidateTask) -> FitOutcome:
         from duffsym.effects import CATALOGUE
         from duffsym.identify import extended_start
 
@@ -384,7 +390,7 @@ class _CandidateFit:
         t0 = time.perf_counter()
         wall = self._wall()
         if time_left(self.deadline) < 1.0:
-            return NOT_TRIED, 0.0
+            return FitOutcome(error=NOT_TRIED, status=Status.TIME_LIMIT)
         try:
             if start is None:
                 start = extended_start(ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit,
@@ -394,63 +400,44 @@ class _CandidateFit:
             fr = _fit(ext, self.rec_fit, self.fixed, start, mask=unmasked(ext, self.mask_fit), max_iter=budget,
                       max_cpu_time=self.cpu_time, max_wall_time=wall, flags=False)
         except (ModelError, DataError) as exc:
-            return str(exc), time.perf_counter() - t0
-        y_ext = _free_run(ext, fr.params, self.record, fr.x0[0])
+            return FitOutcome(error=str(exc), status=Status.UNKNOWN, seconds=time.perf_counter() - t0)
+        y_ext = free_run(ext, fr.params, self.record, fr.x0[0])
         y_ext = y_ext if _within_range(y_ext, self.record.y) else None
         k = self.k  # the fitting part: the first k samples of the record
         y = np.asarray(self.record.y, dtype=float)
         ss = float(np.sum((y[:k] - y_ext[:k]) ** 2)) if y_ext is not None else math.inf
-        return ss, fr, y_ext, time.perf_counter() - t0
+        return FitOutcome(ss=ss, fit=fr, y=y_ext, seconds=time.perf_counter() - t0)
 
 
-def _map(engine, job, tasks, say, verb, counted=False):
+def _map(engine, job, tasks: Sequence[CandidateTask], say, verb, counted=False):
     """``job`` over ``tasks``, in order: here, one after the other (saying each), or on the engine's workers."""
     if engine is None:
         for i, task in enumerate(tasks):
             if counted:
-                say(f"  {verb} {task[0]}", done=i, total=len(tasks))
+                say(f"  {verb} {task.name}", done=i, total=len(tasks))
             else:
-                say(f"  {verb} {task[0]}")
+                say(f"  {verb} {task.name}")
             yield job(task)
         return
     if not tasks:
         return
-    say(f"  {verb} {', '.join(t[0] for t in tasks)} on {engine!r}")
+    say(f"  {verb} {', '.join(t.name for t in tasks)} on {engine!r}")
     results: list = [None] * len(tasks)
     for n, outcome in enumerate(engine.as_completed(job, tasks)):
         if not outcome.ok:
             raise outcome.error
         results[outcome.index] = outcome.value
-        say(f"  {tasks[outcome.index][0]} fitted", done=n, total=len(tasks))
+        say(f"  {tasks[outcome.index].name} fitted", done=n, total=len(tasks))
     yield from results
 
 
 # ---------------------------------------------------------------------------------------------- main
-def diagnose(
-    record: Record,
-    model=None,
-    *,
-    fit_result=None,
-    start: Mapping[str, float] | None = None,
-    candidates: Iterable[str] | None = None,
-    fixed: Mapping[str, float] | None = None,
-    holdout: float = 0.3,
-    noise: float | None = None,
-    mask=None,
-    bic_threshold: float = BIC_THRESHOLD,
-    min_improvement: float = MIN_IMPROVEMENT,
-    min_explained: float = MIN_EXPLAINED,
-    candidate_max_iter: int = CANDIDATE_MAX_ITER,
-    candidate_cpu_time: float | None = CANDIDATE_CPU_TIME,
-    screen: int | None = SCREEN,
-    sindy: bool = True,
-    decimate: bool | int = True,
-    progress=None,
-    engine=None,
-    second_start: bool = True,
-    deadline: float | None = None,
-) -> Diagnosis:
+def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None, **settings) -> Diagnosis:
     """Where ``model`` fails on ``record`` and which catalogued effect is missing.
+
+    The settings are the fields of :class:`~duffsym.diagnose.options.DiagnoseOptions`, given as an
+    ``options`` object, by keyword (``diagnose(record, model, holdout=0.25)``), or both (the keywords win);
+    an unknown setting raises :class:`TypeError`.
 
     Parameters
     ----------
@@ -466,6 +453,7 @@ def diagnose(
     noise : the output noise standard deviation, if known (default: estimated from the data).
     mask : per-sample booleans: samples left out of every objective (whole record; the held-out
         errors are computed on all samples).
+    bic_threshold, min_improvement, min_explained : the decision rules (module docstring).
     candidate_max_iter : IPOPT iterations allowed to each candidate's fit. It starts from the base
         optimum and the effect's guess, so a candidate that explains the data converges in a few
         tens of iterations; one that does not (e.g. a play width driven towards 0, where the
@@ -502,134 +490,205 @@ def diagnose(
         out"``; the fitting data are decimated to at most ``BUDGET_SAMPLES`` samples (the factor and why
         are in ``prepare``); the SINDy cross-check is skipped when less than a tenth of the time is left.
     """
-    from duffsym.effects import CATALOGUE
-
+    o = resolve(DiagnoseOptions, options, settings, "diagnose")
     t_start = time.perf_counter()
-    say = reporter(progress)
-    if fit_result is not None:
+    say = reporter(o.progress)
+    model = _diagnosed_model(model, o.fit_result)
+    names = _candidate_names(o.candidates, model)
+    s = _setting(record, model, o)
+    say(f"base fit of {model.name} on {s.k} of {record.n_times} samples"
+        + (f" (decimated by {s.prep.factor})" if s.prep.factor > 1 else ""))
+    start = dict(o.fit_result.params) if o.start is None and o.fit_result is not None else o.start
+    t_budget = time_left(o.deadline)
+    base, y_work, base_check = _base_fit(model, s.work, s.rec_fit, s.fixed, start, o.mask, s.mask_fit, o.fit_result,
+                                         say, k=s.k, rec_plain=_plain_data(s, o), deadline=o.deadline)
+    ev = _base_evidence(s, base, model, s.through(y_work))
+    base_check = _with_certificate(base_check, model, base.params)
+    failed, runs = _candidate_runs(names, model, s.rec_fit, s.work, base, y_work[:s.k], s.fixed, s.mask_fit, o, say,
+                                   q=s.prep.factor)
+    for r in runs:
+        if r.fit is not None:
+            r.y = s.through(r.y)
+    sigma, noise_method = _noise_reference(s, ev, runs)
+    res = analyse_residuals(record, ev.y_base, noise=sigma, noise_kind="floor" if s.floor_noise else "measured",
+                            smoothing=s.est.smoothing)
+    shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
+    out, exts = _judged(failed, runs, s, ev, model, res, shifted, sigma, o)
+    out = _mark_stability(_rank(out), exts)
+    needed = tuple(c.effect for c in out if c.needed)
+    base_held = _nrmse(s.y[s.held], ev.y_base[s.held])
+    evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(o.sindy, o.deadline, t_budget, say) else None
+    inactive = inactive_effects(model, record, base.params, base.stderr)
+    verdict = full_verdict(res, out, base_held, noise_method, shifted, s.est.smoothing, evidence, base_check, inactive)
+    return Diagnosis(
+        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(s.y, ev.y_base), nrmse_heldout=base_held,
+        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
+        y_base=ev.y_base, split=Split(n_fit=s.k, n_heldout=record.n_times - s.k, t_split=float(record.t[s.k])),
+        noise=sigma, bic_base=ev.bic, timings={"total": time.perf_counter() - t_start},
+        y_candidates={r.name: r.y for r in runs if r.name in exts}, sindy=evidence, noise_method=noise_method,
+        base_check=base_check, prepare=s.prep, noise_estimate=s.est, inactive=inactive,
+    )
+
+
+def _nrmse(y, y_hat) -> float:
+    from duffsym.identify.result import nrmse
+
+    return nrmse(y, y_hat)
+
+
+def _diagnosed_model(model, fit_result):
+    """``model``, else the model of ``fit_result``, else the MR damper (n = 5)."""
+    if fit_result is not None and model is None:
         from duffsym.identify import model_from_result
 
-        model = model if model is not None else model_from_result(fit_result)
+        model = model_from_result(fit_result)
     if model is None:
         from duffsym.model.library import mr_damper
 
         model = mr_damper()
+    return model
+
+
+def _candidate_names(candidates: Iterable[str] | None, model) -> list[str]:
+    """The catalogued effects to try (default all), less those ``model`` has; an unknown name is an error."""
+    from duffsym.effects import CATALOGUE
+
     names = list(CATALOGUE) if candidates is None else list(candidates)
     unknown = [c for c in names if c not in CATALOGUE]
     if unknown:
         raise ModelError(f"unknown effect(s) {unknown}; choose from {sorted(CATALOGUE)} (duffsym effects lists them)")
-    names = [c for c in names if c not in model.effects]
-    k = split_record(record, holdout)
-    rec_fit = _part(record, k)
-    held = slice(k, record.n_times)
-    y = np.asarray(record.y, dtype=float)
-    est = NoiseEstimate(float(noise), "given") if noise is not None else estimate_noise(y, record.dt)
-    sigma, noise_method, floor_noise, w = est.sigma, est.method, not est.measurable, est.smoothing
-    # a detected moving average: the models are fitted to the force restored by its regularised inverse
-    # (``work``) and every free run is judged through the same average against the measured force
-    work = record if w <= 1 else record.replace(y=restore(y, w))
-    rec_fit = _part(work, k)
+    return [c for c in names if c not in model.effects]
 
-    def through(yy):
+
+@dataclass(frozen=True)
+class _Setting:
+    """What every fit of one diagnosis shares: the split at ``k`` (``held`` the tail), the measured output
+    ``y``, the noise estimate, the record the models are fitted to (``work``: the force restored when a moving
+    average smoothed it) and its fitting part as fitted (``rec_fit``, decimated by ``prep``), the fixed
+    parameters and the fitting part's mask."""
+
+    k: int
+    held: slice
+    y: np.ndarray
+    est: NoiseEstimate
+    work: Record
+    rec_fit: Record
+    fixed: dict
+    mask_fit: np.ndarray | None
+    prep: object
+    cap: int | None
+
+    @property
+    def floor_noise(self) -> bool:
+        return not self.est.measurable
+
+    def through(self, yy):
+        """A free run of the fitted (restored) force judged through the moving average that smoothed the data."""
+        w = self.est.smoothing
         return yy if w <= 1 or yy is None else moving_average(yy, w)
 
-    fixed = with_default_af(model, fixed, rec_fit)
-    mask_fit = None if mask is None else np.asarray(mask, dtype=bool)[:k]
-    cap = BUDGET_SAMPLES if deadline is not None else None
-    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, decimate, cap)
-    q = prep.factor
 
-    say(f"base fit of {model.name} on {k} of {record.n_times} samples" + (f" (decimated by {q})" if q > 1 else ""))
-    if start is None and fit_result is not None:
-        start = dict(fit_result.params)
-    t_budget = time_left(deadline)
-    base, y_work, base_check = _base_fit(model, work, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=k,
-                                         rec_plain=_prepare_fit(work, work, mask, q if cap else decimate, cap and -(-work.n_times // q))[1:]
-                                         if q > 1 else None, deadline=deadline)
-    y_base = through(y_work)
-    r_base = y - y_base
-    mse_held = float(np.mean(r_base[held] ** 2))
-    ss_fit = float(np.sum(r_base[:k] ** 2))
-    bic_base = _bic(ss_fit, k, _n_estimated(base, model))
-    base_check["stable"], base_check["stability"] = _certificate(model, base.params)
-    from duffsym.identify.result import nrmse as _nrmse
+def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
+    k = split_record(record, o.holdout)
+    y = np.asarray(record.y, dtype=float)
+    est = NoiseEstimate(float(o.noise), "given") if o.noise is not None else estimate_noise(y, record.dt)
+    # a detected moving average: the models are fitted to the force restored by its regularised inverse
+    # (``work``) and every free run is judged through the same average against the measured force
+    work = record if est.smoothing <= 1 else record.replace(y=restore(y, est.smoothing))
+    rec_fit = _part(work, k)
+    fixed = with_default_af(model, o.fixed, rec_fit)
+    mask_fit = None if o.mask is None else np.asarray(o.mask, dtype=bool)[:k]
+    cap = BUDGET_SAMPLES if o.deadline is not None else None
+    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, o.decimate, cap)
+    return _Setting(k=k, held=slice(k, record.n_times), y=y, est=est, work=work, rec_fit=rec_fit, fixed=fixed,
+                    mask_fit=mask_fit, prep=prep, cap=cap)
 
-    y_cands = {}
-    runs = _candidate_runs(names, model, rec_fit, work, base, y_work[:k], fixed, mask_fit, candidate_max_iter,
-                           candidate_cpu_time, screen, say, second_start, engine, q=q, deadline=deadline)
-    failed = [r for r in runs if isinstance(r, Candidate)]
-    runs = [r for r in runs if not isinstance(r, Candidate)]
-    for r in runs:
-        if r[4] is not None:
-            r[5] = through(r[5])
-    if floor_noise:
-        # no white-noise floor near Nyquist (pre-filtered or noise-free force): the third-difference
-        # estimate measures smoothness; the lowest held-out error of any fitted model bounds the noise
-        held_rms = [math.sqrt(mse_held)] + [math.sqrt(float(np.mean((y[held] - r[5][held]) ** 2)))
-                                            for r in runs if r[4] is not None and r[4].success and r[5] is not None]
-        noise_method = (f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; the "
-                        f"noise is {noise_method}")
-        sigma = min(held_rms)
-    res = analyse_residuals(record, y_base, noise=sigma, noise_kind="floor" if floor_noise else "measured",
-                            smoothing=w)
-    shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
+
+def _plain_data(s: _Setting, o: DiagnoseOptions):
+    """(record, mask) of the plain-fit reference: the whole record decimated as the fitting part is (None: not
+    decimated)."""
+    q = s.prep.factor
+    if q <= 1:
+        return None
+    return _prepare_fit(s.work, s.work, o.mask, q if s.cap else o.decimate, s.cap and -(-s.work.n_times // q))[1:]
+
+
+def _base_evidence(s: _Setting, base, model, y_base: np.ndarray) -> BaseEvidence:
+    r_base = s.y - y_base
+    ss_fit = float(np.sum(r_base[:s.k] ** 2))
+    return BaseEvidence(y_base=y_base, k=s.k, mse_held=float(np.mean(r_base[s.held] ** 2)), ss_fit=ss_fit,
+                        bic=_bic(ss_fit, s.k, _n_estimated(base, model)))
+
+
+def _with_certificate(check: BaseCheck, model, params) -> BaseCheck:
+    import dataclasses
+
+    stable, why = _certificate(model, params)
+    return dataclasses.replace(check, stable=stable, stability=why)
+
+
+def _noise_reference(s: _Setting, ev: BaseEvidence, runs: Sequence[CandidateRun]) -> tuple[float, str]:
+    """(noise level, how it was found): the estimate, or with no white-noise floor near Nyquist (pre-filtered or
+    noise-free force; the third-difference estimate then measures smoothness) the lowest held-out RMS of any
+    fitted model, an upper bound of the noise."""
+    if not s.floor_noise:
+        return s.est.sigma, s.est.method
+    held_rms = [math.sqrt(ev.mse_held)] + [math.sqrt(float(np.mean((s.y[s.held] - r.y[s.held]) ** 2)))
+                                           for r in runs if r.converged and r.y is not None]
+    return min(held_rms), (f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; "
+                           f"the noise is {s.est.method}")
+
+
+def _judged(failed, runs, s: _Setting, ev: BaseEvidence, model, res, shifted, sigma, o) -> tuple[list, dict]:
+    """Every candidate as a :class:`Candidate` (the failed ones first, then the runs in order) and the extended
+    model of each that was judged."""
     out: list[Candidate] = list(failed)
     exts = {}
-    for ss, name, effect, ext, fr, y_ext, secs in runs:
-        if fr is None:
-            out.append(_failed(name, effect, y_ext, secs))
+    for run in runs:
+        why = _not_judged(run)
+        if why is not None:
+            out.append(why)
             continue
-        if not fr.success:
-            out.append(_failed(name, effect, fr.message, secs))
-            continue
-        if y_ext is None:
-            out.append(_failed(name, effect, f"free run diverged (failed, or left {DIVERGED:g}x the data's range)",
-                               secs, diverged=True))
-            continue
-        y_cands[name] = y_ext
-        exts[name] = ext
-        r = y - y_ext
-        mse_h = float(np.mean(r[held] ** 2))
-        improvement = 1 - math.sqrt(mse_h / mse_held) if mse_held > 0 else 0.0
-        excess = mse_held - sigma**2
-        explained = (mse_held - mse_h) / excess if excess > 0 else 0.0
-        dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, ext)) - bic_base
-        own = [p.name for p in ext.params if p.name not in model.param_names]
-        supported = dbic < bic_threshold and improvement >= min_improvement
-        # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
-        enough = explained >= min_explained or (name == "force-offset" and shifted)
-        out.append(Candidate(
-            effect=name, nrmse_after=_nrmse(y[held], y_ext[held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
-            nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
-            explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
-            stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
-            message=fr.message, seconds=secs, supported=supported,
-            needed=supported and enough and not res.at_noise_level, physics=effect.physics,
-            start=int(fr.settings.get("candidate_start", 1))))
-    out = _mark_stability(_rank(out), exts)
-    needed = tuple(c.effect for c in out if c.needed)
-    base_held = _nrmse(y[held], y_base[held])
-    evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(sindy, deadline, t_budget, say) else None
-    inactive = inactive_effects(model, record, base.params, base.stderr)
-    verdict = _full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive)
-    return Diagnosis(
-        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(y, y_base), nrmse_heldout=base_held,
-        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
-        y_base=y_base, split={"n_fit": k, "n_heldout": record.n_times - k, "t_split": float(record.t[k])},
-        noise=sigma, bic_base=bic_base, timings={"total": time.perf_counter() - t_start},
-        y_candidates=y_cands, sindy=evidence, noise_method=noise_method, base_check=base_check, prepare=prep,
-        noise_estimate=est, inactive=inactive,
-    )
+        exts[run.name] = run.model
+        out.append(_judge(run, s, ev, model, res, shifted, sigma, o))
+    return out, exts
 
 
-def _full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive) -> str:
-    """The diagnosis's sentences: the verdict, the proposal to look outside the catalogue, smoothing, SINDy,
-    the base fit's check and the inactive effects."""
-    from duffsym.diagnose.discover import proposal
+def _not_judged(run: CandidateRun) -> Candidate | None:
+    """The failed :class:`Candidate` of a run without a usable fit (none, not converged, or its free run
+    diverged); None for a run to judge."""
+    if run.fit is None:
+        return _failed(run.name, run.effect, run.message, run.seconds)
+    if not run.fit.success:
+        return _failed(run.name, run.effect, run.fit.message, run.seconds)
+    if run.y is None:
+        return _failed(run.name, run.effect, f"free run diverged (failed, or left {DIVERGED:g}x the data's range)",
+                       run.seconds, diverged=True)
+    return None
 
-    return (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
-            + _sindy_sentence(evidence, out) + _base_sentence(base_check)
-            + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
+
+def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted, sigma, o) -> Candidate:
+    """A converged candidate's evidence against the base (module docstring) and whether it is supported or
+    needed."""
+    fr, y_ext, y, k = run.fit, run.y, s.y, s.k
+    r = y - y_ext
+    mse_h = float(np.mean(r[s.held] ** 2))
+    improvement = 1 - math.sqrt(mse_h / ev.mse_held) if ev.mse_held > 0 else 0.0
+    excess = ev.mse_held - sigma**2
+    explained = (ev.mse_held - mse_h) / excess if excess > 0 else 0.0
+    dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, run.model)) - ev.bic
+    own = [p.name for p in run.model.params if p.name not in model.param_names]
+    supported = dbic < o.bic_threshold and improvement >= o.min_improvement
+    # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
+    enough = explained >= o.min_explained or (run.name == "force-offset" and shifted)
+    return Candidate(
+        effect=run.name, nrmse_after=_nrmse(y[s.held], y_ext[s.held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
+        nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
+        explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
+        stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
+        message=fr.message, seconds=run.seconds, supported=supported,
+        needed=supported and enough and not res.at_noise_level, physics=run.effect.physics,
+        start=int(fr.settings.get("candidate_start", 1)))
 
 
 def _within_range(y_run, y) -> bool:
@@ -637,18 +696,18 @@ def _within_range(y_run, y) -> bool:
 
 
 def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None,
-              deadline=None):
+              deadline=None) -> tuple[object, np.ndarray, BaseCheck]:
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
     plain fit of the whole record (or ``fit_result``) is the reference. When the reference's free
     run is better on the fitting part, the base is refitted from the reference's parameters and the
-    better of the two kept. ``base_check`` reports both errors, which start won, and whether the
+    better of the two kept. The :class:`BaseCheck` reports both errors, which start won, and whether the
     base is as good as the reference (within 5 %); the verdict says so when it is not. ``k``: the
     fitting part's length at the record's rate (default ``rec_fit``'s, when not decimated);
     ``rec_plain``: (record, mask) of the plain fit (default ``record``, ``mask``; a decimated copy).
     ``deadline``: the base fit may take ``BASE_SHARE`` of the time left, the reference and the refit from
-    it ``REFERENCE_SHARE`` each (``check["budget"]`` says which stopped on it).
+    it ``REFERENCE_SHARE`` each (``check.budget`` says which stopped on it).
     """
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
@@ -658,19 +717,11 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
     # a base fit stopped by its share of the time budget is still used when its free run holds (the verdict
     # says it was not converged)
-    y_base = _free_run(model, base.params, record, base.x0[0]) if base.success or out_of_time else None
-    y_base = y_base if _within_range(y_base, y) else None
-    if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
-        plain, plain_src = fit_result, "the given fit"
-    else:
-        say("  reference: a plain fit of the whole record")
-        rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
-        plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True,
-                     max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)))
-        plain_src = "a plain fit of the record"
-        out_of_time += ["plain-fit reference"] if plain.status in OUT_OF_TIME else []
+    y_base = _in_range(model, base, record, y) if base.success or out_of_time else None
+    plain, plain_src, late = _reference(model, record, fixed, start, mask, fit_result, say, rec_plain, deadline)
+    out_of_time += late
     x0p = plain.x0[0] if plain.x0 and len(plain.x0[0]) == model.n_states else None
-    y_plain = _free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
+    y_plain = free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
     y_plain = y_plain if _within_range(y_plain, y) else None
 
     def err(yy):
@@ -681,8 +732,7 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
         say("  base refit from the reference's parameters")
         alt = _fit(model, rec_fit, fixed, dict(plain.params), mask=mask_fit, bound_restart=True,
                    max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE - REFERENCE_SHARE)))
-        y_alt = _free_run(model, alt.params, record, alt.x0[0]) if alt.success else None
-        y_alt = y_alt if _within_range(y_alt, y) else None
+        y_alt = _in_range(model, alt, record, y) if alt.success else None
         if err(y_alt) < err(y_base):
             base, y_base, won = alt, y_alt, "the reference's parameters"
     if y_base is None:
@@ -692,83 +742,110 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
         raise ModelError("the base model's free run over the whole record failed; the diagnosis needs a stable base "
                          "model")
     e_base, e_plain = err(y_base), err(y_plain)
-    check = dict(reference=plain_src, nrmse_fit_part=e_base, reference_nrmse_fit_part=e_plain, start=won,
-                 as_good=bool(e_base <= 1.05 * e_plain), budget=out_of_time)
+    check = BaseCheck(reference=plain_src, nrmse_fit_part=e_base, reference_nrmse_fit_part=e_plain, start=won,
+                      as_good=bool(e_base <= 1.05 * e_plain), budget=tuple(out_of_time))
     return base, y_base, check
 
 
-def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, candidate_max_iter,
-                    candidate_cpu_time, screen, say, second_start: bool = True, engine=None, q: int = 1,
-                    deadline: float | None = None) -> list:
+def _in_range(model, fr, record: Record, y) -> np.ndarray | None:
+    """The free run of fit ``fr`` over ``record``, None when it fails or leaves the data's range."""
+    yy = free_run(model, fr.params, record, fr.x0[0])
+    return yy if _within_range(yy, y) else None
+
+
+def _reference(model, record, fixed, start, mask, fit_result, say, rec_plain, deadline):
+    """(the reference fit, what it is, the fits among it that stopped on their time share): ``fit_result`` when it
+    has free parameters and initial states, else a plain fit of the whole record."""
+    if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
+        return fit_result, "the given fit", []
+    say("  reference: a plain fit of the whole record")
+    rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
+    plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True,
+                 max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)))
+    return plain, "a plain fit of the record", ["plain-fit reference"] if plain.status in OUT_OF_TIME else []
+
+
+def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, o: DiagnoseOptions, say,
+                    q: int = 1) -> tuple[list[Candidate], list[CandidateRun]]:
     """Each candidate fitted (with screening, see :func:`diagnose`; a second start, see ``second_start``;
-    on ``engine``'s workers when given): rows ``[ss, name, effect, ext, fit, y_ext, seconds]`` (``y_ext``
-    None when the free run diverged; ``fit`` None when screened out, with the reason in place of
-    ``y_ext``), or a failed :class:`Candidate`."""
+    on ``engine``'s workers when given): (the failed :class:`Candidate` of each whose fit raised, the
+    :class:`CandidateRun` of every other)."""
     from duffsym.effects import CATALOGUE, apply_effects
 
     y = np.asarray(record.y, dtype=float)
     k = len(y_model_fit)  # the fitting part at the record's rate; rec_fit may be decimated by q
     ss_base = float(np.sum((y[:k] - np.asarray(y_model_fit)) ** 2))
-    out: list = []
-    budget = candidate_max_iter if screen is None else min(SCREEN_ITER, candidate_max_iter)
+    screen, deadline = o.screen, o.deadline
+    budget = o.candidate_max_iter if screen is None else min(SCREEN_ITER, o.candidate_max_iter)
     job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit)[::q], fixed, mask_fit,
-                        candidate_cpu_time, deadline, len(names) + (screen or 0))
+                        o.candidate_cpu_time, deadline, len(names) + (screen or 0))
     tasks = []
     for name in names:
         try:
-            tasks.append((name, apply_effects(model, [CATALOGUE[name]]), budget, None))
+            tasks.append(CandidateTask(name, apply_effects(model, [CATALOGUE[name]]), budget, None))
         except ModelError as exc:
             say(f"  {name}: not applicable ({exc})")
-    runs = []
-    for (name, ext, _, _), got in zip(tasks, _map(engine, job, tasks, say, "trying", counted=True)):
-        if isinstance(got[0], str):  # the candidate's fit raised: (message, seconds)
-            out.append(_failed(name, CATALOGUE[name], got[0], got[1]))
-            continue
-        ss, fr, y_ext, secs = got
-        runs.append([ss, name, CATALOGUE[name], ext, fr, y_ext, secs])
-    if second_start and time_left(deadline) > 1.0:
-        # lost to a local optimum (failed, diverged, or worse than the base it extends): a second start
-        # at the base solution itself, the effect's parameters at their neutral defaults
-        lost = [r for r in runs if not r[4].success or r[0] > ss_base]
-        starts = [(r[1], r[3], budget, {**dict(base.params), **{p.name: p.default for p in r[2].parameters()}})
-                  for r in lost]
-        for run, got in zip(lost, _map(engine, job, starts, say, "second start for")):
-            if isinstance(got[0], str):
-                continue
-            ss2, fr2, y2, secs2 = got
-            run[6] += secs2
-            if (fr2.success or not run[4].success) and (ss2 < run[0] or (fr2.success and not run[4].success)):
-                fr2.settings["candidate_start"] = 2
-                run[0], run[4], run[5] = ss2, fr2, y2
+    failed, runs = [], []
+    for task, got in zip(tasks, _map(o.engine, job, tasks, say, "trying", counted=True)):
+        if not got.ok:  # the candidate's fit raised, or was not tried
+            failed.append(_failed(task.name, CATALOGUE[task.name], got.error, got.seconds))
+        else:
+            runs.append(CandidateRun.from_outcome(task.name, CATALOGUE[task.name], task.model, got))
+    if o.second_start and time_left(deadline) > 1.0:
+        _second_starts(runs, ss_base, base, budget, job, o.engine, say)
     if screen is not None and time_left(deadline) <= 1.0:
         for run in runs:
-            if not run[4].success and run[4].status == "Maximum_Iterations_Exceeded":
-                run[4], run[5] = None, f"{NOT_TRIED} after its screening fit ({budget} IPOPT iterations)"
+            if not run.converged and run.fit_status is Status.MAX_ITER:
+                run.drop(Status.TIME_LIMIT, f"{NOT_TRIED} after its screening fit ({budget} IPOPT iterations)")
     elif screen is not None:
-        # only the candidates still being fitted compete for continuation: a fit stopped half-way is not
-        # ranked against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the
-        # ladder lost it on an offset + lag record; it converges to the true lag when continued)
-        runs.sort(key=lambda item: item[0])
-        open_runs = [r for r in runs if not r[4].success
-                     and r[4].status in ("Maximum_Iterations_Exceeded",) + OUT_OF_TIME]
-        go_on = []
-        for rank, run in enumerate(open_runs):
-            if rank >= screen:
-                run[4] = None
-                run[5] = (f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
-                          f"{rank + 1} of the {len(open_runs)} candidates not converged by then (screen={screen})")
-                continue
-            go_on.append(run)
-        for run, got in zip(go_on, _map(engine, job, [(r[1], r[3], candidate_max_iter, r[4].params) for r in go_on],
-                                        say, "continuing")):
-            if isinstance(got[0], str):
-                run[4], run[5] = None, got[0]
-                continue
-            start2 = run[4].settings.get("candidate_start")
-            run[4], run[5], run[6] = got[1], got[2], run[6] + got[3]
-            if start2:
-                run[4].settings["candidate_start"] = start2
-    return out + runs
+        _screen_and_continue(runs, screen, budget, o.candidate_max_iter, job, o.engine, say)
+    return failed, runs
+
+
+def _second_starts(runs: list[CandidateRun], ss_base: float, base, budget: int, job, engine, say) -> None:
+    """A run lost to a local optimum (failed, diverged, or worse than the base it extends) fitted again from the
+    base solution itself, the effect's parameters at their neutral defaults; the better fit is kept."""
+    lost = [r for r in runs if not r.converged or r.ss > ss_base]
+    starts = [CandidateTask(r.name, r.model, budget,
+                            {**dict(base.params), **{p.name: p.default for p in r.effect.parameters()}})
+              for r in lost]
+    for run, got in zip(lost, _map(engine, job, starts, say, "second start for")):
+        if not got.ok:
+            continue
+        run.seconds += got.seconds
+        fr2 = got.fit
+        if (fr2.success or not run.fit.success) and (got.ss < run.ss or (fr2.success and not run.fit.success)):
+            fr2.settings["candidate_start"] = 2
+            run.ss, run.fit, run.y = got.ss, fr2, got.y
+
+
+def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max_iter: int, job, engine,
+                         say) -> None:
+    """Screening: the runs not converged on the screening budget are ranked by their free-run error on the
+    fitting part; the best ``screen`` continue to ``max_iter`` iterations, the others are screened out.
+
+    Only the candidates still being fitted compete for continuation: a fit stopped half-way is not ranked
+    against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the ladder lost it
+    on an offset + lag record; it converges to the true lag when continued)."""
+    runs.sort(key=lambda r: r.ss)
+    open_runs = [r for r in runs if not r.converged and r.fit_status in (Status.MAX_ITER,) + OUT_OF_TIME]
+    go_on = []
+    for rank, run in enumerate(open_runs):
+        if rank >= screen:
+            run.drop(Status.SCREENED_OUT,
+                     f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
+                     f"{rank + 1} of the {len(open_runs)} candidates not converged by then (screen={screen})")
+            continue
+        go_on.append(run)
+    tasks = [CandidateTask(r.name, r.model, max_iter, r.fit.params) for r in go_on]
+    for run, got in zip(go_on, _map(engine, job, tasks, say, "continuing")):
+        if not got.ok:
+            run.drop(got.status or Status.UNKNOWN, got.error)
+            continue
+        start2 = run.fit.settings.get("candidate_start")
+        run.take(got)
+        if start2:
+            run.fit.settings["candidate_start"] = start2
 
 
 def _certificate(model, params) -> tuple[bool | None, str]:
@@ -843,31 +920,17 @@ def _sindy_wanted(sindy: bool, deadline, t_budget: float, say) -> bool:
     return sindy
 
 
-def _sindy_evidence(record, base_fit, model, say) -> dict:
+def _sindy_evidence(record, base_fit, model, say) -> SindyCheck:
     """The SINDy cross-check's evidence, or why it could not run on this model."""
     from duffsym.sindy import sindy_evidence
 
     say("  SINDy cross-check")
     try:
-        return sindy_evidence([record], fit=base_fit, model=model)
+        return SindyCheck.from_evidence(sindy_evidence([record], fit=base_fit, model=model))
     except (ModelError, DataError, ValueError, ArithmeticError) as exc:
         # the cross-check is corroboration only: a failure here must not cost the diagnosis
-        return {"verdict": "not applicable", "conclusive": False, "missing_terms": [],
-                "message": f"the SINDy cross-check could not run on this model: {type(exc).__name__}: {exc}"}
-
-
-def _sindy_sentence(evidence: dict | None, cands: Sequence[Candidate]) -> str:
-    if not evidence or not evidence.get("conclusive"):
-        return ""
-    found = [m for m in evidence.get("missing_terms", []) if m.get("supported")]
-    if not found:
-        return ""
-    terms = ", ".join(f"{m['term']}" + (f" ({m['effect']})" if m.get("effect") else "") for m in found)
-    best = next((c for c in cands if c.success), None)
-    effects = {m.get("effect") for m in found}
-    if best is not None and best.needed and best.effect in effects:
-        return f" The SINDy cross-check independently selects {terms}, the term of {best.effect}."
-    return f" The SINDy cross-check selects term(s) the model lacks: {terms}."
+        return SindyCheck.not_applicable(f"the SINDy cross-check could not run on this model: "
+                                         f"{type(exc).__name__}: {exc}")
 
 
 def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate:
@@ -875,96 +938,3 @@ def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate
                      delta_bic=math.nan, improvement=math.nan, explained=math.nan, params={}, stderr={},
                      all_params={}, success=False, message=message, seconds=seconds, physics=effect.physics,
                      diverged=diverged)
-
-
-def _share(c: Candidate, floor: bool) -> str:
-    """The share of the excess error a candidate removes, in words; with the held-out floor as the noise
-    reference the best candidate removes all of it by construction, so no share is quoted."""
-    if floor:
-        return "how much error is left above the noise cannot be said: the noise is not measurable"
-    return f"{100 * c.explained:.0f} % of the excess error"
-
-
-def _not_needed_why(c: Candidate) -> str:
-    if c.stable is False:
-        return "its fitted set is outside the derived stability certificate (energy-producing)"
-    return f"removes only {100 * c.explained:.0f} % of the excess error"
-
-
-def _smoothing_sentence(w: int) -> str:
-    if w <= 1:
-        return ""
-    return (f" The force is smoothed by a {w}-sample moving average (detected in its spectrum): the models were "
-            "fitted to the force restored by its regularised inverse and judged through the same average against "
-            "the measured force.")
-
-
-def _base_sentence(check: Mapping) -> str:
-    s = ""
-    if check.get("budget"):
-        s += (f" Time budget: the {' and the '.join(check['budget'])} stopped on {'its' if len(check['budget']) == 1 else 'their'}"
-              " share of the budget before converging (give more with --budget).")
-    if check and not check.get("as_good", True):
-        s += (f" Caution: the diagnosis's base fit (free-run NRMSE {check['nrmse_fit_part']:.3g} on the fitting part) "
-              f"is worse than {check['reference']} ({check['reference_nrmse_fit_part']:.3g}): every candidate is "
-              "judged against a weaker base.")
-    if check.get("stable") is False:
-        s += (f" The base fit is outside the derived stability certificate ({check.get('stability')}): "
-              "an energy-producing parameter set; treat its numbers with care.")
-    return s
-
-
-def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float, noise_method: str = "given",
-             shifted: bool = False) -> str:
-    ok = [c for c in cands if c.success and not c.diverged]
-    best = ok[0] if ok else None
-    where = res.findings()
-    floor = noise_method.startswith("held-out residual floor")
-    noise_said = (f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})" if not floor else
-                  f" (the noise is not measurable on this record; the reference {res.noise:.3g} is the lowest held-out "
-                  "RMS of any fitted model, an upper bound of the noise)")
-    if base_held < EXACT_FIT and not any(c.needed for c in ok):
-        return (f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
-                "data?); nothing is left to explain and no effect is needed.")
-    if res.at_noise_level and not any(c.needed for c in ok):
-        if floor:
-            return ("The model fits as well as any candidate: no catalogued effect lowers the held-out error "
-                    f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}.")
-        return (f"The model fits to the noise: the residual is white and at the noise level "
-                f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
-                f"catalogued effect improves the held-out error convincingly.")
-    if res.excess < 1.5 and not floor and not any(c.needed for c in ok):
-        return (f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
-                f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
-                "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
-                "effect lowers convincingly; no effect is needed.")
-    unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
-    tail = ""
-    if unstable:
-        tail = (" Not taken although supported, because the fitted set is outside the derived stability certificate "
-                "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + ".")
-    if best is not None and best.needed:
-        s = (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-             f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
-             f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {_share(best, floor)}).")
-        if best.effect == "force-offset" and shifted and best.explained < 0.5:
-            s += " It is taken because the loop is shifted (residual mean a large share of its RMS)."
-        ties = [c for c in ok[1:] if c.needed and c.nrmse_after <= best.nrmse_after * (1 + TIE)]
-        if ties:
-            s += (f" {', '.join(c.effect for c in ties)} explain{'s' if len(ties) == 1 else ''} it almost as well "
-                  "here: this record cannot tell them apart.")
-        return s + tail
-    needed = next((c for c in ok if c.needed), None)
-    if needed is not None:
-        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-                f"Adding {needed.effect} ({needed.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} "
-                f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {_share(needed, floor)}).") + tail
-    if best is not None and best.supported:
-        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-                f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
-                f"{best.delta_bic:.0f}) but {_not_needed_why(best)}, so it is not the missing effect with confidence. "
-                f"What remains: {'; '.join(where[:2]) if where else 'unclear'}.") + tail
-    return ("No catalogued effect explains what the model misses: "
-            + ("; ".join(where[:3]) if where else "the residual is structured") + noise_said
-            + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
-               f"{best.nrmse_after:.3g}." if best is not None else ".") + tail)

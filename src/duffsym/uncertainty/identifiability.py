@@ -157,7 +157,6 @@ def excitation_summary(records) -> dict:
 def identifiability_report(result, records, *, chains=None, model=None, post=None) -> IdentifiabilityReport:
     """Combine the scaling symmetry, the Fisher spectrum at the optimum and (when ``chains`` are given)
     the posterior correlations into named weak directions, with the data that would resolve each."""
-    from duffsym.derive.symmetry import find_scaling_symmetry
     from duffsym.uncertainty._setup import as_records, build_posterior
 
     records = as_records(records)
@@ -170,8 +169,30 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
     order = np.argsort(w)
     w, V = w[order], V[:, order]
     exc = excitation_summary(records)
+    sym, sym_info, sym_dir = _symmetry(model, post, free, kinds, scales)
+    # --- Fisher directions; the Cramer-Rao correlations name the partners of a weak direction (the
+    # eigenvectors depend on the coordinates' scales, the correlations do not)
+    cov = np.linalg.pinv(0.5 * (F + F.T))
+    csd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
+    fcorr = cov / np.outer(csd, csd)
+    # variance inflation: how much the correlations widen each parameter's uncertainty (scale-free)
+    vif = np.clip(np.diag(cov) * np.diag(F), 1.0, None)
+    directions = _directions(w, V, free, fcorr, labels, sym_dir)
+    corr_pairs = _posterior_pairs(chains)
+    params_info = _params_info(post, free, kinds, scales, fcorr, csd, vif)
     degrees = {n: _state_degree(model, n) for n in free}
-    # --- symmetry
+    findings = _findings(sym, sym_info, free, params_info, degrees, corr_pairs, exc)
+    text = _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings)
+    return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
+                                 eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
+                                 excitation=exc, text=text, fisher=F, fisher_correlation=fcorr, params=params_info)
+
+
+def _symmetry(model, post, free, kinds, scales):
+    """(the model's scaling symmetry, what it moves and whether fixing a parameter breaks it, its direction in
+    the report's coordinates when every parameter it moves is free, else None)."""
+    from duffsym.derive.symmetry import find_scaling_symmetry
+
     sym = find_scaling_symmetry(model)
     sym_info = {"exists": bool(sym.exists), "text": sym.text, "moved": [], "fixed_moved": [], "broken": True}
     sym_dir = None
@@ -187,13 +208,11 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             v = np.array([tangent[n] / theta[j] if kinds[j] == "log" else tangent[n] / scales[j]
                           for j, n in enumerate(free)])
             sym_dir = v / np.linalg.norm(v)
-    # --- Fisher directions; the Cramer-Rao correlations name the partners of a weak direction (the
-    # eigenvectors depend on the coordinates' scales, the correlations do not)
-    cov = np.linalg.pinv(0.5 * (F + F.T))
-    csd = np.sqrt(np.maximum(np.diag(cov), 1e-300))
-    fcorr = cov / np.outer(csd, csd)
-    # variance inflation: how much the correlations widen each parameter's uncertainty (scale-free)
-    vif = np.clip(np.diag(cov) * np.diag(F), 1.0, None)
+    return sym, sym_info, sym_dir
+
+
+def _directions(w, V, free, fcorr, labels, sym_dir) -> list[dict]:
+    """Each Fisher eigen-direction: its sd, status, leading components and the correlated partners of its lead."""
     directions = []
     for k in range(len(w)):
         sd = 1 / math.sqrt(w[k]) if w[k] > 0 else math.inf
@@ -207,7 +226,11 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
                            "correlated_with": partners,
                            "label": " ".join(f"{c:+.2f} {labels[free.index(n)]}" for n, c in comps.items()),
                            "symmetry_overlap": float(abs(sym_dir @ v)) if sym_dir is not None else None})
-    # --- posterior correlations
+    return directions
+
+
+def _posterior_pairs(chains) -> list[dict]:
+    """The pairs of sampled quantities whose posterior correlation reaches ``CORRELATED`` ([] without chains)."""
     corr_pairs = []
     if chains is not None:
         C = chains.correlation()
@@ -216,7 +239,11 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
             for j in range(i):
                 if abs(C[i, j]) >= CORRELATED:
                     corr_pairs.append({"pair": [names[j], names[i]], "correlation": float(C[i, j])})
-    # --- per-parameter inflation and partners
+    return corr_pairs
+
+
+def _params_info(post, free, kinds, scales, fcorr, csd, vif) -> dict:
+    """Per free parameter: its variance inflation, relative sd, strongly correlated partners and status."""
     params_info = {}
     for j, n in enumerate(free):
         partners = {free[i]: float(fcorr[j, i]) for i in np.argsort(-np.abs(fcorr[j]))
@@ -227,7 +254,12 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
         status = ("unidentifiable" if vif[j] > VIF_UNIDENTIFIABLE and rel > REL_SD_UNIDENTIFIABLE
                   else ("weak" if vif[j] > VIF_WEAK else "identified"))
         params_info[n] = {"vif": float(vif[j]), "relative_sd": rel, "partners": partners, "status": status}
-    # --- findings
+    return params_info
+
+
+def _findings(sym, sym_info, free, params_info, degrees, corr_pairs, exc) -> list[dict]:
+    """The named findings: the symmetry, each group of weak parameters (with why and what data resolve it),
+    and the posterior correlations no group covers."""
     findings = []
     if sym.exists and not sym_info["broken"]:
         findings.append({"kind": "symmetry", "params": sym_info["moved"],
@@ -238,42 +270,46 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
                          "evidence": f"the scaling symmetry is broken by fixing {', '.join(sym_info['fixed_moved'])}",
                          "resolve": "nothing needed; the gains are relative to the fixed value"})
     done: set = set()
-    rank = {"unidentifiable": 0, "weak": 1, "identified": 2}
-    for n in sorted(free, key=lambda k: (rank[params_info[k]["status"]], -params_info[k]["vif"])):
+    for n in sorted(free, key=lambda k: (_RANK[params_info[k]["status"]], -params_info[k]["vif"])):
         info = params_info[n]
         if info["status"] == "identified" or n in done:
             continue
         involved = [n] + [m for m in info["partners"] if m not in done]
         done.update(involved)
-        nonlinear = [m for m in involved if degrees.get(m, 1) > 1]
-        linear = [m for m in involved if degrees.get(m, 1) <= 1]
-        pairs = [p for p in corr_pairs if set(p["pair"]) <= set(involved)]
-        ev = (f"the correlations with {', '.join(f'{m} ({c:+.2f})' for m, c in info['partners'].items()) or 'the others'} "
-              f"inflate the variance of {n} {info['vif']:.3g}-fold (Cramer-Rao)")
-        if pairs:
-            ev += "; posterior correlations " + ", ".join(f"{a}-{b} {c['correlation']:+.2f}"
-                                                        for c in pairs for a, b in [c["pair"]])
-        if nonlinear and linear:
-            why = (f"the x^n-type term(s) of {', '.join(nonlinear)} can be mimicked by the linear one(s) of "
-                   f"{', '.join(linear)} at a single amplitude")
-            if exc["single_amplitude"]:
-                why += " (every record here has one amplitude)"
-            resolve = ("records at several amplitudes: an amplitude-stepped sine, a multisine or a band-limited "
-                       "random input")
-        else:
-            why = "the record does not separate these terms"
-            resolve = "records at several frequencies and amplitudes (band-limited random excitation)"
-        findings.append({"kind": min((params_info[m]["status"] for m in involved), key=rank.get), "params": involved, "evidence": ev, "why": why, "resolve": resolve,
-                         "vif": info["vif"]})
+        findings.append(_weak_finding(n, info, involved, params_info, degrees, corr_pairs, exc))
     for p in corr_pairs:
         if not any(set(p["pair"]) <= set(f["params"]) for f in findings):
             findings.append({"kind": "correlated", "params": p["pair"],
                              "evidence": f"posterior correlation {p['correlation']:+.2f}",
                              "resolve": "richer excitation (several amplitudes and frequencies)"})
-    text = _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings)
-    return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
-                                 eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
-                                 excitation=exc, text=text, fisher=F, fisher_correlation=fcorr, params=params_info)
+    return findings
+
+
+_RANK = {"unidentifiable": 0, "weak": 1, "identified": 2}
+
+
+def _weak_finding(n, info, involved, params_info, degrees, corr_pairs, exc) -> dict:
+    """The finding of a weak parameter ``n`` and its partners ``involved``: the evidence, why, what resolves it."""
+    nonlinear = [m for m in involved if degrees.get(m, 1) > 1]
+    linear = [m for m in involved if degrees.get(m, 1) <= 1]
+    pairs = [p for p in corr_pairs if set(p["pair"]) <= set(involved)]
+    ev = (f"the correlations with {', '.join(f'{m} ({c:+.2f})' for m, c in info['partners'].items()) or 'the others'} "
+          f"inflate the variance of {n} {info['vif']:.3g}-fold (Cramer-Rao)")
+    if pairs:
+        ev += "; posterior correlations " + ", ".join(f"{a}-{b} {c['correlation']:+.2f}"
+                                                    for c in pairs for a, b in [c["pair"]])
+    if nonlinear and linear:
+        why = (f"the x^n-type term(s) of {', '.join(nonlinear)} can be mimicked by the linear one(s) of "
+               f"{', '.join(linear)} at a single amplitude")
+        if exc["single_amplitude"]:
+            why += " (every record here has one amplitude)"
+        resolve = ("records at several amplitudes: an amplitude-stepped sine, a multisine or a band-limited "
+                   "random input")
+    else:
+        why = "the record does not separate these terms"
+        resolve = "records at several frequencies and amplitudes (band-limited random excitation)"
+    return {"kind": min((params_info[m]["status"] for m in involved), key=_RANK.get), "params": involved,
+            "evidence": ev, "why": why, "resolve": resolve, "vif": info["vif"]}
 
 
 def _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings) -> str:

@@ -33,6 +33,7 @@ from typing import Sequence
 import numpy as np
 
 from duffsym.errors import DataError, ModelError
+from duffsym.status import Status
 
 #: Bounds spanning at least this ratio make a positive parameter a scale parameter (log-uniform prior).
 DECADES_RATIO = 100.0
@@ -40,7 +41,8 @@ DECADES_RATIO = 100.0
 TINY = 1e-12
 PHI_NAME = "ar1_phi"
 PHI_BOUND = 0.99
-CODES = {0: "ok", 1: "blow-up", 2: "too stiff", 3: "outside prior"}
+#: the kernel's status codes; the counts of a posterior are keyed by their values ("ok", "blow-up", ...)
+CODES = {0: Status.OK, 1: Status.BLOW_UP, 2: Status.TOO_STIFF, 3: Status.OUTSIDE_PRIOR}
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,7 @@ class LogPosterior:
         lo, hi = zip(*(p.coord_bounds for p in self.priors))
         self.lo, self.hi = np.array(lo), np.array(hi)
         self.n_dim = len(self.priors)
-        self.counts = {c: 0 for c in CODES.values()}
+        self.counts = {c.value: 0 for c in CODES.values()}
 
     # ---------------------------------------------------------------- coordinates
     def params(self, z: np.ndarray) -> np.ndarray:
@@ -211,7 +213,7 @@ class LogPosterior:
 
     def count(self, codes) -> None:
         for c in np.asarray(codes, dtype=np.int64).ravel():
-            self.counts[CODES[int(c)]] += 1
+            self.counts[CODES[int(c)].value] += 1
 
 
 class _Vectorized:

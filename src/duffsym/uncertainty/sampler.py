@@ -20,12 +20,14 @@ import time
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
 from duffsym._json import jsonable
 from duffsym.errors import ConvergenceWarning, DataError, DuffsymError, ModelError
+from duffsym.options import resolve
+from duffsym.status import Status
+from duffsym.uncertainty.options import SampleOptions
 from duffsym.uncertainty.posterior import PHI_NAME, LogPosterior, Prior, _CountingPool, _Serial, _Vectorized
 
 #: Chains shorter than this many autocorrelation times are flagged (emcee's recommendation).
@@ -377,13 +379,12 @@ def _initial_walkers(post: LogPosterior, result, n_walkers: int, spread: float, 
                      f"({filled} found); is the fit converged and are its bounds wide enough?")
 
 
-def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5000, burn: int | None = None,
-           thin: int | None = None, noise: str = "gaussian", bounds: Mapping[str, tuple[float, float]] | None = None,
-           mask=None, rng=None, pool=None, vectorize: bool | None = None, progress: bool = False,
-           init_spread: float = 1.0, h_rho: float = 1.0, hrho_max: float = 2.0, on_short: str = "warn",
-           recheck_draws: int = 16, sigma_draws: int = 2000, moves=None, threads: int | None = 1,
-           sample_x0: bool = True, checkpoint=None, checkpoint_every: float = 30.0) -> Chains:
+def sample(result, records, model=None, options: SampleOptions | None = None, **settings) -> Chains:
     r"""Sample the posterior of a fit's free parameters with emcee.
+
+    The settings are the fields of :class:`~duffsym.uncertainty.options.SampleOptions`, given as an ``options``
+    object, by keyword (``sample(result, record, n_steps=2000)``), or both (the keywords win); an unknown setting
+    raises :class:`TypeError`.
 
     Parameters
     ----------
@@ -425,116 +426,159 @@ def sample(result, records, *, model=None, n_walkers: int = 32, n_steps: int = 5
     -------
     Chains
     """
-    import emcee
+    o = resolve(SampleOptions, options, settings, "sample")
+    _check_counts(o)
+    rng = np.random.default_rng(o.rng)
+    t_start = time.perf_counter()
+    post, model, records, setup = _build(result, records, model, o)
+    p0, z_opt = _initial_walkers(post, result, int(o.n_walkers), float(o.init_spread), rng, _phi0(post, o.noise))
+    t_setup = time.perf_counter() - t_start
+    sampler, vectorize, move_label = _sampler(post, o, rng)
+    t_run, cpu_run = _run_sampler(sampler, p0, post, result, o)
+    zchain = sampler.get_chain()
+    burn, thin, tau = _burn_thin_tau(zchain, o)
+    acc = np.asarray(sampler.acceptance_fraction, dtype=float)
+    counts = dict(post.counts)
+    flat_z = zchain[burn::max(thin, 1)].reshape(-1, post.n_dim)
+    recheck = _recheck(post, model, flat_z, o.recheck_draws, rng)
+    recheck["posterior_max_hrho"] = _posterior_hrho(post, flat_z)
+    recheck["hrho_max"] = o.hrho_max
+    warn = _chain_warnings(post, o, tau, burn, acc, counts, recheck)
+    se = np.array([float(result.stderr.get(n, math.nan)) for n in result.free]
+                  + [math.nan] * (post.n_dim - len(result.free)))
+    chains = Chains(
+        names=tuple(p.name for p in post.priors), chain=np.stack([post.natural(z) for z in zchain]),
+        log_prob=sampler.get_log_prob(), acceptance=acc, tau=tau, burn=int(burn), thin=thin,
+        optimum=post.natural(z_opt)[0], laplace_stderr=se, laplace_cov=np.asarray(result.covariance, dtype=float),
+        priors=tuple(post.priors), counts=counts, sigma=_sigma_draws(post, flat_z, o.sigma_draws, rng),
+        recheck=recheck, setup=setup, warnings=tuple(warn), settings=_settings_record(o, vectorize, move_label),
+        timings={"setup": t_setup, "sampling": t_run, "sampling_cpu": cpu_run, "per_step": t_run / o.n_steps,
+                 "per_walker_step": t_run / (o.n_steps * o.n_walkers), "total": time.perf_counter() - t_start},
+        fit={"model": result.model, "effects": list(result.effects), "params": dict(result.params),
+             "free": list(result.free), "fixed": dict(result.fixed), "nrmse": float(result.nrmse)},
+    )
+    if warn and o.n_steps - burn < MIN_TAUS * np.max(tau) and o.on_short == "raise":
+        raise ChainTooShort(warn[0], tau=dict(zip(chains.names, tau.tolist())), chains=chains)
+    for w in warn:
+        warnings.warn(w, ConvergenceWarning, stacklevel=2)
+    return chains
 
-    from duffsym.uncertainty._setup import build_posterior
 
-    if on_short not in ("warn", "raise"):
-        raise ModelError(f"on_short must be 'warn' or 'raise'; got {on_short!r}")
-    for label, v, least in (("n_steps", n_steps, 2), ("recheck_draws", recheck_draws, 0), ("sigma_draws", sigma_draws, 0)):
+def _check_counts(o: SampleOptions) -> None:
+    if o.on_short not in ("warn", "raise"):
+        raise ModelError(f"on_short must be 'warn' or 'raise'; got {o.on_short!r}")
+    for label, v, least in (("n_steps", o.n_steps, 2), ("recheck_draws", o.recheck_draws, 0),
+                            ("sigma_draws", o.sigma_draws, 0)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
             raise ModelError(f"{label} must be an integer >= {least}; got {v!r}")
-    rng = np.random.default_rng(rng)
-    t_start = time.perf_counter()
-    post, model, records, setup = build_posterior(result, records, model=model, bounds=bounds, noise=noise,
-                                                  mask=mask, h_rho=h_rho, hrho_max=hrho_max, sample_x0=sample_x0)
+
+
+def _build(result, records, model, o: SampleOptions):
+    """(posterior, model, records, setup) of :func:`~duffsym.uncertainty._setup.build_posterior`, with the walker
+    count checked against its dimension."""
+    from duffsym.uncertainty._setup import build_posterior
+
+    post, model, records, setup = build_posterior(result, records, model=model, bounds=o.bounds, noise=o.noise,
+                                                  mask=o.mask, h_rho=o.h_rho, hrho_max=o.hrho_max,
+                                                  sample_x0=o.sample_x0)
+    n_walkers = o.n_walkers
     if isinstance(n_walkers, bool) or not isinstance(n_walkers, (int, np.integer)) or n_walkers < 2 * post.n_dim:
         raise ModelError(f"n_walkers must be an integer >= 2 x {post.n_dim} (the dimension); got {n_walkers!r}")
-    phi0 = 0.0
-    if noise == "ar1":
-        P = np.atleast_2d(post.base)
-        rs = [(sim.run(P)[0][0] - y)[k] for sim, y, k in zip(post.simulators, post.ys, post.keep)]
-        r = np.concatenate(rs)
-        phi0 = float(np.clip(np.sum(r[1:] * r[:-1]) / np.sum(r * r), -0.9, 0.9)) if r.size > 2 else 0.0
-    p0, z_opt = _initial_walkers(post, result, int(n_walkers), float(init_spread), rng, phi0)
-    t_setup = time.perf_counter() - t_start
-    vectorize = pool is None if vectorize is None else bool(vectorize)
+    return post, model, records, setup
+
+
+def _phi0(post: LogPosterior, noise: str) -> float:
+    """The AR(1) coefficient's start: the lag-1 correlation of the optimum's residuals (0 with white noise)."""
+    if noise != "ar1":
+        return 0.0
+    P = np.atleast_2d(post.base)
+    rs = [(sim.run(P)[0][0] - y)[k] for sim, y, k in zip(post.simulators, post.ys, post.keep)]
+    r = np.concatenate(rs)
+    return float(np.clip(np.sum(r[1:] * r[:-1]) / np.sum(r * r), -0.9, 0.9)) if r.size > 2 else 0.0
+
+
+def _sampler(post: LogPosterior, o: SampleOptions, rng):
+    """(emcee's ensemble sampler, whether it is vectorized, the moves' label), its random state from ``rng``."""
+    import emcee
+
+    vectorize = o.pool is None if o.vectorize is None else bool(o.vectorize)
     if vectorize:
         fn, pool_arg = _Vectorized(post), None
     else:
-        fn, pool_arg = _Serial(post), (_CountingPool(pool, post) if pool is not None else _CountingPool(_Map(), post))
+        fn, pool_arg = _Serial(post), (_CountingPool(o.pool, post) if o.pool is not None else _CountingPool(_Map(), post))
+    moves = o.moves
     move_label = "de+snooker" if moves is None else ("stretch" if moves == "stretch" else str(moves))
     moves = default_moves() if moves is None else (None if moves == "stretch" else moves)
-    sampler = emcee.EnsembleSampler(int(n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg, moves=moves)
+    sampler = emcee.EnsembleSampler(int(o.n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg,
+                                    moves=moves)
     if not getattr(sampler.log_prob_fn, "args", ()) and not getattr(sampler.log_prob_fn, "kwargs", {}):
         # emcee's wrapper prints a traceback for any exception, Ctrl-C included; our function needs no wrapper
         sampler.log_prob_fn = getattr(sampler.log_prob_fn, "f", sampler.log_prob_fn)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31 - 1))).get_state()
+    return sampler, vectorize, move_label
+
+
+def _run_sampler(sampler, p0, post, result, o: SampleOptions) -> tuple[float, float]:
+    """Run the chain (``o.threads`` numba threads, checkpoints); (wall, CPU) seconds."""
     import numba
 
     old_threads = numba.get_num_threads()
     t0 = time.perf_counter()
     c0 = time.process_time()
     try:
-        if threads is not None:
-            numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
-        _run_with_checkpoints(sampler, p0, int(n_steps), progress, post, checkpoint, checkpoint_every, result)
+        if o.threads is not None:
+            numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
+        _run_with_checkpoints(sampler, p0, int(o.n_steps), o.progress, post, o.checkpoint, o.checkpoint_every, result)
     finally:
         numba.set_num_threads(old_threads)
-    t_run = time.perf_counter() - t0
-    cpu_run = time.process_time() - c0
-    zchain = sampler.get_chain()
-    chain = np.stack([post.natural(zchain[i]) for i in range(zchain.shape[0])])
-    log_prob = sampler.get_log_prob()
+    return time.perf_counter() - t0, time.process_time() - c0
+
+
+def _burn_thin_tau(zchain: np.ndarray, o: SampleOptions) -> tuple[int, int, np.ndarray]:
+    """(burn, thin, tau after the burn): burn by default 3 tau of the whole chain, at most a third of it."""
+    n_steps, burn = o.n_steps, o.burn
     tau_full = autocorr_time(zchain)
     if burn is None:
         tau_max = float(np.max(tau_full)) if np.all(np.isfinite(tau_full)) else math.inf  # too short to estimate
         burn = int(min(n_steps // 3, math.ceil(3 * tau_max))) if math.isfinite(tau_max) else n_steps // 3
     if not 0 <= burn < n_steps - 1:
         raise ModelError(f"burn must be in [0, {n_steps - 1}); got {burn}")
-    thin = 1 if thin is None else int(thin)
-    tau = autocorr_time(zchain[burn:])
+    thin = 1 if o.thin is None else int(o.thin)
+    return burn, thin, autocorr_time(zchain[burn:])
+
+
+def _chain_warnings(post, o: SampleOptions, tau, burn: int, acc, counts: dict, recheck: dict) -> list[str]:
+    """What a person should know about the chain: too short, acceptance, failed proposals near the stiffness
+    limit, a substep schedule off at posterior draws."""
     warn = []
-    kept = n_steps - burn
+    kept = o.n_steps - burn
     if kept < MIN_TAUS * np.max(tau):
         worst = post.priors[int(np.argmax(tau))].name
         warn.append(f"chain of {kept} kept steps is shorter than {MIN_TAUS} tau (tau = {np.max(tau):.0f} steps for "
                     f"{worst}): run at least {int(math.ceil(MIN_TAUS * np.max(tau) + burn))} steps")
-    acc = np.asarray(sampler.acceptance_fraction, dtype=float)
     if not ACCEPTANCE_RANGE[0] <= float(np.mean(acc)) <= ACCEPTANCE_RANGE[1]:
         warn.append(f"mean acceptance fraction {np.mean(acc):.2f} is outside {ACCEPTANCE_RANGE}")
-    counts = dict(post.counts)
     n_eval = sum(counts.values())
-    n_fail = counts["blow-up"] + counts["too stiff"]
-    flat_z = zchain[burn::max(thin, 1)].reshape(-1, post.n_dim)
-    recheck = _recheck(post, model, flat_z, recheck_draws, rng)
-    recheck["posterior_max_hrho"] = _posterior_hrho(post, flat_z)
-    recheck["hrho_max"] = hrho_max
-    if n_fail and recheck["posterior_max_hrho"] > 0.75 * hrho_max:
-        warn.append(f"{n_fail} of {n_eval} proposals failed to simulate ({counts['blow-up']} blow-up, "
-                    f"{counts['too stiff']} too stiff for the fixed substep schedule) and the posterior reaches "
-                    f"h*rho = {recheck['posterior_max_hrho']:.2g} (stop at {hrho_max:g}): the stiffness limit may cut "
-                    "the posterior; rerun with a smaller h_rho")
+    n_fail = counts[Status.BLOW_UP.value] + counts[Status.TOO_STIFF.value]
+    if n_fail and recheck["posterior_max_hrho"] > 0.75 * o.hrho_max:
+        warn.append(f"{n_fail} of {n_eval} proposals failed to simulate ({counts[Status.BLOW_UP.value]} blow-up, "
+                    f"{counts[Status.TOO_STIFF.value]} too stiff for the fixed substep schedule) and the posterior "
+                    f"reaches h*rho = {recheck['posterior_max_hrho']:.2g} (stop at {o.hrho_max:g}): the stiffness "
+                    "limit may cut the posterior; rerun with a smaller h_rho")
     if recheck.get("max_bias", 0.0) > 0.1:
         warn.append(f"the fixed substep schedule is off at some posterior draws (bias statistic "
                     f"{recheck['max_bias']:.2g} > 0.1 noise sd / sqrt(N)): rerun with a smaller h_rho")
-    sigma = _sigma_draws(post, flat_z, sigma_draws, rng)
-    optimum = post.natural(z_opt)[0]
-    se = np.array([float(result.stderr.get(n, math.nan)) for n in result.free]
-                  + [math.nan] * (post.n_dim - len(result.free)))
-    chains = Chains(
-        names=tuple(p.name for p in post.priors), chain=chain, log_prob=log_prob, acceptance=acc, tau=tau,
-        burn=int(burn), thin=thin, optimum=optimum, laplace_stderr=se,
-        laplace_cov=np.asarray(result.covariance, dtype=float), priors=tuple(post.priors), counts=counts,
-        sigma=sigma, recheck=recheck, setup=setup, warnings=tuple(warn),
-        settings={"n_walkers": int(n_walkers), "n_steps": int(n_steps), "noise": noise, "h_rho": h_rho,
-                  "sample_x0": bool(sample_x0),
-                  "hrho_max": hrho_max, "init_spread": init_spread, "vectorize": vectorize,
-                  "pool": type(pool).__name__ if pool is not None else None,
-                  "moves": move_label, "emcee": emcee.__version__,
-                  "threads": threads},
-        timings={"setup": t_setup, "sampling": t_run, "sampling_cpu": cpu_run, "per_step": t_run / n_steps,
-                 "per_walker_step": t_run / (n_steps * n_walkers),
-                 "total": time.perf_counter() - t_start},
-        fit={"model": result.model, "effects": list(result.effects), "params": dict(result.params),
-             "free": list(result.free), "fixed": dict(result.fixed), "nrmse": float(result.nrmse)},
-    )
-    if warn and kept < MIN_TAUS * np.max(tau):
-        if on_short == "raise":
-            raise ChainTooShort(warn[0], tau=dict(zip(chains.names, tau.tolist())), chains=chains)
-    for w in warn:
-        warnings.warn(w, ConvergenceWarning, stacklevel=2)
-    return chains
+    return warn
+
+
+def _settings_record(o: SampleOptions, vectorize: bool, move_label: str) -> dict:
+    """The settings a chain records (``Chains.settings``)."""
+    import emcee
+
+    return {"n_walkers": int(o.n_walkers), "n_steps": int(o.n_steps), "noise": o.noise, "h_rho": o.h_rho,
+            "sample_x0": bool(o.sample_x0), "hrho_max": o.hrho_max, "init_spread": o.init_spread,
+            "vectorize": vectorize, "pool": type(o.pool).__name__ if o.pool is not None else None,
+            "moves": move_label, "emcee": emcee.__version__, "threads": o.threads}
 
 
 class _Map:

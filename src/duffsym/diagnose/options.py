@@ -1,0 +1,70 @@
+"""The settings of :func:`~duffsym.diagnose.diagnose` and :func:`~duffsym.diagnose.ladder` as options objects
+(:mod:`duffsym.options`), and the decision rules' defaults they start from."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterable, Mapping
+
+BIC_THRESHOLD = -10.0
+MIN_IMPROVEMENT = 0.10
+MIN_EXPLAINED = 0.50
+#: IPOPT iterations for a candidate's fit (see :func:`diagnose`)
+CANDIDATE_MAX_ITER = 100
+#: IPOPT CPU seconds for a candidate's fit (see :func:`diagnose`)
+CANDIDATE_CPU_TIME = 30.0
+SCREEN = 4
+#: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
+TIE = 0.05
+#: candidates (best first) whose fitted set is checked against the derived stability certificate
+STABILITY_CHECKED = 4
+#: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
+EXACT_FIT = 1e-3
+#: default time budget of a ladder run (seconds): the issue's bound for any real record
+DEFAULT_BUDGET = 600.0
+
+
+@dataclass(frozen=True)
+class DiagnoseOptions:
+    """Every setting of :func:`~duffsym.diagnose.diagnose` (its docstring describes each), with its default."""
+
+    fit_result: Any = None
+    start: Mapping[str, float] | None = None
+    candidates: Iterable[str] | None = None
+    fixed: Mapping[str, float] | None = None
+    holdout: float = 0.3
+    noise: float | None = None
+    mask: Any = field(default=None, compare=False)
+    bic_threshold: float = BIC_THRESHOLD
+    min_improvement: float = MIN_IMPROVEMENT
+    min_explained: float = MIN_EXPLAINED
+    candidate_max_iter: int = CANDIDATE_MAX_ITER
+    candidate_cpu_time: float | None = CANDIDATE_CPU_TIME
+    screen: int | None = SCREEN
+    sindy: bool = True
+    decimate: bool | int = True
+    progress: Any = None
+    engine: Any = None
+    second_start: bool = True
+    deadline: float | None = None
+
+
+@dataclass(frozen=True)
+class LadderOptions:
+    """Every setting of :func:`~duffsym.diagnose.ladder` (its docstring describes each), with its default.
+    ``rules``: settings of each step's :func:`~duffsym.diagnose.diagnose` (``bic_threshold``, ``screen``,
+    ``sindy``, ``decimate``, ``engine``, ...: any of its settings but those the ladder sets itself); :func:`ladder`
+    also takes them by keyword."""
+
+    max_steps: int = 4
+    candidates: Iterable[str] | None = None
+    fixed: Mapping[str, float] | None = None
+    holdout: float = 0.3
+    noise: float | None = None
+    mask: Any = field(default=None, compare=False)
+    accept: str = "needed"
+    discover: bool = True
+    progress: Callable[[str], None] | None = None
+    budget: float | None = None
+    joint: bool = True
+    on_step: Callable | None = None
+    rules: Mapping[str, Any] = field(default_factory=dict)
