@@ -6,7 +6,8 @@ support, how they compare with a fit, and when the data cannot decide. The diagn
 :func:`sindy_evidence`.
 """
 from duffsym.sindy.check import SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
-from duffsym.sindy.library import CandidateLibrary, Term, candidate_library, split_terms
+from duffsym.derive import split_terms
+from duffsym.sindy.library import CandidateLibrary, Term, candidate_library
 from duffsym.sindy.states import ReconstructedStates, output_gain, output_split, reconstruct_states
 
 __all__ = ["crosscheck", "sindy_evidence", "SindyCrossCheck", "Thresholds", "candidate_library",

@@ -15,7 +15,7 @@ pysindy's ``SmoothedFiniteDifference`` (strong form, one row per sample), to sho
 at coarse sampling.
 
 Sparse regression on unit-norm columns and a unit-norm target: the sparsest support whose residual
-is not significantly worse than the full library's (:func:`_select`); the supports are the best
+is not significantly worse than the full library's (:func:`~duffsym.sindy.sparse.sparsest_acceptable`); the supports are the best
 subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise sparse
 regression path (``SSR``, dropping the term that raises the residual least) for larger ones, after projecting out one constant per record
 (the integration constant of the rebuilt position) and one ramp (its drift). Inclusion probabilities come from bagging the
@@ -41,6 +41,7 @@ import numpy as np
 
 from duffsym.errors import DataError, ModelError
 from duffsym.sindy.library import CandidateLibrary, candidate_library
+from duffsym.sindy.sparse import allowance, sparsest_acceptable
 from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
 
 METHODS = ("weak", "smoothed")
@@ -57,7 +58,7 @@ class Thresholds:
     Attributes
     ----------
     tolerance : fraction of the target's energy (|b|^2) a dropped set of terms may leave
-        unexplained, on top of the noise allowance (see ``_select``).
+        unexplained, on top of the noise allowance (see :func:`~duffsym.sindy.sparse.allowance`).
     stlsq_threshold : coefficient threshold on the normalised system for ``selection="stlsq"``.
     include, exclude : inclusion probability at or above which a term counts as selected /
         at or below which it counts as rejected; between them it is ambiguous.
@@ -149,103 +150,7 @@ def _project_out(C: np.ndarray, *arrays):
     return [a - Q @ (Q.T @ a) for a in arrays]
 
 
-def _path(G: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
-    """Supports from the full library down to one term, by pysindy's stepwise sparse regression.
-
-    ``SSR(criteria="model_residual")`` drops, at each step, the term whose removal raises the
-    residual least: unlike a threshold on coefficient size (STLSQ), it is not fooled by large,
-    cancelling coefficients of nearly collinear terms (x'^3, x'^5, x'^7 ...).
-    """
-    import warnings
-
-    import pysindy as ps
-
-    opt = ps.SSR(alpha=1e-10, criteria="model_residual", max_iter=G.shape[1], unbias=True)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        opt.fit(G, b)
-    supports = {}
-    for coef in opt.history_:
-        sup = tuple(np.flatnonzero(np.asarray(coef).reshape(-1)))
-        supports.setdefault(len(sup), sup)
-    supports[G.shape[1]] = tuple(range(G.shape[1]))
-    return [np.array(supports[k]) for k in sorted(supports)]
-
-
-MAX_EXHAUSTIVE = 16  # libraries up to this size get exhaustive best-subset search (2^16 subsets, Gram-based)
-
-
-def _acceptable(rss: float, k: int, p: int, rss_full: float, bb: float, n_eff: float, tolerance: float) -> bool:
-    allowance = tolerance * bb + (p - k) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
-    return rss - rss_full <= allowance
-
-
-def _best_subsets(G: np.ndarray, b: np.ndarray):
-    """For each size k, the support with the smallest residual (exhaustive; Gram matrices, batched solves)."""
-    from itertools import combinations
-
-    p = G.shape[1]
-    A = G.T @ G
-    g = G.T @ b
-    bb = float(b @ b)
-    ridge = 1e-13 * np.trace(A) / p  # keeps exactly collinear subsets solvable; far below any real effect
-    out = []
-    for k in range(1, p + 1):
-        combos = np.array(list(combinations(range(p), k)))
-        Ak = A[combos[:, :, None], combos[:, None, :]] + ridge * np.eye(k)
-        gk = g[combos]
-        coef = np.linalg.solve(Ak, gk[..., None])[..., 0]
-        rss = bb - np.einsum("ck,ck->c", gk, coef)
-        i = int(np.argmin(rss))
-        out.append((combos[i], float(rss[i])))
-    return out
-
-
-def _stlsq(G: np.ndarray, b: np.ndarray, threshold: float) -> np.ndarray:
-    """pysindy's STLSQ on the normalised system (the plain SINDy choice, kept for comparison)."""
-    import warnings
-
-    import pysindy as ps
-
-    opt = ps.STLSQ(threshold=threshold, alpha=1e-10, max_iter=50)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        opt.fit(G, b)
-    return np.asarray(opt.coef_, dtype=float).reshape(-1)
-
-
 SELECTIONS = ("best-subset", "ssr", "stlsq")
-
-
-def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float, selection: str = "best-subset",
-            threshold: float = 0.05) -> np.ndarray:
-    """Coefficients of the sparsest model whose residual is not significantly worse than the full library's.
-
-    A support of k terms is accepted when its residual sum of squares exceeds the full library's
-    by at most ``tolerance * |b|^2`` (practical significance) plus ``(p - k) log(n_eff) RSS_full / n_eff``
-    (a BIC-like allowance for noise; ``n_eff`` counts independent rows, the windows overlap).
-    Candidates per size: the best subset found exhaustively for libraries of at most
-    :data:`MAX_EXHAUSTIVE` terms (greedy elimination can lose the true term among nearly collinear
-    powers, x'^5 against x'^3 + x'^7), else pysindy's stepwise path (:func:`_path`).
-    """
-    if selection == "stlsq":
-        return _stlsq(G, b, threshold)
-    p = G.shape[1]
-    c_full, *_ = np.linalg.lstsq(G, b, rcond=None)
-    rss_full = float(np.sum((b - G @ c_full) ** 2))
-    bb = float(b @ b)
-    if p <= MAX_EXHAUSTIVE and selection == "best-subset":
-        candidates = [sup for sup, _ in _best_subsets(G, b)]
-    else:
-        candidates = _path(G, b)
-    for sup in candidates:
-        c, *_ = np.linalg.lstsq(G[:, sup], b, rcond=None)
-        rss = float(np.sum((b - G[:, sup] @ c) ** 2))
-        if _acceptable(rss, sup.size, p, rss_full, bb, n_eff, tolerance):
-            out = np.zeros(p)
-            out[sup] = c
-            return out
-    return c_full
 
 
 def _condition(Gn: np.ndarray, cols: Sequence[int]) -> tuple[float, np.ndarray]:
@@ -488,8 +393,8 @@ def crosscheck(
         rss_exp = float(np.sum((bn - Gu[:, exp_cols] @ c_exp) ** 2))
     else:
         rss_exp = float(bn @ bn)
-    allowance = thr.tolerance + (len(cols) - len(exp_cols)) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
-    model_excess = (rss_exp - rss_full) / allowance  # <= 1: the model's terms are an acceptable model too
+    # <= 1: the model's terms are an acceptable model too (the target has unit norm: |b|^2 = 1)
+    model_excess = (rss_exp - rss_full) / allowance(len(exp_cols), len(cols), rss_full, 1.0, n_eff, thr.tolerance)
     model_ok = model_excess <= 1.0
 
     # is what the full library leaves unexplained noise, or a systematic part it cannot represent?
@@ -600,14 +505,14 @@ def _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, n_terms, n_models, thr, sele
     """The full-data selection and ``n_models`` bootstrap selections: coefficients, inclusion
     probabilities, bootstrap standard deviations and the column scale back to physical units."""
     n_rows = Gn.shape[0]
-    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
+    xi_n = sparsest_acceptable(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
     coef_n = np.zeros(n_terms)
     coef_n[usable] = xi_n
     boot = np.zeros((n_models, n_terms))
     for m in range(n_models):
         rows = rng.integers(0, n_rows, n_rows)
-        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
-                                  thr.stlsq_threshold)
+        boot[m, usable] = sparsest_acceptable(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
+                                              thr.stlsq_threshold)
     inclusion = np.mean(boot != 0, axis=0)
     scale = bnorm / norms
     coef = coef_n * scale
