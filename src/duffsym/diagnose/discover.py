@@ -398,9 +398,10 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
                       mask=None if mask is None else np.asarray(mask, bool)[:k])
     fr = fit_with_effects(problem, [effect], {**dg.base_fit.params, **dict(start or {})}, dg.y_base[:k],
                           max_iter=max_iter, compute_stderr=True, bound_restart=False)
-    y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
-    if y_ext is None:
+    run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
+    if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
+    y_ext = np.asarray(run.y, dtype=float)
     y = np.asarray(record.y, float)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
     return fr, y_ext, bic

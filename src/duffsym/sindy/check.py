@@ -33,6 +33,7 @@ What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
@@ -281,66 +282,83 @@ def _reference(model, fit, params):
     return None, [], None, "none"
 
 
-def crosscheck(
-    records,
-    model=None,
-    *,
-    fit=None,
-    params: Mapping[str, float] | None = None,
-    gain: float | None = None,
-    library: CandidateLibrary | None = None,
-    method: str = "weak",
-    window: float | None = None,
-    n_models: int = 20,
-    max_power: int = 7,
-    selection: str = "best-subset",
-    thresholds: Thresholds | None = None,
-    rng: np.random.Generator | int | None = 0,
-) -> SindyCrossCheck:
-    """SINDy cross-check of the velocity equation of ``model`` on one or several records.
+@dataclass(frozen=True)
+class CrossCheckOptions:
+    """Settings of :func:`crosscheck` (every one also a keyword of it; the defaults are the documented ones).
 
-    Parameters
+    Attributes
     ----------
-    records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration
-        constant each).
-    model : the model whose terms are checked (default: the fit's model, else ``mr_damper(5)``).
-    fit : an :class:`~duffsym.identify.IdentificationResult`; gives the model, the gain ``A_f``,
-        and the coefficients (with standard errors) to compare with.
-    params : parameter values to compare with instead of a fit (e.g. a synthetic record's truth).
-    gain : output gain (``A_f``); default from ``fit``/``params``, else the largest max|y| of the
-        records (the identification's default, so coefficients match a default fit).
+    gain : output gain (``A_f``); default from the fit/params, else the largest max|y| of the records
+        (the identification's default, so coefficients match a default fit).
     library : candidate terms (default :func:`candidate_library` of the model with ``max_power``).
     method : ``"weak"`` (default) or ``"smoothed"``.
     window : weak-form window length, s (default a quarter of the shortest dominant input period).
+    n_models : bootstrap fits for the inclusion probabilities.
+    max_power : highest power of the generic terms of the default library.
     selection : how supports are chosen: ``"best-subset"`` (default; exhaustive up to 16 terms, then
         pysindy's SSR path), ``"ssr"`` (pysindy's stepwise path always) or ``"stlsq"`` (pysindy's
         STLSQ with ``thresholds.stlsq_threshold``: plain SINDy, kept for comparison; with nearly
         collinear powers it keeps spurious terms under noise, see study s09).
-    n_models : bootstrap fits for the inclusion probabilities.
-    thresholds : the numbers behind the verdict (:class:`Thresholds`).
+    thresholds : the numbers behind the verdict (:class:`Thresholds`; default ``Thresholds()``).
     rng : seed or Generator of the bootstrap.
-
-    Returns
-    -------
-    SindyCrossCheck
-
-    Raises
-    ------
-    ModelError, DataError
-        For a model whose output is not a gain times the velocity, an unknown method, records
-        with non-uniform sampling or too short for one window.
     """
-    records, model, thr = _inputs(records, model, fit, method, selection, n_models, thresholds)
-    gain_expr = output_gain(model)
-    ref, free, cov, ref_source = _reference(model, fit, params)
-    gain_value, gain_source = _gain(model, gain_expr, records, gain, ref, ref_source)
-    lib = library or candidate_library(model, max_power=max_power)
-    rng = np.random.default_rng(rng)
 
-    dts, periods, width, stride = _windows(records, window)
+    gain: float | None = None
+    library: CandidateLibrary | None = None
+    method: str = "weak"
+    window: float | None = None
+    n_models: int = 20
+    max_power: int = 7
+    selection: str = "best-subset"
+    thresholds: Thresholds | None = None
+    rng: np.random.Generator | int | None = 0
 
+    def with_settings(self, **settings) -> "CrossCheckOptions":
+        """These options with ``settings`` replaced.
+
+        Raises
+        ------
+        TypeError
+            For a name that is not a setting (named in the message, with the valid ones).
+        """
+        names = [f.name for f in dataclasses.fields(self)]
+        unknown = [k for k in settings if k not in names]
+        if unknown:
+            raise TypeError(f"crosscheck() got an unexpected keyword argument {unknown[0]!r}; "
+                            f"its settings are {', '.join(names)}, fit and params")
+        return dataclasses.replace(self, **settings) if settings else self
+
+
+@dataclass(frozen=True, eq=False)
+class _Regression:
+    """The records' regression system, projected (one constant and one ramp per record) and normalised:
+    unit-norm columns ``Gn`` (``norms`` their scale, ``usable`` the non-zero ones) and unit-norm target ``bn``."""
+
+    Gn: np.ndarray
+    bn: np.ndarray
+    C: np.ndarray
+    norms: np.ndarray
+    bnorm: float
+    usable: np.ndarray
+    width: int
+    stride: int
+    dts: list
+    periods: list
+
+    @property
+    def n_rows(self) -> int:
+        return self.Gn.shape[0]
+
+    @property
+    def n_eff(self) -> float:
+        return self.n_rows * self.stride / self.width  # windows overlap: about width/stride rows per independent one
+
+
+def _regression(records, model, lib, opts: CrossCheckOptions, gain_value: float, ref) -> _Regression:
+    """States rebuilt from each record, the weak-form (or strong-form) rows, the nuisance projected out."""
+    dts, periods, width, stride = _windows(records, opts.window)
     parts = [reconstruct_states(r, model, gain_value, ref) for r in records]
-    G, b, C = _system(parts, lib, method, width, stride)
+    G, b, C = _system(parts, lib, opts.method, width, stride)
     G, b = _project_out(C, G, b)
     norms = np.linalg.norm(G, axis=0)
     usable = norms > 1e-12 * max(1.0, float(norms.max()))
@@ -348,44 +366,42 @@ def crosscheck(
     bnorm = float(np.linalg.norm(b))
     if not (bnorm > 0 and np.all(np.isfinite(G))):
         raise DataError("the SINDy regression has an all-zero or non-finite target; check the records' output")
-    Gn, bn = G / norms, b / bnorm
+    return _Regression(G / norms, b / bnorm, C, norms, bnorm, usable, width, stride, dts, periods)
 
-    n_rows = Gn.shape[0]
-    n_eff = n_rows * stride / width  # windows overlap: about width/stride rows per independent one
-    coef, inclusion, coef_std, scale = _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, lib.n_terms, n_models, thr,
-                                                  selection, rng)
 
-    model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
-    selected = inclusion >= thr.include
-    ambiguous = (inclusion > thr.exclude) & ~selected
+def _refit_selected(reg: _Regression, selected: np.ndarray, scale: np.ndarray) -> tuple[float, np.ndarray]:
+    """``r2`` of the selected terms refitted together and their coefficients in physical units (the full-data
+    selection and the bootstrap majority can differ by a term, so the reported ones are this refit's)."""
+    n_terms = selected.size
+    sel_cols = [j for j in range(n_terms) if selected[j] and reg.usable[j]]
+    coef = np.zeros(n_terms)
+    if not sel_cols:
+        return 0.0, coef
+    c_sel, *_ = np.linalg.lstsq(reg.Gn[:, sel_cols], reg.bn, rcond=None)
+    coef[sel_cols] = c_sel * scale[sel_cols]
+    return float(1.0 - np.sum((reg.bn - reg.Gn[:, sel_cols] @ c_sel) ** 2)), coef
 
-    # measurable facts behind the verdict
-    relevant = [j for j in range(lib.n_terms) if usable[j] and (expected[j] or inclusion[j] >= 0.5)]
-    cond, vif = _condition(Gn, relevant)
-    cond_all, _ = _condition(Gn, [j for j in range(lib.n_terms) if usable[j]])
-    sel_cols = [j for j in range(lib.n_terms) if selected[j] and usable[j]]
-    if sel_cols:
-        c_sel, *_ = np.linalg.lstsq(Gn[:, sel_cols], bn, rcond=None)
-        r2 = float(1.0 - np.sum((bn - Gn[:, sel_cols] @ c_sel) ** 2))
-        # the reported coefficients are those of the selected terms refitted together (the full-data
-        # selection and the bootstrap majority can differ by a term)
-        coef = np.zeros(lib.n_terms)
-        coef[sel_cols] = c_sel * scale[sel_cols]
-    else:
-        r2 = 0.0
-        coef = np.zeros(lib.n_terms)
-    change = _sampling_change(records, model, lib, method, width, stride, gain_value, relevant, Gn, bn, norms, bnorm,
-                              ref)
-    spread = _bootstrap_spread(Gn, bn, relevant, n_models, rng)
-    # a change within 3 bootstrap standard deviations is noise (half the samples carry other noise), not sampling
+
+def _sampling(records, model, lib, opts, reg: _Regression, gain_value, relevant, ref, rng) -> tuple[float, float]:
+    """The largest relative coefficient change when the sampling halves, counting only changes beyond 3
+    bootstrap standard deviations (half the samples carry other noise), and the largest change of all."""
+    change = _sampling_change(records, model, lib, opts.method, reg.width, reg.stride, gain_value, relevant, reg.Gn,
+                              reg.bn, reg.norms, reg.bnorm, ref)
+    spread = _bootstrap_spread(reg.Gn, reg.bn, relevant, opts.n_models, rng)
     beyond = change > 3.0 * spread
     sampling_change = float(np.max(np.where(beyond, change, 0.0))) if change.size else 0.0
-    noise_change = float(np.max(change)) if change.size else 0.0
+    return sampling_change, float(np.max(change)) if change.size else 0.0
 
-    # does the model's own term set fit the data as well (within the same allowance) as SINDy's choice?
-    cols = [j for j in range(lib.n_terms) if usable[j]]
-    exp_cols = [cols.index(j) for j in range(lib.n_terms) if expected[j] and usable[j]]
-    Gu = Gn[:, cols]
+
+def _model_terms(reg: _Regression, expected: np.ndarray, method: str, thr: Thresholds) -> dict:
+    """Does the model's own term set fit the data as well (within the selection's allowance) as the full
+    library (``model_terms_excess`` <= 1)? And is what the full library leaves unexplained noise or a
+    systematic part: rows closer than one window share samples, so noise correlates only up to that lag;
+    beyond it, a correlated residual is structure outside the library (or in the state reconstruction)."""
+    n_terms = expected.size
+    cols = [j for j in range(n_terms) if reg.usable[j]]
+    exp_cols = [cols.index(j) for j in range(n_terms) if expected[j] and reg.usable[j]]
+    Gu, bn = reg.Gn[:, cols], reg.bn
     c_all, *_ = np.linalg.lstsq(Gu, bn, rcond=None)
     rss_full = float(np.sum((bn - Gu @ c_all) ** 2))
     if exp_cols:
@@ -393,67 +409,126 @@ def crosscheck(
         rss_exp = float(np.sum((bn - Gu[:, exp_cols] @ c_exp) ** 2))
     else:
         rss_exp = float(bn @ bn)
-    # <= 1: the model's terms are an acceptable model too (the target has unit norm: |b|^2 = 1)
-    model_excess = (rss_exp - rss_full) / allowance(len(exp_cols), len(cols), rss_full, 1.0, n_eff, thr.tolerance)
-    model_ok = model_excess <= 1.0
+    # the target has unit norm: |b|^2 = 1
+    excess = (rss_exp - rss_full) / allowance(len(exp_cols), len(cols), rss_full, 1.0, reg.n_eff, thr.tolerance)
+    correlation = _residual_correlation(bn - Gu @ c_all, reg.C, method, reg.width, reg.stride, reg.periods, reg.dts)
+    return {"excess": excess, "ok": excess <= 1.0, "residual_correlation": correlation,
+            "systematic": rss_full / float(bn @ bn) * correlation}
 
-    # is what the full library leaves unexplained noise, or a systematic part it cannot represent?
-    # Rows closer than one window share samples, so noise correlates only up to that lag; beyond it,
-    # a correlated residual is structure outside the library (or in the state reconstruction).
-    residual_correlation = _residual_correlation(bn - Gu @ c_all, C, method, width, stride, periods, dts)
-    systematic = rss_full / float(bn @ bn) * residual_correlation
 
-    max_vif = float(np.max(vif)) if vif.size else 1.0
-    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
-    reasons = _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
-                       sampling_change)
-    exp_names = [lib.names[j] for j in np.flatnonzero(expected)]
-    sel_names = [lib.names[j] for j in np.flatnonzero(selected)]
-    missing = [n for j, n in enumerate(lib.names) if selected[j] and not in_model[j]]
-    absent = [n for j, n in enumerate(lib.names) if expected[j] and not selected[j]]
-    extra_model = [n for j, n in enumerate(lib.names) if selected[j] and in_model[j] and not expected[j]]
-
-    agrees = np.full(lib.n_terms, None, dtype=object)
-    for j in range(lib.n_terms):
+def _agreement(selected, coef, coef_std, model_coef, model_se, thr: Thresholds) -> np.ndarray:
+    """For each selected term with a non-zero model coefficient: does SINDy's coefficient agree with it
+    (within ``coefficient_rtol`` or 3 combined standard deviations)? None for the others."""
+    agrees = np.full(selected.size, None, dtype=object)
+    for j in range(selected.size):
         if selected[j] and np.isfinite(model_coef[j]) and model_coef[j] != 0:
             tol = max(thr.coefficient_rtol * abs(model_coef[j]),
                       3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
             agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
+    return agrees
 
-    verdict, message = _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model,
-                                exp_names, sel_names, lib, agrees, ref)
 
-    terms = []
-    for j, t in enumerate(lib.terms):
-        terms.append({"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
-                      "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
-                      "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
-                      "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
-                      "model_stderr": float(model_se[j]), "agrees": agrees[j],
-                      "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)})
+def _term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees) -> list[dict]:
+    """One dict per candidate term (see :attr:`SindyCrossCheck.terms`)."""
+    return [{"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
+             "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
+             "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
+             "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
+             "model_stderr": float(model_se[j]), "agrees": agrees[j],
+             "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)}
+            for j, t in enumerate(lib.terms)]
+
+
+def _term_sets(lib, selected, expected, in_model) -> dict:
+    """The names of the expected, selected, missing (selected, not in the model), absent (expected, not
+    selected) and extra model terms (selected model terms held at zero)."""
+    names = lib.names
+    return {"expected": [names[j] for j in np.flatnonzero(expected)],
+            "selected": [names[j] for j in np.flatnonzero(selected)],
+            "missing": [n for j, n in enumerate(names) if selected[j] and not in_model[j]],
+            "absent": [n for j, n in enumerate(names) if expected[j] and not selected[j]],
+            "extra_model": [n for j, n in enumerate(names) if selected[j] and in_model[j] and not expected[j]]}
+
+
+def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *, fit=None,
+               params: Mapping[str, float] | None = None, **settings) -> SindyCrossCheck:
+    """SINDy cross-check of the velocity equation of ``model`` on one or several records.
+
+    Parameters
+    ----------
+    records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration
+        constant each).
+    model : the model whose terms are checked (default: the fit's model, else ``mr_damper(5)``).
+    options : a :class:`CrossCheckOptions` (default: its defaults); ``settings`` replace single fields
+        (``crosscheck(rec, model, n_models=10, selection="ssr")``): ``gain``, ``library``, ``method``,
+        ``window``, ``n_models``, ``max_power``, ``selection``, ``thresholds``, ``rng``.
+    fit : an :class:`~duffsym.identify.IdentificationResult`; gives the model, the gain ``A_f``,
+        and the coefficients (with standard errors) to compare with.
+    params : parameter values to compare with instead of a fit (e.g. a synthetic record's truth).
+
+    Returns
+    -------
+    SindyCrossCheck
+
+    Raises
+    ------
+    TypeError
+        For a setting that :class:`CrossCheckOptions` does not have.
+    ModelError, DataError
+        For a model whose output is not a gain times the velocity, an unknown method, records
+        with non-uniform sampling or too short for one window.
+    """
+    opts = (options or CrossCheckOptions()).with_settings(**settings)
+    records, model, thr = _inputs(records, model, fit, opts)
+    gain_expr = output_gain(model)
+    ref, free, cov, ref_source = _reference(model, fit, params)
+    gain_value, gain_source = _gain(model, gain_expr, records, opts.gain, ref, ref_source)
+    lib = opts.library or candidate_library(model, max_power=opts.max_power)
+    rng = np.random.default_rng(opts.rng)
+    reg = _regression(records, model, lib, opts, gain_value, ref)
+    _, inclusion, coef_std, scale = _bootstrap(reg.Gn, reg.bn, reg.usable, reg.norms, reg.bnorm, reg.n_eff,
+                                               lib.n_terms, opts.n_models, thr, opts.selection, rng)
+    model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
+    selected = inclusion >= thr.include
+    ambiguous = (inclusion > thr.exclude) & ~selected
+    # measurable facts behind the verdict
+    relevant = [j for j in range(lib.n_terms) if reg.usable[j] and (expected[j] or inclusion[j] >= 0.5)]
+    cond, vif = _condition(reg.Gn, relevant)
+    cond_all, _ = _condition(reg.Gn, [j for j in range(lib.n_terms) if reg.usable[j]])
+    r2, coef = _refit_selected(reg, selected, scale)
+    sampling_change, noise_change = _sampling(records, model, lib, opts, reg, gain_value, relevant, ref, rng)
+    fits = _model_terms(reg, expected, opts.method, thr)
+    max_vif = float(np.max(vif)) if vif.size else 1.0
+    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
+    reasons = _reasons(thr, lib, relevant, cond, vif, max_vif, fits["systematic"], fits["residual_correlation"], r2,
+                       opts.n_models, amb, sampling_change)
+    sets = _term_sets(lib, selected, expected, in_model)
+    agrees = _agreement(selected, coef, coef_std, model_coef, model_se, thr)
+    verdict, message = _verdict(reasons, thr, sampling_change, r2, fits, sets, lib, agrees, ref)
     diagnostics = {"condition": cond, "max_vif": max_vif,
                    "condition_library": cond_all, "sampling_change": sampling_change,
                    "sampling_change_all": noise_change, "r2": r2,
-                   "n_rows": int(n_rows), "window_s": width * max(dts), "window_samples": int(width),
-                   "n_models": int(n_models), "n_records": len(records), "dt": max(dts),
-                   "model_terms_excess": model_excess, "model_terms_acceptable": bool(model_ok),
-                   "systematic": systematic, "residual_correlation": residual_correlation,
-                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": extra_model}
-    name = model.name + (" + " + ", ".join(model.effects) if model.effects else "")
+                   "n_rows": int(reg.n_rows), "window_s": reg.width * max(reg.dts), "window_samples": int(reg.width),
+                   "n_models": int(opts.n_models), "n_records": len(records), "dt": max(reg.dts),
+                   "model_terms_excess": fits["excess"], "model_terms_acceptable": bool(fits["ok"]),
+                   "systematic": fits["systematic"], "residual_correlation": fits["residual_correlation"],
+                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": sets["extra_model"]}
     return SindyCrossCheck(
-        model=name, method=method, gain=gain_value, gain_source=gain_source, terms=tuple(terms),
-        selected=tuple(sel_names), expected=tuple(exp_names), missing=tuple(missing), absent=tuple(absent),
-        ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message, reasons=tuple(reasons),
-        reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
+        model=model.name + (" + " + ", ".join(model.effects) if model.effects else ""), method=opts.method,
+        gain=gain_value, gain_source=gain_source,
+        terms=tuple(_term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees)),
+        selected=tuple(sets["selected"]), expected=tuple(sets["expected"]), missing=tuple(sets["missing"]),
+        absent=tuple(sets["absent"]), ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message,
+        reasons=tuple(reasons), reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
     )
 
 
-def _inputs(records, model, fit, method, selection, n_models, thresholds):
+def _inputs(records, model, fit, opts: CrossCheckOptions):
     """The records as a list, the model (the fit's, else ``mr_damper(5)``) and the thresholds, checked."""
     from duffsym.data import Record
 
-    if method not in METHODS:
-        raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
+    if opts.method not in METHODS:
+        raise ModelError(f"method must be one of {set(METHODS)}; got {opts.method!r}")
     if isinstance(records, Record):
         records = [records]
     records = list(records)
@@ -468,11 +543,11 @@ def _inputs(records, model, fit, method, selection, n_models, thresholds):
             from duffsym.model.library import mr_damper
 
             model = mr_damper(5)
-    thr = thresholds or Thresholds()
-    if selection not in SELECTIONS:
-        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {selection!r}")
-    if n_models < 2:
-        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {n_models}")
+    thr = opts.thresholds or Thresholds()
+    if opts.selection not in SELECTIONS:
+        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {opts.selection!r}")
+    if opts.n_models < 2:
+        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {opts.n_models}")
     return records, model, thr
 
 
@@ -597,9 +672,12 @@ def _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correl
     return reasons
 
 
-def _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model, exp_names, sel_names,
-             lib, agrees, ref) -> tuple[str, str]:
-    """The verdict (inconclusive, consistent, missing-terms, disagrees) and its sentence."""
+def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agrees, ref) -> tuple[str, str]:
+    """The verdict (inconclusive, consistent, missing-terms, disagrees) and its sentence (``fits``: see
+    :func:`_model_terms`; ``sets``: :func:`_term_sets`)."""
+    systematic, model_ok = fits["systematic"], fits["ok"]
+    missing, absent, extra_model = sets["missing"], sets["absent"], sets["extra_model"]
+    exp_names, sel_names = sets["expected"], sets["selected"]
     if reasons:
         verdict = "inconclusive"
         advice = []
