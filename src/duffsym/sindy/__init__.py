@@ -5,8 +5,8 @@ from the model itself, the effects catalogue and generic terms, and says which t
 support, how they compare with a fit, and when the data cannot decide. The diagnosis reads
 :func:`sindy_evidence`.
 """
-from duffsym.sindy.check import CrossCheckOptions, SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
 from duffsym.derive import split_terms
+from duffsym.sindy.check import CrossCheckOptions, SindyCrossCheck, Thresholds, crosscheck, sindy_evidence
 from duffsym.sindy.library import CandidateLibrary, Term, candidate_library
 from duffsym.sindy.states import ReconstructedStates, output_gain, output_split, reconstruct_states
 
