@@ -120,7 +120,8 @@ def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int 
     """Sparse support of ``r ≈ Theta c``: OMP on the standardised library for 1..``max_terms`` terms,
     fitted on the first ``n_train`` rows and scored on the rest; the fewest terms within
     ``PARSIMONY`` of the best validation MSE. Returns (column indices, per-size validation MSE, the
-    other sizes' supports, best validation first). The shared path: :func:`duffsym.sindy.sparse.validated_support`."""
+    other sizes' supports, best validation first). The shared path:
+    :func:`duffsym.sindy.sparse.validated_support`."""
     return sparse.validated_support(Theta, r, n_train, max_terms, PARSIMONY)
 
 

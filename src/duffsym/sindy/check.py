@@ -14,12 +14,13 @@ doi:10.1137/20M1343166). ``method="smoothed"`` instead differentiates :math:`\do
 pysindy's ``SmoothedFiniteDifference`` (strong form, one row per sample), to show why that fails
 at coarse sampling.
 
-Sparse regression on unit-norm columns and a unit-norm target: the sparsest support whose residual
-is not significantly worse than the full library's (:func:`~duffsym.sindy.sparse.sparsest_acceptable`); the supports are the best
-subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise sparse
-regression path (``SSR``, dropping the term that raises the residual least) for larger ones, after projecting out one constant per record
-(the integration constant of the rebuilt position) and one ramp (its drift). Inclusion probabilities come from bagging the
-rows (``n_models`` bootstrap fits).
+Sparse regression (the path and rules shared with term discovery, :mod:`duffsym.sindy.sparse`) on
+unit-norm columns and a unit-norm target: the sparsest support whose residual is not significantly
+worse than the full library's (:func:`~duffsym.sindy.sparse.sparsest_acceptable`); the supports are
+the best subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise
+sparse regression path (``SSR``, dropping the term that raises the residual least) for larger ones,
+after projecting out one constant per record (the integration constant of the rebuilt position) and
+one ramp (its drift). Inclusion probabilities come from bagging the rows (``n_models`` bootstrap fits).
 
 What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 

@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping, Sequence
 from itertools import combinations
-from typing import Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -66,7 +66,8 @@ def _grid(frac: float, rms: float) -> str:
     return f"{float(f'{frac * rms:.2g}'):g}"
 
 
-def switches(rms: float, eps_fractions: Sequence[float], stribeck_fractions: Sequence[float]) -> list[tuple[str, object]]:
+def switches(rms: float, eps_fractions: Sequence[float],
+             stribeck_fractions: Sequence[float]) -> list[tuple[str, object]]:
     """The switching functions of one velocity ``v`` (RMS ``rms``), as (printable template, function):
     smooth signs ``tanh(v/ε)`` (ε = each of ``eps_fractions`` of the RMS), Stribeck shapes
     ``exp(-(v/v_s)**2)·tanh(v/ε)`` (v_s = each of ``stribeck_fractions``, ε the first eps fraction), the
