@@ -43,7 +43,7 @@ import numpy as np
 
 from duffsym.errors import DataError, ModelError
 from duffsym.sindy.library import CandidateLibrary, candidate_library
-from duffsym.sindy.sparse import allowance, sparsest_acceptable
+from duffsym.sindy.sparse import allowance, bagged, sparsest_acceptable
 from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
 
 METHODS = ("weak", "smoothed")
@@ -580,15 +580,11 @@ def _gain(model, gain_expr, records, gain, ref, ref_source) -> tuple[float, str]
 def _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, n_terms, n_models, thr, selection, rng):
     """The full-data selection and ``n_models`` bootstrap selections: coefficients, inclusion
     probabilities, bootstrap standard deviations and the column scale back to physical units."""
-    n_rows = Gn.shape[0]
     xi_n = sparsest_acceptable(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
     coef_n = np.zeros(n_terms)
     coef_n[usable] = xi_n
     boot = np.zeros((n_models, n_terms))
-    for m in range(n_models):
-        rows = rng.integers(0, n_rows, n_rows)
-        boot[m, usable] = sparsest_acceptable(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
-                                              thr.stlsq_threshold)
+    boot[:, usable] = bagged(Gn[:, usable], bn, n_models, rng, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
     inclusion = np.mean(boot != 0, axis=0)
     scale = bnorm / norms
     coef = coef_n * scale

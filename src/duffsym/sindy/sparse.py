@@ -20,7 +20,9 @@ picks a size on it:
   the full library's (the cross-check; with :func:`stlsq`, pysindy's ``STLSQ``, kept for comparison);
 - :func:`validated_support`: the fewest terms within a factor of the best held-out error (discovery);
 - :func:`stability_selection`: :func:`validated_support` on resampled halves of the data, giving the
-  inclusion probability of each column and of each group of columns (discovery's families).
+  inclusion probability of each column and of each group of columns (discovery's families);
+  :func:`bagged`: :func:`sparsest_acceptable` on bootstrap resamples of the rows (the cross-check's
+  inclusion probabilities).
 """
 from __future__ import annotations
 
@@ -310,3 +312,16 @@ def stability_selection(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray
         if hits[i] > 0:
             best.setdefault(groups[i], int(i))
     return {"family": {f: n / resamples for f, n in group_hits.items()}, "term": hits / resamples, "best": best}
+
+
+def bagged(G: np.ndarray, b: np.ndarray, n_models: int, rng: np.random.Generator, n_eff: float, tolerance: float,
+           method: str = "best-subset", threshold: float = 0.05) -> np.ndarray:
+    """:func:`sparsest_acceptable` on ``n_models`` bootstrap resamples of the rows (drawn from ``rng``):
+    the ``(n_models, n_columns)`` coefficients; ``np.mean(out != 0, axis=0)`` is each column's inclusion
+    probability."""
+    n_rows = G.shape[0]
+    out = np.zeros((n_models, G.shape[1]))
+    for m in range(n_models):
+        rows = rng.integers(0, n_rows, n_rows)
+        out[m] = sparsest_acceptable(G[rows], b[rows], n_eff, tolerance, method, threshold)
+    return out
