@@ -43,7 +43,7 @@ import numpy as np
 
 from duffsym.errors import DataError, ModelError
 from duffsym.sindy.library import CandidateLibrary, candidate_library
-from duffsym.sindy.sparse import allowance, bagged, sparsest_acceptable
+from duffsym.sindy.sparse import allowance, bagged
 from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
 
 METHODS = ("weak", "smoothed")
@@ -386,8 +386,7 @@ def _refit_selected(reg: _Regression, selected: np.ndarray, scale: np.ndarray) -
 def _sampling(records, model, lib, opts, reg: _Regression, gain_value, relevant, ref, rng) -> tuple[float, float]:
     """The largest relative coefficient change when the sampling halves, counting only changes beyond 3
     bootstrap standard deviations (half the samples carry other noise), and the largest change of all."""
-    change = _sampling_change(records, model, lib, opts.method, reg.width, reg.stride, gain_value, relevant, reg.Gn,
-                              reg.bn, reg.norms, reg.bnorm, ref)
+    change = _sampling_change(records, model, lib, opts.method, reg, gain_value, relevant, ref)
     spread = _bootstrap_spread(reg.Gn, reg.bn, relevant, opts.n_models, rng)
     beyond = change > 3.0 * spread
     sampling_change = float(np.max(np.where(beyond, change, 0.0))) if change.size else 0.0
@@ -487,8 +486,7 @@ def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *,
     lib = opts.library or candidate_library(model, max_power=opts.max_power)
     rng = np.random.default_rng(opts.rng)
     reg = _regression(records, model, lib, opts, gain_value, ref)
-    _, inclusion, coef_std, scale = _bootstrap(reg.Gn, reg.bn, reg.usable, reg.norms, reg.bnorm, reg.n_eff,
-                                               lib.n_terms, opts.n_models, thr, opts.selection, rng)
+    inclusion, coef_std, scale = _bootstrap(reg, opts.n_models, thr, opts.selection, rng)
     model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
     selected = inclusion >= thr.include
     ambiguous = (inclusion > thr.exclude) & ~selected
@@ -501,8 +499,7 @@ def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *,
     fits = _model_terms(reg, expected, opts.method, thr)
     max_vif = float(np.max(vif)) if vif.size else 1.0
     amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
-    reasons = _reasons(thr, lib, relevant, cond, vif, max_vif, fits["systematic"], fits["residual_correlation"], r2,
-                       opts.n_models, amb, sampling_change)
+    reasons = _reasons(thr, lib, relevant, cond, vif, fits, r2, opts.n_models, amb, sampling_change)
     sets = _term_sets(lib, selected, expected, in_model)
     agrees = _agreement(selected, coef, coef_std, model_coef, model_se, thr)
     verdict, message = _verdict(reasons, thr, sampling_change, r2, fits, sets, lib, agrees, ref)
@@ -577,22 +574,21 @@ def _gain(model, gain_expr, records, gain, ref, ref_source) -> tuple[float, str]
     return max(float(np.max(np.abs(r.y))) for r in records), "max|y| of the records"
 
 
-def _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, n_terms, n_models, thr, selection, rng):
-    """The full-data selection and ``n_models`` bootstrap selections: coefficients, inclusion
-    probabilities, bootstrap standard deviations and the column scale back to physical units."""
-    xi_n = sparsest_acceptable(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
-    coef_n = np.zeros(n_terms)
-    coef_n[usable] = xi_n
+def _bootstrap(reg: _Regression, n_models: int, thr: Thresholds, selection: str, rng):
+    """``n_models`` bootstrap selections (:func:`~duffsym.sindy.sparse.bagged`): inclusion probabilities,
+    bootstrap standard deviations of the coefficients and the column scale back to physical units."""
+    usable = reg.usable
+    n_terms = usable.size
     boot = np.zeros((n_models, n_terms))
-    boot[:, usable] = bagged(Gn[:, usable], bn, n_models, rng, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
+    boot[:, usable] = bagged(reg.Gn[:, usable], reg.bn, n_models, rng, reg.n_eff, thr.tolerance, selection,
+                             thr.stlsq_threshold)
     inclusion = np.mean(boot != 0, axis=0)
-    scale = bnorm / norms
-    coef = coef_n * scale
+    scale = reg.bnorm / reg.norms
     with np.errstate(invalid="ignore"):
         boot_c = np.where(boot != 0, boot * scale, np.nan)
         coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan
                              for j in range(n_terms)])
-    return coef, inclusion, coef_std, scale
+    return inclusion, coef_std, scale
 
 
 def _model_coefficients(model, lib, ref, free, cov):
@@ -639,9 +635,11 @@ def _residual_correlation(res, C, method, width, stride, periods, dts) -> float:
     return residual_correlation
 
 
-def _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
-             sampling_change) -> list[str]:
-    """Why the data cannot decide (each a sentence with the number and its limit); [] when they can."""
+def _reasons(thr, lib, relevant, cond, vif, fits: dict, r2, n_models, amb, sampling_change) -> list[str]:
+    """Why the data cannot decide (each a sentence with the number and its limit); [] when they can
+    (``fits``: see :func:`_model_terms`)."""
+    max_vif = float(np.max(vif)) if vif.size else 1.0
+    systematic, residual_correlation = fits["systematic"], fits["residual_correlation"]
     reasons = []
     if cond > thr.max_condition or max_vif > thr.max_vif:
         worst = lib.names[relevant[int(np.argmax(vif))]] if vif.size else "-"
@@ -711,7 +709,7 @@ def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agr
     return verdict, message
 
 
-def _sampling_change(records, model, lib, method, width, stride, gain, relevant, Gn, bn, norms, bnorm,
+def _sampling_change(records, model, lib, method: str, reg: _Regression, gain: float, relevant,
                      params=None) -> np.ndarray:
     """Relative change of each relevant coefficient when every other sample is dropped.
 
@@ -728,12 +726,12 @@ def _sampling_change(records, model, lib, method, width, stride, gain, relevant,
             half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2],
                                        command=None if r.command is None else r.command[::2]))
         parts = [reconstruct_states(r, model, gain, params) for r in half]
-        G2, b2, C2 = _system(parts, lib, method, width // 2, stride // 2)
+        G2, b2, C2 = _system(parts, lib, method, reg.width // 2, reg.stride // 2)
     except DataError:
         return np.full(len(relevant), np.inf)
     G2, b2 = _project_out(C2, G2, b2)
-    c1, *_ = np.linalg.lstsq(Gn[:, relevant], bn, rcond=None)
-    c2, *_ = np.linalg.lstsq(G2[:, relevant] / norms[relevant], b2 / bnorm, rcond=None)
+    c1, *_ = np.linalg.lstsq(reg.Gn[:, relevant], reg.bn, rcond=None)
+    c2, *_ = np.linalg.lstsq(G2[:, relevant] / reg.norms[relevant], b2 / reg.bnorm, rcond=None)
     # relative change of each coefficient; a term explaining little is measured against the sparsity scale
     return np.abs(c1 - c2) / np.maximum(np.abs(c1), 0.02)
 
