@@ -2,7 +2,7 @@
 
 Sect. 2 describes how each parameter of the Duffing-like equation shapes the loops of Fig. 3, and
 Sect. 3 how the MR damper parameters of Table 1 shape those of Fig. 6. Each statement is turned
-into a number measured with :mod:`duffsym.loops` on the last cycle of a simulation, and a
+into a number measured with :mod:`duffsym.plot.loops` on the last cycle of a simulation, and a
 verdict. Where the simulation contradicts the paper the verdict says so, with the numbers.
 
 Fig. 3's excitation is not stated in the paper; the statements are checked at 0.5, 1 and 2 Hz
@@ -27,7 +27,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from duffsym import Sine, duffing_like, mr_damper, simulate  # noqa: E402
-from duffsym.loops import LoopMetrics, trajectory_loop_metrics  # noqa: E402
+from duffsym.plot.loops import LoopMetrics, trajectory_loop_metrics  # noqa: E402
 from duffsym.model.presets import (  # noqa: E402
     FIG3_BASE, FIG3_CHANGES, FIG3_N, TABLE1_BASE, TABLE1_FREQUENCY_HZ, TABLE1_N, TABLE1_SWEEPS,
 )

@@ -1,7 +1,7 @@
 """The paper's statements on parameter influence (Sect. 2 / Fig. 3, Sect. 3 / Fig. 6), measured on simulated loops.
 
 Each statement is defined once, in ``studies/s04_paper_claims.py``, as a number measured with
-``duffsym.loops`` and a threshold. A statement the simulation contradicts is a strict xfail whose
+``duffsym.plot.loops`` and a threshold. A statement the simulation contradicts is a strict xfail whose
 reason gives the measured numbers (the study prints and tabulates the same), not a bent test.
 """
 import pytest

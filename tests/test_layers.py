@@ -24,7 +24,6 @@ LAYERS = (
     "codegen",
     "excitation",
     "simulate",
-    "loops",
     "plot",
     "data",
     "effects",

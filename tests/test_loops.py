@@ -6,7 +6,7 @@ import pytest
 
 from duffsym import DataError, Sine, mr_damper, simulate
 from duffsym.derive import cycle_energy
-from duffsym.loops import loop_metrics, signed_area, trajectory_loop_metrics
+from duffsym.plot.loops import loop_metrics, signed_area, trajectory_loop_metrics
 from duffsym.model.presets import TABLE2
 
 A, OMEGA, F0 = 0.7, 2 * math.pi * 1.5, 2.3

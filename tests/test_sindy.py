@@ -17,7 +17,7 @@ from duffsym.errors import DataError, ModelError
 from duffsym.excitation import BandLimitedRandom, Sine
 from duffsym.model import get_model
 from duffsym.model.presets import TABLE2
-from duffsym.sindy import candidate_library, crosscheck, sindy_evidence, split_terms
+from duffsym.sindy import CrossCheckOptions, candidate_library, crosscheck, sindy_evidence, split_terms
 
 TRUTH = dict(TABLE2[0.4])
 TRUE_TERMS = {"x", "x_dot", "x_dot^5", "d", "d_dot"}
@@ -147,6 +147,50 @@ def test_bad_input(model):
         crosscheck([], model)
     with pytest.raises(DataError, match="shorter than one weak-form window"):
         crosscheck(rec, model, window=10.0)
+
+
+def test_options_object_and_keyword_settings_give_the_same_check(model):
+    """crosscheck(rec, model, CrossCheckOptions(...)) and the keyword call are one check; a keyword replaces the
+    option's field; a name that is no setting is a TypeError naming it."""
+    rec = _rich(model, 0.0, duration=6.0)
+    def text(check):  # NaN-aware comparison of the whole result
+        return json.dumps(check.to_dict(), sort_keys=True)
+
+    by_keywords = crosscheck(rec, model, params=TRUTH, n_models=4, selection="ssr", rng=3)
+    opts = CrossCheckOptions(n_models=4, selection="ssr", rng=3)
+    assert text(crosscheck(rec, model, opts, params=TRUTH)) == text(by_keywords)
+    assert text(crosscheck(rec, model, CrossCheckOptions(n_models=7, selection="ssr"), params=TRUTH, n_models=4,
+                           rng=3)) == text(by_keywords)
+    assert set(by_keywords.selected) == TRUE_TERMS and by_keywords.diagnostics["n_models"] == 4
+    with pytest.raises(TypeError, match="n_model"):
+        crosscheck(rec, model, params=TRUTH, n_model=4)
+    with pytest.raises(TypeError, match="fit and params"):
+        CrossCheckOptions().with_settings(seed=1)
+
+
+def test_shared_sparse_path_recovers_a_known_support():
+    """The one sparse-regression path (sindy.sparse) on b = 2 g1 - 3 g4 + noise over 8 correlated columns:
+    every path (best subsets, pysindy SSR, sklearn OMP) has {1, 4} at size 2, the residual rule and the
+    held-out rule stop there, and the coefficients are the true ones within the noise."""
+    from duffsym.sindy import sparse
+
+    rng = np.random.default_rng(0)
+    G = rng.normal(size=(400, 8))
+    G[:, 5] = G[:, 1] + 0.3 * rng.normal(size=400)  # a collinear decoy of the true column 1
+    b = 2.0 * G[:, 1] - 3.0 * G[:, 4] + 0.01 * rng.normal(size=400)
+    for method in sparse.PATHS:
+        path = sparse.sparse_path(G, b, method, max_terms=3)
+        two = [sup for sup, _ in path if sup.size == 2]
+        assert [sorted(s.tolist()) for s in two] == [[1, 4]], method
+    c = sparse.sparsest_acceptable(G, b, n_eff=400, tolerance=1e-4)
+    assert np.flatnonzero(c).tolist() == [1, 4]
+    np.testing.assert_allclose(c[[1, 4]], [2.0, -3.0], atol=2e-3)
+    np.testing.assert_allclose(sparse.stlsq(G, b, threshold=0.5)[[1, 4]], [2.0, -3.0], atol=2e-3)
+    support, scores, _ = sparse.validated_support(G, b, 300, max_terms=3, parsimony=1.05)
+    assert sorted(support) == [1, 4] and scores[2] < 1e-3 * scores[0]
+    stab = sparse.stability_selection(G, b, np.array_split(np.arange(400), 8), [f"g{j}" for j in range(8)],
+                                      resamples=10, max_terms=3, parsimony=1.05)
+    assert stab["family"] == {"g1": 1.0, "g4": 1.0}
 
 
 def test_cli_sindy_json(tmp_path, model, capsys):

@@ -5,7 +5,7 @@ functions, invariant set, scaling symmetry), generated code (NumPy, CasADi, comp
 simulation all come from it; identification (CasADi collocation + IPOPT) fits it to measurements.
 Subpackages hold the rest: ``duffsym.model``, ``duffsym.derive``, ``duffsym.codegen``,
 ``duffsym.simulate``, ``duffsym.excitation``, ``duffsym.effects``, ``duffsym.data``,
-``duffsym.identify``, ``duffsym.loops``, ``duffsym.plot``.
+``duffsym.identify``, ``duffsym.plot`` (hysteresis loops: :mod:`duffsym.plot.loops`).
 """
 import sys
 import types

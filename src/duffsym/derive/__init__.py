@@ -9,6 +9,7 @@
 - :func:`find_scaling_symmetry`, :func:`normalize_af`: the state-scaling symmetry and the fixing of A_f.
 - :func:`derivation_report`: all of it in the paper's order, as text, LaTeX or JSON.
 """
+from duffsym.derive._mechanics import split_terms
 from duffsym.derive.energy import (
     CycleEnergy, EnergyBalance, LinearLoopArea, cycle_energy, energy_balance, linear_loop_area,
     linear_loop_area_value, loop_area,
@@ -32,4 +33,5 @@ __all__ = [
     "CycleEnergy", "LinearLoopArea",
     "find_scaling_symmetry", "normalize_af", "ScalingSymmetry",
     "derivation_report", "DerivationReport", "ReportItem",
+    "split_terms",
 ]

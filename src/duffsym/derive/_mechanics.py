@@ -91,14 +91,20 @@ def mechanics(model: SymbolicModel) -> Mechanics:
     )
 
 
-def split_terms(expr: sp.Expr, variables) -> dict[sp.Expr, sp.Expr]:
+def split_terms(expr: sp.Expr, variables, *, form=sp.factor_terms) -> dict[sp.Expr, sp.Expr]:
     """``{monomial: coefficient}`` of an expression: each term's factor that depends on ``variables``
-    (the monomial, 1 for constants) and its coefficient free of them, like terms summed."""
+    (the monomial, 1 for constants) and its coefficient free of them, like terms summed, zero ones dropped.
+
+    ``form`` writes each coefficient: ``-(c1 + c2)*x2 - c3*x2**5 + k1*d`` in ``(x2, d)`` ->
+    ``{x2: -(c1 + c2), x2**5: -c3, d: k1}`` with the default :func:`sympy.factor_terms`, ``{x2: -c1 - c2, ...}``
+    with :func:`sympy.simplify` (the SINDy candidate library's form). The one term splitter of the package
+    (derivations and the SINDy candidate library).
+    """
     out: dict[sp.Expr, sp.Expr] = {}
     for term in sp.Add.make_args(tidy(expr)):
         coeff, dep = term.as_independent(*variables, as_Add=False)
         out[dep] = out.get(dep, sp.Integer(0)) + coeff
-    return {k: sp.factor_terms(c) for k, c in out.items() if sp.simplify(c) != 0}
+    return {k: form(c) for k, c in out.items() if sp.simplify(c) != 0}
 
 
 def power_of(monomial: sp.Expr, var: sp.Symbol):

@@ -29,7 +29,7 @@ from duffsym._checks import require_increasing
 from duffsym.derive._mechanics import mechanics, split_terms, tidy
 from duffsym.derive.lyapunov import lyapunov_analysis
 from duffsym.errors import DataError, ModelError
-from duffsym.loops import cycle_integral
+from duffsym.plot.loops import cycle_integral
 from duffsym.model.core import SymbolicModel
 from duffsym.model.statespace import state_space
 

@@ -39,11 +39,12 @@ from typing import Mapping
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.discovered import (DiscoveredEffect, _evaluate, _record_signals, resembles, term_latex,
-                                        term_words)
+from duffsym.effects.discovered import DiscoveredEffect, resembles, term_latex, term_words
 from duffsym.errors import DataError, ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import state_symbol
+from duffsym.simulate import simulate_record
+from duffsym.sindy import sparse
 
 #: the fewest terms whose validation error is within this factor of the best is chosen
 PARSIMONY = 1.05
@@ -60,7 +61,8 @@ EPS_FRACTIONS = (0.03, 0.1, 0.3)
 
 def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str, np.ndarray]:
     """The library's signals: the record's ``d, d', d''`` and the model's ``x, x'`` (from ``states``)."""
-    cols = _record_signals(record)
+    cols = {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float),
+            "d_ddot": np.asarray(record.acceleration(), float)}
     if states is not None:
         for sym, key in ((model.position, "x"), (model.velocity, "x_dot")):
             if sym is not None and sym in model.states:
@@ -78,36 +80,13 @@ POSITIONS = ("d", "x", "command")
 VELOCITIES = ("d_dot", "x_dot")
 
 
-def _eps(frac: float, rms: float) -> str:
-    return f"{float(f'{frac * rms:.2g}'):g}"
-
-
 def switches(rms: float) -> list[tuple[str, object]]:
     """The switching functions of one velocity ``v`` (RMS ``rms``), as (printable template, function):
     smooth signs ``tanh(v/ε)`` (ε = 3, 10, 30 % of the RMS), Stribeck shapes
     ``exp(-(v/v_s)**2)·tanh(v/ε)`` (v_s = 5, 10, 20 % of the RMS, ε = 3 %), the smooth ``|v|`` and ``v|v|``
-    (``v·tanh(v/ε)``, ``v**2·tanh(v/ε)``, ε = 10 %). The template has ``{v}`` for the signal's name."""
-    def sign(e):
-        return lambda v: np.tanh(v / e)
-
-    def stribeck(vs, e):
-        return lambda v: np.exp(-(v / vs) ** 2) * np.tanh(v / e)
-
-    def power(k, e):
-        return lambda v: v**k * np.tanh(v / e)
-
-    out = []  # pysindy counts a function's arguments: one argument each (closures, no defaults)
-    for frac in EPS_FRACTIONS:
-        e = _eps(frac, rms)
-        out.append((f"tanh({{v}}/{e})", sign(float(e))))
-    e0 = _eps(EPS_FRACTIONS[0], rms)
-    for frac in STRIBECK_FRACTIONS:
-        vs = _eps(frac, rms)
-        out.append((f"exp(-({{v}}/{vs})**2)*tanh({{v}}/{e0})", stribeck(float(vs), float(e0))))
-    e1 = _eps(EPS_FRACTIONS[1], rms)
-    out.append((f"{{v}}*tanh({{v}}/{e1})", power(1, float(e1))))
-    out.append((f"{{v}}**2*tanh({{v}}/{e1})", power(2, float(e1))))
-    return out
+    (``v·tanh(v/ε)``, ``v**2·tanh(v/ε)``, ε = 10 %). The template has ``{v}`` for the signal's name
+    (:func:`duffsym.sindy.sparse.switches` with this module's grids)."""
+    return sparse.switches(rms, EPS_FRACTIONS, STRIBECK_FRACTIONS)
 
 
 def term_library(cols: Mapping[str, np.ndarray]):
@@ -116,26 +95,11 @@ def term_library(cols: Mapping[str, np.ndarray]):
     ``PLAIN_DEGREE``) in every signal, plus each velocity's switching functions (:func:`switches`) alone
     and times a polynomial (degree ``POSITION_DEGREE``) in the positions — the tensor product
     ``positions ⊗ switches(d') ⊗ ...``: ``d²·tanh(d'/ε)`` (friction growing toward the stroke ends),
-    ``exp(-(d'/v_s)²)·tanh(d'/ε)`` (a Stribeck peak), ``d·|x'|``, ... Nothing is typed in per term."""
-    import pysindy as ps
-
-    names = [k for k in cols if np.ptp(cols[k]) > 0]
-    pos = [names.index(k) for k in POSITIONS if k in names]
-    libs, inputs, tensor = [ps.PolynomialLibrary(degree=PLAIN_DEGREE, include_bias=True)], [list(range(len(names)))], []
-    libs.append(ps.PolynomialLibrary(degree=POSITION_DEGREE, include_bias=False))
-    inputs.append(pos)
-    for key in (k for k in VELOCITIES if k in names):
-        sw = switches(_rms(cols[key]))
-        libs.append(ps.CustomLibrary(library_functions=[f for _, f in sw],
-                                     function_names=[_namer(t) for t, _ in sw]))
-        inputs.append([names.index(key)])
-        tensor.append([0, 1] + [int(i == len(libs) - 1) for i in range(2, len(libs))])
-    tensor = [row + [0] * (len(libs) - len(row)) for row in tensor]
-    return ps.GeneralizedLibrary(libs, tensor_array=tensor or None, inputs_per_library=inputs), names
-
-
-def _namer(template: str):
-    return lambda v: template.format(v=v)
+    ``exp(-(d'/v_s)²)·tanh(d'/ε)`` (a Stribeck peak), ``d·|x'|``, ... Nothing is typed in per term
+    (the shared :func:`duffsym.sindy.sparse.switching_library`)."""
+    return sparse.switching_library(cols, positions=POSITIONS, velocities=VELOCITIES, plain_degree=PLAIN_DEGREE,
+                                    position_degree=POSITION_DEGREE, eps_fractions=EPS_FRACTIONS,
+                                    stribeck_fractions=STRIBECK_FRACTIONS)
 
 
 def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
@@ -145,46 +109,20 @@ def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
 
 def library_matrix(cols: Mapping[str, np.ndarray]) -> tuple[list[sp.Expr], np.ndarray]:
     """(terms, library matrix ``(n_times, n_terms)``): pysindy's evaluation of :func:`term_library`, its
-    feature names read back as SymPy expressions; a duplicate or constant-free repeat is dropped."""
+    feature names read back as SymPy expressions; a duplicate or constant-free repeat is dropped
+    (:func:`duffsym.sindy.sparse.named_matrix`)."""
     lib, names = term_library(cols)
-    X = np.column_stack([np.asarray(cols[k], float) for k in names])
-    Theta = np.asarray(lib.fit_transform(X), float)
-    syms = {k: state_symbol(k) for k in names}
-    terms, keep, seen = [], [], set()
-    for j, name in enumerate(lib.get_feature_names(names)):
-        expr = sp.sympify(name.replace("^", "**").replace(" ", "*"), locals=syms)
-        if expr in seen or not np.all(np.isfinite(Theta[:, j])):
-            continue
-        seen.add(expr)
-        terms.append(expr)
-        keep.append(j)
-    return terms, Theta[:, keep]
+    return sparse.named_matrix(lib, cols, names, {k: state_symbol(k) for k in names})
 
-
-def _rms(v: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.asarray(v) ** 2)))
 
 # ---------------------------------------------------------------------------------------------- selection
 def select_terms(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms: int = MAX_TERMS):
     """Sparse support of ``r ≈ Theta c``: OMP on the standardised library for 1..``max_terms`` terms,
     fitted on the first ``n_train`` rows and scored on the rest; the fewest terms within
     ``PARSIMONY`` of the best validation MSE. Returns (column indices, per-size validation MSE, the
-    other sizes' supports, best validation first)."""
-    from sklearn.linear_model import OrthogonalMatchingPursuit
-
-    scale = np.sqrt(np.mean(Theta[:n_train] ** 2, axis=0))
-    ok = scale > 0
-    Z = np.where(ok, Theta / np.where(ok, scale, 1.0), 0.0)
-    tr, va = slice(0, n_train), slice(n_train, None)
-    scores, supports = {0: float(np.mean(r[va] ** 2))}, {0: []}
-    for k in range(1, max_terms + 1):
-        omp = OrthogonalMatchingPursuit(n_nonzero_coefs=k, fit_intercept=False).fit(Z[tr], r[tr])
-        scores[k] = float(np.mean((r[va] - omp.predict(Z[va])) ** 2))
-        supports[k] = [int(i) for i in np.flatnonzero(omp.coef_)]
-    best = min(scores.values())
-    k = min(k for k, s in scores.items() if s <= best * PARSIMONY)
-    others = [supports[j] for j in sorted(supports, key=lambda j: scores[j]) if j and j != k]
-    return supports[k], scores, others
+    other sizes' supports, best validation first). The shared path:
+    :func:`duffsym.sindy.sparse.validated_support`."""
+    return sparse.validated_support(Theta, r, n_train, max_terms, PARSIMONY)
 
 
 # ---------------------------------------------------------------------------------------------- discovery
@@ -244,11 +182,7 @@ def _nothing(message: str, before: float, selection: dict, seconds: float) -> Di
 
 
 def _states(model, params, record, x0) -> np.ndarray | None:
-    from duffsym.identify.collocation import _input_matrix
-    from duffsym.simulate import simulate
-
-    tr = simulate(model, model.param_vector(params), np.asarray(record.t), _input_matrix(model, record), x0=x0,
-                  on_failure="return")
+    tr = simulate_record(model, params, record, x0=x0, on_failure="return")
     return np.asarray(tr.x, float) if tr.success and np.all(np.isfinite(tr.x)) else None
 
 
@@ -273,25 +207,9 @@ def stability(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], terms: 
     """Stability selection over resampled cycles: ``resamples`` times, half the blocks (``parts``) train an
     OMP path (:func:`select_terms`, 1..``max_terms`` terms) and the other half choose its size; returns
     the inclusion probability of every family of terms (:func:`family`; any member selected) and of every
-    term, and each family's most selected member."""
-    rng = np.random.default_rng(seed)
-    hits = np.zeros(Theta.shape[1])
-    fam = [family(t) for t in terms]
-    fam_hits: dict[str, int] = {}
-    for _ in range(resamples):
-        order = rng.permutation(len(parts))
-        tr = np.concatenate([parts[i] for i in order[: len(parts) // 2]])
-        va = np.concatenate([parts[i] for i in order[len(parts) // 2:]])
-        rows = np.concatenate([tr, va])
-        support, _, _ = select_terms(Theta[rows], r[rows], tr.size, max_terms)
-        hits[support] += 1
-        for f in {fam[i] for i in support}:
-            fam_hits[f] = fam_hits.get(f, 0) + 1
-    best = {}
-    for i in np.argsort(-hits):
-        if hits[i] > 0:
-            best.setdefault(fam[i], int(i))
-    return {"family": {f: n / resamples for f, n in fam_hits.items()}, "term": hits / resamples, "best": best}
+    term, and each family's most selected member (:func:`duffsym.sindy.sparse.stability_selection`)."""
+    return sparse.stability_selection(Theta, r, parts, [family(t) for t in terms], resamples=resamples,
+                                      max_terms=max_terms, parsimony=PARSIMONY, seed=seed)
 
 
 def _simpler(terms: list, i: int) -> int:
@@ -481,9 +399,10 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
                       mask=None if mask is None else np.asarray(mask, bool)[:k])
     fr = fit_with_effects(problem, [effect], {**dg.base_fit.params, **dict(start or {})}, dg.y_base[:k],
                           max_iter=max_iter, compute_stderr=True, bound_restart=False)
-    y_ext = S._free_run(ext, fr.params, record, fr.x0[0]) if fr.success else None
-    if y_ext is None:
+    run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
+    if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
+    y_ext = np.asarray(run.y, dtype=float)
     y = np.asarray(record.y, float)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext))
     return fr, y_ext, bic

@@ -25,7 +25,7 @@ from duffsym._json import jsonable
 from duffsym.data.record import Record, zero_crossings
 from duffsym.errors import DataError
 from duffsym.identify.result import nrmse as _nrmse
-from duffsym.loops import cycle_integral
+from duffsym.plot.loops import cycle_integral
 
 #: Normal quantile of the two-sided 95 % bounds of sample correlations of white noise.
 Z95 = 1.959963984540054

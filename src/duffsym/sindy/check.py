@@ -14,12 +14,13 @@ doi:10.1137/20M1343166). ``method="smoothed"`` instead differentiates :math:`\do
 pysindy's ``SmoothedFiniteDifference`` (strong form, one row per sample), to show why that fails
 at coarse sampling.
 
-Sparse regression on unit-norm columns and a unit-norm target: the sparsest support whose residual
-is not significantly worse than the full library's (:func:`_select`); the supports are the best
-subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise sparse
-regression path (``SSR``, dropping the term that raises the residual least) for larger ones, after projecting out one constant per record
-(the integration constant of the rebuilt position) and one ramp (its drift). Inclusion probabilities come from bagging the
-rows (``n_models`` bootstrap fits).
+Sparse regression (the path and rules shared with term discovery, :mod:`duffsym.sindy.sparse`) on
+unit-norm columns and a unit-norm target: the sparsest support whose residual is not significantly
+worse than the full library's (:func:`~duffsym.sindy.sparse.sparsest_acceptable`); the supports are
+the best subsets of each size (exhaustive, for libraries of up to 16 terms) or pysindy's stepwise
+sparse regression path (``SSR``, dropping the term that raises the residual least) for larger ones,
+after projecting out one constant per record (the integration constant of the rebuilt position) and
+one ramp (its drift). Inclusion probabilities come from bagging the rows (``n_models`` bootstrap fits).
 
 What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 
@@ -33,6 +34,7 @@ What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
@@ -41,6 +43,7 @@ import numpy as np
 
 from duffsym.errors import DataError, ModelError
 from duffsym.sindy.library import CandidateLibrary, candidate_library
+from duffsym.sindy.sparse import allowance, bagged
 from duffsym.sindy.states import ReconstructedStates, output_gain, reconstruct_states
 
 METHODS = ("weak", "smoothed")
@@ -57,7 +60,7 @@ class Thresholds:
     Attributes
     ----------
     tolerance : fraction of the target's energy (|b|^2) a dropped set of terms may leave
-        unexplained, on top of the noise allowance (see ``_select``).
+        unexplained, on top of the noise allowance (see :func:`~duffsym.sindy.sparse.allowance`).
     stlsq_threshold : coefficient threshold on the normalised system for ``selection="stlsq"``.
     include, exclude : inclusion probability at or above which a term counts as selected /
         at or below which it counts as rejected; between them it is ambiguous.
@@ -149,103 +152,7 @@ def _project_out(C: np.ndarray, *arrays):
     return [a - Q @ (Q.T @ a) for a in arrays]
 
 
-def _path(G: np.ndarray, b: np.ndarray) -> list[np.ndarray]:
-    """Supports from the full library down to one term, by pysindy's stepwise sparse regression.
-
-    ``SSR(criteria="model_residual")`` drops, at each step, the term whose removal raises the
-    residual least: unlike a threshold on coefficient size (STLSQ), it is not fooled by large,
-    cancelling coefficients of nearly collinear terms (x'^3, x'^5, x'^7 ...).
-    """
-    import warnings
-
-    import pysindy as ps
-
-    opt = ps.SSR(alpha=1e-10, criteria="model_residual", max_iter=G.shape[1], unbias=True)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        opt.fit(G, b)
-    supports = {}
-    for coef in opt.history_:
-        sup = tuple(np.flatnonzero(np.asarray(coef).reshape(-1)))
-        supports.setdefault(len(sup), sup)
-    supports[G.shape[1]] = tuple(range(G.shape[1]))
-    return [np.array(supports[k]) for k in sorted(supports)]
-
-
-MAX_EXHAUSTIVE = 16  # libraries up to this size get exhaustive best-subset search (2^16 subsets, Gram-based)
-
-
-def _acceptable(rss: float, k: int, p: int, rss_full: float, bb: float, n_eff: float, tolerance: float) -> bool:
-    allowance = tolerance * bb + (p - k) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
-    return rss - rss_full <= allowance
-
-
-def _best_subsets(G: np.ndarray, b: np.ndarray):
-    """For each size k, the support with the smallest residual (exhaustive; Gram matrices, batched solves)."""
-    from itertools import combinations
-
-    p = G.shape[1]
-    A = G.T @ G
-    g = G.T @ b
-    bb = float(b @ b)
-    ridge = 1e-13 * np.trace(A) / p  # keeps exactly collinear subsets solvable; far below any real effect
-    out = []
-    for k in range(1, p + 1):
-        combos = np.array(list(combinations(range(p), k)))
-        Ak = A[combos[:, :, None], combos[:, None, :]] + ridge * np.eye(k)
-        gk = g[combos]
-        coef = np.linalg.solve(Ak, gk[..., None])[..., 0]
-        rss = bb - np.einsum("ck,ck->c", gk, coef)
-        i = int(np.argmin(rss))
-        out.append((combos[i], float(rss[i])))
-    return out
-
-
-def _stlsq(G: np.ndarray, b: np.ndarray, threshold: float) -> np.ndarray:
-    """pysindy's STLSQ on the normalised system (the plain SINDy choice, kept for comparison)."""
-    import warnings
-
-    import pysindy as ps
-
-    opt = ps.STLSQ(threshold=threshold, alpha=1e-10, max_iter=50)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        opt.fit(G, b)
-    return np.asarray(opt.coef_, dtype=float).reshape(-1)
-
-
 SELECTIONS = ("best-subset", "ssr", "stlsq")
-
-
-def _select(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float, selection: str = "best-subset",
-            threshold: float = 0.05) -> np.ndarray:
-    """Coefficients of the sparsest model whose residual is not significantly worse than the full library's.
-
-    A support of k terms is accepted when its residual sum of squares exceeds the full library's
-    by at most ``tolerance * |b|^2`` (practical significance) plus ``(p - k) log(n_eff) RSS_full / n_eff``
-    (a BIC-like allowance for noise; ``n_eff`` counts independent rows, the windows overlap).
-    Candidates per size: the best subset found exhaustively for libraries of at most
-    :data:`MAX_EXHAUSTIVE` terms (greedy elimination can lose the true term among nearly collinear
-    powers, x'^5 against x'^3 + x'^7), else pysindy's stepwise path (:func:`_path`).
-    """
-    if selection == "stlsq":
-        return _stlsq(G, b, threshold)
-    p = G.shape[1]
-    c_full, *_ = np.linalg.lstsq(G, b, rcond=None)
-    rss_full = float(np.sum((b - G @ c_full) ** 2))
-    bb = float(b @ b)
-    if p <= MAX_EXHAUSTIVE and selection == "best-subset":
-        candidates = [sup for sup, _ in _best_subsets(G, b)]
-    else:
-        candidates = _path(G, b)
-    for sup in candidates:
-        c, *_ = np.linalg.lstsq(G[:, sup], b, rcond=None)
-        rss = float(np.sum((b - G[:, sup] @ c) ** 2))
-        if _acceptable(rss, sup.size, p, rss_full, bb, n_eff, tolerance):
-            out = np.zeros(p)
-            out[sup] = c
-            return out
-    return c_full
 
 
 def _condition(Gn: np.ndarray, cols: Sequence[int]) -> tuple[float, np.ndarray]:
@@ -376,66 +283,83 @@ def _reference(model, fit, params):
     return None, [], None, "none"
 
 
-def crosscheck(
-    records,
-    model=None,
-    *,
-    fit=None,
-    params: Mapping[str, float] | None = None,
-    gain: float | None = None,
-    library: CandidateLibrary | None = None,
-    method: str = "weak",
-    window: float | None = None,
-    n_models: int = 20,
-    max_power: int = 7,
-    selection: str = "best-subset",
-    thresholds: Thresholds | None = None,
-    rng: np.random.Generator | int | None = 0,
-) -> SindyCrossCheck:
-    """SINDy cross-check of the velocity equation of ``model`` on one or several records.
+@dataclass(frozen=True)
+class CrossCheckOptions:
+    """Settings of :func:`crosscheck` (every one also a keyword of it; the defaults are the documented ones).
 
-    Parameters
+    Attributes
     ----------
-    records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration
-        constant each).
-    model : the model whose terms are checked (default: the fit's model, else ``mr_damper(5)``).
-    fit : an :class:`~duffsym.identify.IdentificationResult`; gives the model, the gain ``A_f``,
-        and the coefficients (with standard errors) to compare with.
-    params : parameter values to compare with instead of a fit (e.g. a synthetic record's truth).
-    gain : output gain (``A_f``); default from ``fit``/``params``, else the largest max|y| of the
-        records (the identification's default, so coefficients match a default fit).
+    gain : output gain (``A_f``); default from the fit/params, else the largest max|y| of the records
+        (the identification's default, so coefficients match a default fit).
     library : candidate terms (default :func:`candidate_library` of the model with ``max_power``).
     method : ``"weak"`` (default) or ``"smoothed"``.
     window : weak-form window length, s (default a quarter of the shortest dominant input period).
+    n_models : bootstrap fits for the inclusion probabilities.
+    max_power : highest power of the generic terms of the default library.
     selection : how supports are chosen: ``"best-subset"`` (default; exhaustive up to 16 terms, then
         pysindy's SSR path), ``"ssr"`` (pysindy's stepwise path always) or ``"stlsq"`` (pysindy's
         STLSQ with ``thresholds.stlsq_threshold``: plain SINDy, kept for comparison; with nearly
         collinear powers it keeps spurious terms under noise, see study s09).
-    n_models : bootstrap fits for the inclusion probabilities.
-    thresholds : the numbers behind the verdict (:class:`Thresholds`).
+    thresholds : the numbers behind the verdict (:class:`Thresholds`; default ``Thresholds()``).
     rng : seed or Generator of the bootstrap.
-
-    Returns
-    -------
-    SindyCrossCheck
-
-    Raises
-    ------
-    ModelError, DataError
-        For a model whose output is not a gain times the velocity, an unknown method, records
-        with non-uniform sampling or too short for one window.
     """
-    records, model, thr = _inputs(records, model, fit, method, selection, n_models, thresholds)
-    gain_expr = output_gain(model)
-    ref, free, cov, ref_source = _reference(model, fit, params)
-    gain_value, gain_source = _gain(model, gain_expr, records, gain, ref, ref_source)
-    lib = library or candidate_library(model, max_power=max_power)
-    rng = np.random.default_rng(rng)
 
-    dts, periods, width, stride = _windows(records, window)
+    gain: float | None = None
+    library: CandidateLibrary | None = None
+    method: str = "weak"
+    window: float | None = None
+    n_models: int = 20
+    max_power: int = 7
+    selection: str = "best-subset"
+    thresholds: Thresholds | None = None
+    rng: np.random.Generator | int | None = 0
 
+    def with_settings(self, **settings) -> "CrossCheckOptions":
+        """These options with ``settings`` replaced.
+
+        Raises
+        ------
+        TypeError
+            For a name that is not a setting (named in the message, with the valid ones).
+        """
+        names = [f.name for f in dataclasses.fields(self)]
+        unknown = [k for k in settings if k not in names]
+        if unknown:
+            raise TypeError(f"crosscheck() got an unexpected keyword argument {unknown[0]!r}; "
+                            f"its settings are {', '.join(names)}, fit and params")
+        return dataclasses.replace(self, **settings) if settings else self
+
+
+@dataclass(frozen=True, eq=False)
+class _Regression:
+    """The records' regression system, projected (one constant and one ramp per record) and normalised:
+    unit-norm columns ``Gn`` (``norms`` their scale, ``usable`` the non-zero ones) and unit-norm target ``bn``."""
+
+    Gn: np.ndarray
+    bn: np.ndarray
+    C: np.ndarray
+    norms: np.ndarray
+    bnorm: float
+    usable: np.ndarray
+    width: int
+    stride: int
+    dts: list
+    periods: list
+
+    @property
+    def n_rows(self) -> int:
+        return self.Gn.shape[0]
+
+    @property
+    def n_eff(self) -> float:
+        return self.n_rows * self.stride / self.width  # windows overlap: about width/stride rows per independent one
+
+
+def _regression(records, model, lib, opts: CrossCheckOptions, gain_value: float, ref) -> _Regression:
+    """States rebuilt from each record, the weak-form (or strong-form) rows, the nuisance projected out."""
+    dts, periods, width, stride = _windows(records, opts.window)
     parts = [reconstruct_states(r, model, gain_value, ref) for r in records]
-    G, b, C = _system(parts, lib, method, width, stride)
+    G, b, C = _system(parts, lib, opts.method, width, stride)
     G, b = _project_out(C, G, b)
     norms = np.linalg.norm(G, axis=0)
     usable = norms > 1e-12 * max(1.0, float(norms.max()))
@@ -443,44 +367,41 @@ def crosscheck(
     bnorm = float(np.linalg.norm(b))
     if not (bnorm > 0 and np.all(np.isfinite(G))):
         raise DataError("the SINDy regression has an all-zero or non-finite target; check the records' output")
-    Gn, bn = G / norms, b / bnorm
+    return _Regression(G / norms, b / bnorm, C, norms, bnorm, usable, width, stride, dts, periods)
 
-    n_rows = Gn.shape[0]
-    n_eff = n_rows * stride / width  # windows overlap: about width/stride rows per independent one
-    coef, inclusion, coef_std, scale = _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, lib.n_terms, n_models, thr,
-                                                  selection, rng)
 
-    model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
-    selected = inclusion >= thr.include
-    ambiguous = (inclusion > thr.exclude) & ~selected
+def _refit_selected(reg: _Regression, selected: np.ndarray, scale: np.ndarray) -> tuple[float, np.ndarray]:
+    """``r2`` of the selected terms refitted together and their coefficients in physical units (the full-data
+    selection and the bootstrap majority can differ by a term, so the reported ones are this refit's)."""
+    n_terms = selected.size
+    sel_cols = [j for j in range(n_terms) if selected[j] and reg.usable[j]]
+    coef = np.zeros(n_terms)
+    if not sel_cols:
+        return 0.0, coef
+    c_sel, *_ = np.linalg.lstsq(reg.Gn[:, sel_cols], reg.bn, rcond=None)
+    coef[sel_cols] = c_sel * scale[sel_cols]
+    return float(1.0 - np.sum((reg.bn - reg.Gn[:, sel_cols] @ c_sel) ** 2)), coef
 
-    # measurable facts behind the verdict
-    relevant = [j for j in range(lib.n_terms) if usable[j] and (expected[j] or inclusion[j] >= 0.5)]
-    cond, vif = _condition(Gn, relevant)
-    cond_all, _ = _condition(Gn, [j for j in range(lib.n_terms) if usable[j]])
-    sel_cols = [j for j in range(lib.n_terms) if selected[j] and usable[j]]
-    if sel_cols:
-        c_sel, *_ = np.linalg.lstsq(Gn[:, sel_cols], bn, rcond=None)
-        r2 = float(1.0 - np.sum((bn - Gn[:, sel_cols] @ c_sel) ** 2))
-        # the reported coefficients are those of the selected terms refitted together (the full-data
-        # selection and the bootstrap majority can differ by a term)
-        coef = np.zeros(lib.n_terms)
-        coef[sel_cols] = c_sel * scale[sel_cols]
-    else:
-        r2 = 0.0
-        coef = np.zeros(lib.n_terms)
-    change = _sampling_change(records, model, lib, method, width, stride, gain_value, relevant, Gn, bn, norms, bnorm,
-                              ref)
-    spread = _bootstrap_spread(Gn, bn, relevant, n_models, rng)
-    # a change within 3 bootstrap standard deviations is noise (half the samples carry other noise), not sampling
+
+def _sampling(records, model, lib, opts, reg: _Regression, gain_value, relevant, ref, rng) -> tuple[float, float]:
+    """The largest relative coefficient change when the sampling halves, counting only changes beyond 3
+    bootstrap standard deviations (half the samples carry other noise), and the largest change of all."""
+    change = _sampling_change(records, model, lib, opts.method, reg, gain_value, relevant, ref)
+    spread = _bootstrap_spread(reg.Gn, reg.bn, relevant, opts.n_models, rng)
     beyond = change > 3.0 * spread
     sampling_change = float(np.max(np.where(beyond, change, 0.0))) if change.size else 0.0
-    noise_change = float(np.max(change)) if change.size else 0.0
+    return sampling_change, float(np.max(change)) if change.size else 0.0
 
-    # does the model's own term set fit the data as well (within the same allowance) as SINDy's choice?
-    cols = [j for j in range(lib.n_terms) if usable[j]]
-    exp_cols = [cols.index(j) for j in range(lib.n_terms) if expected[j] and usable[j]]
-    Gu = Gn[:, cols]
+
+def _model_terms(reg: _Regression, expected: np.ndarray, method: str, thr: Thresholds) -> dict:
+    """Does the model's own term set fit the data as well (within the selection's allowance) as the full
+    library (``model_terms_excess`` <= 1)? And is what the full library leaves unexplained noise or a
+    systematic part: rows closer than one window share samples, so noise correlates only up to that lag;
+    beyond it, a correlated residual is structure outside the library (or in the state reconstruction)."""
+    n_terms = expected.size
+    cols = [j for j in range(n_terms) if reg.usable[j]]
+    exp_cols = [cols.index(j) for j in range(n_terms) if expected[j] and reg.usable[j]]
+    Gu, bn = reg.Gn[:, cols], reg.bn
     c_all, *_ = np.linalg.lstsq(Gu, bn, rcond=None)
     rss_full = float(np.sum((bn - Gu @ c_all) ** 2))
     if exp_cols:
@@ -488,67 +409,124 @@ def crosscheck(
         rss_exp = float(np.sum((bn - Gu[:, exp_cols] @ c_exp) ** 2))
     else:
         rss_exp = float(bn @ bn)
-    allowance = thr.tolerance + (len(cols) - len(exp_cols)) * math.log(max(n_eff, 2.0)) * rss_full / max(n_eff, 1.0)
-    model_excess = (rss_exp - rss_full) / allowance  # <= 1: the model's terms are an acceptable model too
-    model_ok = model_excess <= 1.0
+    # the target has unit norm: |b|^2 = 1
+    excess = (rss_exp - rss_full) / allowance(len(exp_cols), len(cols), rss_full, 1.0, reg.n_eff, thr.tolerance)
+    correlation = _residual_correlation(bn - Gu @ c_all, reg.C, method, reg.width, reg.stride, reg.periods, reg.dts)
+    return {"excess": excess, "ok": excess <= 1.0, "residual_correlation": correlation,
+            "systematic": rss_full / float(bn @ bn) * correlation}
 
-    # is what the full library leaves unexplained noise, or a systematic part it cannot represent?
-    # Rows closer than one window share samples, so noise correlates only up to that lag; beyond it,
-    # a correlated residual is structure outside the library (or in the state reconstruction).
-    residual_correlation = _residual_correlation(bn - Gu @ c_all, C, method, width, stride, periods, dts)
-    systematic = rss_full / float(bn @ bn) * residual_correlation
 
-    max_vif = float(np.max(vif)) if vif.size else 1.0
-    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
-    reasons = _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
-                       sampling_change)
-    exp_names = [lib.names[j] for j in np.flatnonzero(expected)]
-    sel_names = [lib.names[j] for j in np.flatnonzero(selected)]
-    missing = [n for j, n in enumerate(lib.names) if selected[j] and not in_model[j]]
-    absent = [n for j, n in enumerate(lib.names) if expected[j] and not selected[j]]
-    extra_model = [n for j, n in enumerate(lib.names) if selected[j] and in_model[j] and not expected[j]]
-
-    agrees = np.full(lib.n_terms, None, dtype=object)
-    for j in range(lib.n_terms):
+def _agreement(selected, coef, coef_std, model_coef, model_se, thr: Thresholds) -> np.ndarray:
+    """For each selected term with a non-zero model coefficient: does SINDy's coefficient agree with it
+    (within ``coefficient_rtol`` or 3 combined standard deviations)? None for the others."""
+    agrees = np.full(selected.size, None, dtype=object)
+    for j in range(selected.size):
         if selected[j] and np.isfinite(model_coef[j]) and model_coef[j] != 0:
             tol = max(thr.coefficient_rtol * abs(model_coef[j]),
                       3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
             agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
+    return agrees
 
-    verdict, message = _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model,
-                                exp_names, sel_names, lib, agrees, ref)
 
-    terms = []
-    for j, t in enumerate(lib.terms):
-        terms.append({"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
-                      "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
-                      "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
-                      "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
-                      "model_stderr": float(model_se[j]), "agrees": agrees[j],
-                      "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)})
+def _term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees) -> list[dict]:
+    """One dict per candidate term (see :attr:`SindyCrossCheck.terms`)."""
+    return [{"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
+             "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
+             "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
+             "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
+             "model_stderr": float(model_se[j]), "agrees": agrees[j],
+             "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)}
+            for j, t in enumerate(lib.terms)]
+
+
+def _term_sets(lib, selected, expected, in_model) -> dict:
+    """The names of the expected, selected, missing (selected, not in the model), absent (expected, not
+    selected) and extra model terms (selected model terms held at zero)."""
+    names = lib.names
+    return {"expected": [names[j] for j in np.flatnonzero(expected)],
+            "selected": [names[j] for j in np.flatnonzero(selected)],
+            "missing": [n for j, n in enumerate(names) if selected[j] and not in_model[j]],
+            "absent": [n for j, n in enumerate(names) if expected[j] and not selected[j]],
+            "extra_model": [n for j, n in enumerate(names) if selected[j] and in_model[j] and not expected[j]]}
+
+
+def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *, fit=None,
+               params: Mapping[str, float] | None = None, **settings) -> SindyCrossCheck:
+    """SINDy cross-check of the velocity equation of ``model`` on one or several records.
+
+    Parameters
+    ----------
+    records : a :class:`~duffsym.data.Record` or a sequence of them (pooled; one integration
+        constant each).
+    model : the model whose terms are checked (default: the fit's model, else ``mr_damper(5)``).
+    options : a :class:`CrossCheckOptions` (default: its defaults); ``settings`` replace single fields
+        (``crosscheck(rec, model, n_models=10, selection="ssr")``): ``gain``, ``library``, ``method``,
+        ``window``, ``n_models``, ``max_power``, ``selection``, ``thresholds``, ``rng``.
+    fit : an :class:`~duffsym.identify.IdentificationResult`; gives the model, the gain ``A_f``,
+        and the coefficients (with standard errors) to compare with.
+    params : parameter values to compare with instead of a fit (e.g. a synthetic record's truth).
+
+    Returns
+    -------
+    SindyCrossCheck
+
+    Raises
+    ------
+    TypeError
+        For a setting that :class:`CrossCheckOptions` does not have.
+    ModelError, DataError
+        For a model whose output is not a gain times the velocity, an unknown method, records
+        with non-uniform sampling or too short for one window.
+    """
+    opts = (options or CrossCheckOptions()).with_settings(**settings)
+    records, model, thr = _inputs(records, model, fit, opts)
+    gain_expr = output_gain(model)
+    ref, free, cov, ref_source = _reference(model, fit, params)
+    gain_value, gain_source = _gain(model, gain_expr, records, opts.gain, ref, ref_source)
+    lib = opts.library or candidate_library(model, max_power=opts.max_power)
+    rng = np.random.default_rng(opts.rng)
+    reg = _regression(records, model, lib, opts, gain_value, ref)
+    inclusion, coef_std, scale = _bootstrap(reg, opts.n_models, thr, opts.selection, rng)
+    model_coef, model_se, in_model, expected = _model_coefficients(model, lib, ref, free, cov)
+    selected = inclusion >= thr.include
+    ambiguous = (inclusion > thr.exclude) & ~selected
+    # measurable facts behind the verdict
+    relevant = [j for j in range(lib.n_terms) if reg.usable[j] and (expected[j] or inclusion[j] >= 0.5)]
+    cond, vif = _condition(reg.Gn, relevant)
+    cond_all, _ = _condition(reg.Gn, [j for j in range(lib.n_terms) if reg.usable[j]])
+    r2, coef = _refit_selected(reg, selected, scale)
+    sampling_change, noise_change = _sampling(records, model, lib, opts, reg, gain_value, relevant, ref, rng)
+    fits = _model_terms(reg, expected, opts.method, thr)
+    max_vif = float(np.max(vif)) if vif.size else 1.0
+    amb = [lib.names[j] for j in np.flatnonzero(ambiguous)]
+    reasons = _reasons(thr, lib, relevant, cond, vif, fits, r2, opts.n_models, amb, sampling_change)
+    sets = _term_sets(lib, selected, expected, in_model)
+    agrees = _agreement(selected, coef, coef_std, model_coef, model_se, thr)
+    verdict, message = _verdict(reasons, thr, sampling_change, r2, fits, sets, lib, agrees, ref)
     diagnostics = {"condition": cond, "max_vif": max_vif,
                    "condition_library": cond_all, "sampling_change": sampling_change,
                    "sampling_change_all": noise_change, "r2": r2,
-                   "n_rows": int(n_rows), "window_s": width * max(dts), "window_samples": int(width),
-                   "n_models": int(n_models), "n_records": len(records), "dt": max(dts),
-                   "model_terms_excess": model_excess, "model_terms_acceptable": bool(model_ok),
-                   "systematic": systematic, "residual_correlation": residual_correlation,
-                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": extra_model}
-    name = model.name + (" + " + ", ".join(model.effects) if model.effects else "")
+                   "n_rows": int(reg.n_rows), "window_s": reg.width * max(reg.dts), "window_samples": int(reg.width),
+                   "n_models": int(opts.n_models), "n_records": len(records), "dt": max(reg.dts),
+                   "model_terms_excess": fits["excess"], "model_terms_acceptable": bool(fits["ok"]),
+                   "systematic": fits["systematic"], "residual_correlation": fits["residual_correlation"],
+                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": sets["extra_model"]}
     return SindyCrossCheck(
-        model=name, method=method, gain=gain_value, gain_source=gain_source, terms=tuple(terms),
-        selected=tuple(sel_names), expected=tuple(exp_names), missing=tuple(missing), absent=tuple(absent),
-        ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message, reasons=tuple(reasons),
-        reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
+        model=model.name + (" + " + ", ".join(model.effects) if model.effects else ""), method=opts.method,
+        gain=gain_value, gain_source=gain_source,
+        terms=tuple(_term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees)),
+        selected=tuple(sets["selected"]), expected=tuple(sets["expected"]), missing=tuple(sets["missing"]),
+        absent=tuple(sets["absent"]), ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message,
+        reasons=tuple(reasons), reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
     )
 
 
-def _inputs(records, model, fit, method, selection, n_models, thresholds):
+def _inputs(records, model, fit, opts: CrossCheckOptions):
     """The records as a list, the model (the fit's, else ``mr_damper(5)``) and the thresholds, checked."""
     from duffsym.data import Record
 
-    if method not in METHODS:
-        raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
+    if opts.method not in METHODS:
+        raise ModelError(f"method must be one of {set(METHODS)}; got {opts.method!r}")
     if isinstance(records, Record):
         records = [records]
     records = list(records)
@@ -563,11 +541,11 @@ def _inputs(records, model, fit, method, selection, n_models, thresholds):
             from duffsym.model.library import mr_damper
 
             model = mr_damper(5)
-    thr = thresholds or Thresholds()
-    if selection not in SELECTIONS:
-        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {selection!r}")
-    if n_models < 2:
-        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {n_models}")
+    thr = opts.thresholds or Thresholds()
+    if opts.selection not in SELECTIONS:
+        raise ModelError(f"selection must be one of {set(SELECTIONS)}; got {opts.selection!r}")
+    if opts.n_models < 2:
+        raise ModelError(f"n_models must be at least 2 (bootstrap fits); got {opts.n_models}")
     return records, model, thr
 
 
@@ -596,26 +574,21 @@ def _gain(model, gain_expr, records, gain, ref, ref_source) -> tuple[float, str]
     return max(float(np.max(np.abs(r.y))) for r in records), "max|y| of the records"
 
 
-def _bootstrap(Gn, bn, usable, norms, bnorm, n_eff, n_terms, n_models, thr, selection, rng):
-    """The full-data selection and ``n_models`` bootstrap selections: coefficients, inclusion
-    probabilities, bootstrap standard deviations and the column scale back to physical units."""
-    n_rows = Gn.shape[0]
-    xi_n = _select(Gn[:, usable], bn, n_eff, thr.tolerance, selection, thr.stlsq_threshold)
-    coef_n = np.zeros(n_terms)
-    coef_n[usable] = xi_n
+def _bootstrap(reg: _Regression, n_models: int, thr: Thresholds, selection: str, rng):
+    """``n_models`` bootstrap selections (:func:`~duffsym.sindy.sparse.bagged`): inclusion probabilities,
+    bootstrap standard deviations of the coefficients and the column scale back to physical units."""
+    usable = reg.usable
+    n_terms = usable.size
     boot = np.zeros((n_models, n_terms))
-    for m in range(n_models):
-        rows = rng.integers(0, n_rows, n_rows)
-        boot[m, usable] = _select(Gn[rows][:, usable], bn[rows], n_eff, thr.tolerance, selection,
-                                  thr.stlsq_threshold)
+    boot[:, usable] = bagged(reg.Gn[:, usable], reg.bn, n_models, rng, reg.n_eff, thr.tolerance, selection,
+                             thr.stlsq_threshold)
     inclusion = np.mean(boot != 0, axis=0)
-    scale = bnorm / norms
-    coef = coef_n * scale
+    scale = reg.bnorm / reg.norms
     with np.errstate(invalid="ignore"):
         boot_c = np.where(boot != 0, boot * scale, np.nan)
         coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan
                              for j in range(n_terms)])
-    return coef, inclusion, coef_std, scale
+    return inclusion, coef_std, scale
 
 
 def _model_coefficients(model, lib, ref, free, cov):
@@ -662,9 +635,11 @@ def _residual_correlation(res, C, method, width, stride, periods, dts) -> float:
     return residual_correlation
 
 
-def _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correlation, r2, n_models, amb,
-             sampling_change) -> list[str]:
-    """Why the data cannot decide (each a sentence with the number and its limit); [] when they can."""
+def _reasons(thr, lib, relevant, cond, vif, fits: dict, r2, n_models, amb, sampling_change) -> list[str]:
+    """Why the data cannot decide (each a sentence with the number and its limit); [] when they can
+    (``fits``: see :func:`_model_terms`)."""
+    max_vif = float(np.max(vif)) if vif.size else 1.0
+    systematic, residual_correlation = fits["systematic"], fits["residual_correlation"]
     reasons = []
     if cond > thr.max_condition or max_vif > thr.max_vif:
         worst = lib.names[relevant[int(np.argmax(vif))]] if vif.size else "-"
@@ -692,9 +667,12 @@ def _reasons(thr, lib, relevant, cond, vif, max_vif, systematic, residual_correl
     return reasons
 
 
-def _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, absent, extra_model, exp_names, sel_names,
-             lib, agrees, ref) -> tuple[str, str]:
-    """The verdict (inconclusive, consistent, missing-terms, disagrees) and its sentence."""
+def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agrees, ref) -> tuple[str, str]:
+    """The verdict (inconclusive, consistent, missing-terms, disagrees) and its sentence (``fits``: see
+    :func:`_model_terms`; ``sets``: :func:`_term_sets`)."""
+    systematic, model_ok = fits["systematic"], fits["ok"]
+    missing, absent, extra_model = sets["missing"], sets["absent"], sets["extra_model"]
+    exp_names, sel_names = sets["expected"], sets["selected"]
     if reasons:
         verdict = "inconclusive"
         advice = []
@@ -731,7 +709,7 @@ def _verdict(reasons, thr, sampling_change, r2, systematic, model_ok, missing, a
     return verdict, message
 
 
-def _sampling_change(records, model, lib, method, width, stride, gain, relevant, Gn, bn, norms, bnorm,
+def _sampling_change(records, model, lib, method: str, reg: _Regression, gain: float, relevant,
                      params=None) -> np.ndarray:
     """Relative change of each relevant coefficient when every other sample is dropped.
 
@@ -748,12 +726,12 @@ def _sampling_change(records, model, lib, method, width, stride, gain, relevant,
             half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2],
                                        command=None if r.command is None else r.command[::2]))
         parts = [reconstruct_states(r, model, gain, params) for r in half]
-        G2, b2, C2 = _system(parts, lib, method, width // 2, stride // 2)
+        G2, b2, C2 = _system(parts, lib, method, reg.width // 2, reg.stride // 2)
     except DataError:
         return np.full(len(relevant), np.inf)
     G2, b2 = _project_out(C2, G2, b2)
-    c1, *_ = np.linalg.lstsq(Gn[:, relevant], bn, rcond=None)
-    c2, *_ = np.linalg.lstsq(G2[:, relevant] / norms[relevant], b2 / bnorm, rcond=None)
+    c1, *_ = np.linalg.lstsq(reg.Gn[:, relevant], reg.bn, rcond=None)
+    c2, *_ = np.linalg.lstsq(G2[:, relevant] / reg.norms[relevant], b2 / reg.bnorm, rcond=None)
     # relative change of each coefficient; a term explaining little is measured against the sparsity scale
     return np.abs(c1 - c2) / np.maximum(np.abs(c1), 0.02)
 

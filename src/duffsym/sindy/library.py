@@ -21,7 +21,9 @@ from typing import Mapping, Sequence
 import numpy as np
 import sympy as sp
 
+from duffsym.derive import split_terms
 from duffsym.errors import ModelError
+from duffsym.sindy import sparse
 
 
 @dataclass(frozen=True)
@@ -52,17 +54,10 @@ def _velocity_index(model) -> int:
     return model.states.index(model.velocity)
 
 
-def split_terms(expr: sp.Expr, variables: Sequence[sp.Symbol]) -> dict[sp.Expr, sp.Expr]:
-    """Map each basis function of ``expr`` (in ``variables``) to its coefficient (free of them).
-
-    ``-(c1 + c2)*x2 - c3*x2**5 + k1*d`` -> ``{x2: -c1 - c2, x2**5: -c3, d: k1}``. Terms free of
-    the variables are collected under ``1``.
-    """
-    out: dict[sp.Expr, sp.Expr] = {}
-    for term in sp.Add.make_args(sp.expand(expr)):
-        coeff, basis = term.as_independent(*variables, as_Add=False)
-        out[basis] = out.get(basis, sp.Integer(0)) + coeff
-    return {b: sp.simplify(c) for b, c in out.items() if c != 0}
+def _coefficients(expr: sp.Expr, variables: Sequence[sp.Symbol]) -> dict[sp.Expr, sp.Expr]:
+    """Each basis function of ``expr`` (in ``variables``) and its coefficient, simplified
+    (:func:`duffsym.derive.split_terms`)."""
+    return split_terms(expr, variables, form=sp.simplify)
 
 
 def _name(expr: sp.Expr, names: Mapping[sp.Symbol, str]) -> str:
@@ -98,14 +93,9 @@ class CandidateLibrary:
         return self.names.index(name)
 
     def evaluate(self, states: np.ndarray, inputs: np.ndarray) -> np.ndarray:
-        """Library matrix ``(n_times, n_terms)`` from states ``(n_times, n_states)`` and inputs ``(n_times, n_inputs)``."""
-        fn = _lambdified(self)
-        cols = np.column_stack([states, inputs]).T
-        n = cols.shape[1]
-        out = np.empty((n, self.n_terms))
-        for j, f in enumerate(fn):
-            out[:, j] = np.broadcast_to(np.asarray(f(*cols), dtype=float), (n,))
-        return out
+        """Library matrix ``(n_times, n_terms)`` from states ``(n_times, n_states)`` and inputs ``(n_times, n_inputs)``:
+        the terms as a pysindy ``CustomLibrary`` (:func:`duffsym.sindy.sparse.expression_library`)."""
+        return sparse.evaluate(_pysindy_library(self), np.column_stack([states, inputs]))
 
     def coefficients(self, params: Mapping[str, float]) -> np.ndarray:
         """The coefficient of every term implied by the model's parameter values (0 for terms the model lacks)."""
@@ -135,10 +125,10 @@ class CandidateLibrary:
 _CACHE: dict = {}
 
 
-def _lambdified(lib: CandidateLibrary):
+def _pysindy_library(lib: CandidateLibrary):
     key = (id(lib), lib.model.key if hasattr(lib.model, "key") else None)
     if key not in _CACHE:
-        _CACHE[key] = [sp.lambdify(lib.variables, t.expr, modules="numpy") for t in lib.terms]
+        _CACHE[key] = sparse.expression_library([t.expr for t in lib.terms], lib.variables, lib.names)
     return _CACHE[key]
 
 
@@ -183,7 +173,7 @@ def candidate_library(model, *, effects: Mapping | None = None, max_power: int =
                     default=-1)
         return first, sp.Poly(basis, *variables).total_degree() if basis.is_polynomial(*variables) else 99
 
-    for basis, coeff in sorted(split_terms(model.rhs[iv], variables).items(), key=order):
+    for basis, coeff in sorted(_coefficients(model.rhs[iv], variables).items(), key=order):
         add(basis, "model", coeff)
     not_visible: dict[str, str] = {}
     if effects is None:
@@ -203,7 +193,7 @@ def candidate_library(model, *, effects: Mapping | None = None, max_power: int =
         if new == 0:
             not_visible[ename] = "acts on the output, not on the velocity equation"
             continue
-        for basis, coeff in split_terms(new, variables).items():
+        for basis, coeff in _coefficients(new, variables).items():
             add(basis, f"effect:{ename}", coeff, ename)
     if generic:
         powers = range(2 if even else 3, int(max_power) + 1)
