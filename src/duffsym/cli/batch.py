@@ -14,13 +14,13 @@ def batch(inputs=(), *, command: str = "fit", out, **options):
         One row per record (status, NRMSE, result file, message, ...), with ``summary()`` and ``to_dict()``.
     """
     from duffsym.campaign import run_batch
-    from duffsym.campaign.run_command import run_task
+    from duffsym.cli.batch_worker import run_task
 
     return run_batch(inputs, runner=run_task, command=command, out=out, **options)
 
 
 def cmd_batch(args) -> int:
-    from duffsym._cli_common import CLIError, _emit_json
+    from duffsym.cli.common import CLIError, emit_json
 
     if args.workers is not None and args.workers < 0:
         raise CLIError(f"--workers must be 0 (in this process) or more; got {args.workers}")
@@ -30,7 +30,7 @@ def cmd_batch(args) -> int:
                 options=args.options, workers=args.workers, scheduler=args.scheduler,
                 retry_failed=args.retry_failed, progress=not args.quiet, figure=not args.no_figure)
     if args.json:
-        _emit_json(res.to_dict())
+        emit_json(res.to_dict())
     else:
         print(res.summary())
     return 0 if res.all_ok else 1
