@@ -139,37 +139,45 @@ def _main(argv=None) -> int:
     show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
     parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
-    name = args.subcommand
+    value, code = guarded(args, lambda: int(args.func(args) or 0))
+    return value if code is None else code
+
+
+def guarded(args, work):
+    """Run ``work()`` for the parsed command ``args`` as the command line does: ``(its value, None)``, or, when
+    it raises, ``(None, exit code)`` with the error as one line on stderr (``duffsym NAME: error: ...``; the
+    traceback only with ``--debug``). ``duffsym batch`` runs each record's work through this too."""
+    name, debug = args.subcommand, getattr(args, "debug", False)
     try:
-        return int(args.func(args) or 0)
+        return work(), None
     except DuffsymError as exc:
         err(f"duffsym {name}: error: {exc}")
-        return EXIT_ERROR
+        return None, EXIT_ERROR
     except (OSError, ValueError) as exc:
-        if args.debug:
+        if debug:
             raise
         err(f"duffsym {name}: error: {_describe(exc)}")
-        return EXIT_ERROR
+        return None, EXIT_ERROR
     except KeyboardInterrupt:
         _quiet_dask_shutdown()
         err("interrupted")
-        return 130
+        return None, 130
     except RecursionError:
-        if args.debug:
+        if debug:
             raise
         err(f"duffsym {name}: error: input nested too deeply to process; check the input files")
-        return EXIT_ERROR
+        return None, EXIT_ERROR
     except MemoryError:
-        if args.debug:
+        if debug:
             raise
         err(f"duffsym {name}: error: out of memory; use a shorter or decimated record")
-        return EXIT_ERROR
+        return None, EXIT_ERROR
     except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
-        if args.debug:
+        if debug:
             raise
         err(f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
-             "and please report it)")
-        return 1
+            "and please report it)")
+        return None, 1
 
 
 def _describe(exc: Exception) -> str:

@@ -1,5 +1,7 @@
 """``duffsym batch`` and :func:`duffsym.batch` (see the contract): a command on many records, on local
-processes or a Dask cluster."""
+processes or a Dask cluster. Each record is a :class:`~duffsym.engine.Task` running the command's own
+function (:mod:`duffsym.cli.batch_worker`); :func:`duffsym.campaign.run_batch` runs them on an engine and
+keeps the results."""
 from __future__ import annotations
 
 
@@ -10,13 +12,13 @@ def batch(inputs=(), *, command: str = "fit", out, **options):
 
     Returns
     -------
-    duffsym.campaign.BatchResult
+    duffsym.campaign.CampaignResult
         One row per record (status, NRMSE, result file, message, ...), with ``summary()`` and ``to_dict()``.
     """
     from duffsym.campaign import run_batch
-    from duffsym.cli.batch_worker import run_task
+    from duffsym.cli.batch_worker import record_task
 
-    return run_batch(inputs, runner=run_task, command=command, out=out, **options)
+    return run_batch(inputs, make_task=record_task, command=command, out=out, **options)
 
 
 def cmd_batch(args) -> int:

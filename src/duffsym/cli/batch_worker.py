@@ -1,23 +1,27 @@
-"""The work of one record, as a worker does it: the ``duffsym`` command itself, run in-process
-(a command-line module: it drives :func:`duffsym.cli.main`).
+"""The work of one record of ``duffsym batch``: a :class:`~duffsym.engine.Task` that runs the command's
+own function (``run_fit``, ``run_validate``, ``run_diagnose``, ``run_ladder``, ``run_sample``) on the
+parsed options and returns its result object.
 
-A task carries the bytes of its input files, so a worker needs no shared file system: it writes
-them to a private temporary folder (keeping their names), runs ``duffsym COMMAND ... --json`` there
-through :func:`duffsym.cli.main` (the same code, options and checks as the command line, so a batch
-result is the result the command gives), and returns the JSON, the exit code and the last message.
-The temporary paths are replaced by the original ones in what comes back.
+:func:`record_task` (in the submitting process) parses the record's options with the command's own
+parser, exactly as ``duffsym COMMAND ... --json --quiet`` would, and packs the bytes of the input files,
+so a worker needs no shared file system. :func:`run_record` (in the worker) writes the files to a private
+temporary folder (keeping their names), points the parsed options at them and calls the command's
+function through :func:`duffsym.cli.guarded` (the same checks and one-line errors as the command line).
+It returns a :class:`~duffsym.campaign.RecordRun` holding the command's :class:`~duffsym.cli.common.CommandResult`
+(its ``to_dict()`` is the JSON the command prints), the exit code and the record's stderr, with the
+temporary paths replaced by the original ones in the messages and the result.
 """
 from __future__ import annotations
 
 import io
-import json
 import os
 import socket
 import sys
 import tempfile
 import threading
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stderr
+from dataclasses import dataclass
 from pathlib import Path
 
 _local = threading.local()
@@ -69,24 +73,70 @@ def _captured():
                 sys.stdout, sys.stderr = _installed["saved"]
 
 
-def _has_option(command: str, option: str) -> bool:
-    from duffsym.cli import build_parser
+@dataclass(frozen=True)
+class InputFile:
+    """An input file of a record as it travels to a worker: its path (as the user gave it) and its bytes."""
 
-    parser = build_parser()
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-    return option in sub.choices[command]._option_string_actions
+    path: str
+    data: bytes
+
+    @classmethod
+    def read(cls, path) -> "InputFile":
+        return cls(str(path), Path(path).read_bytes())
 
 
-def command_line(command: str, data: str, fit: str | None, argv) -> list[str]:
-    """The ``duffsym`` arguments of one record (without the program name)."""
+def command_line(command: str, data: str, fit: str | None, argv, quiet: bool = True) -> list[str]:
+    """The ``duffsym`` arguments of one record (without the program name), as the batch runs it."""
     if command == "validate":
         head = [command, fit, data]
     elif fit is not None:
         head = [command, data, "--fit", fit]
     else:
         head = [command, data]
-    tail = ["--json"] + (["--quiet"] if _has_option(command, "--quiet") else [])
-    return head + list(argv) + tail
+    return head + list(argv) + ["--json"] + (["--quiet"] if quiet else [])
+
+
+def parse_record(command: str, argv: list[str]):
+    """The options of one record parsed by the command's own parser: ``(args, None)``, or ``(None, (exit code,
+    argparse's message))`` when they are not valid (e.g. a misspelt option in a manifest)."""
+    from duffsym.cli import build_parser
+
+    parser = build_parser(argv)
+    text = io.StringIO()
+    try:
+        with redirect_stderr(text):
+            return parser.parse_args(argv), None
+    except SystemExit as exc:
+        return None, (exc.code if isinstance(exc.code, int) else 2, text.getvalue())
+
+
+def _has_quiet(command: str) -> bool:
+    from duffsym.cli import build_parser
+
+    parser = build_parser([command])
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    return "--quiet" in sub.choices[command]._option_string_actions
+
+
+def record_task(command: str, job):
+    """The :class:`~duffsym.engine.Task` of one batch job (a :class:`~duffsym.campaign.manifest.Job`)."""
+    from duffsym.engine import Task
+
+    files = [InputFile.read(job.data)] + ([InputFile.read(job.fit)] if job.fit is not None else [])
+    argv = command_line(command, str(job.data), None if job.fit is None else str(job.fit), job.argv,
+                        quiet=_has_quiet(command))
+    args, usage = parse_record(command, argv)
+    if usage is not None:
+        return Task(usage_error, usage)
+    return Task(run_record, (args, tuple(files)))
+
+
+def usage_error(code: int, text: str):
+    """The outcome of a record whose options the command's parser refused (no work done)."""
+    from duffsym.campaign import RecordRun
+
+    return RecordRun(exit_code=code, result=None, message=_last_line(text), stderr=text[-4000:], seconds=0.0,
+                     worker=_worker())
 
 
 def _last_line(text: str) -> str:
@@ -94,47 +144,71 @@ def _last_line(text: str) -> str:
     return lines[-1] if lines else ""
 
 
-def run_task(task: dict) -> dict:
-    """Run one record (a task built by :func:`duffsym.campaign.run_batch`); never raises for the record's own errors.
+def _worker() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
 
-    Returns ``{"exit_code": int, "result": dict|None, "message": str, "stderr": str, "seconds": float,
-    "worker": str}``: exit code 0 (a usable result), 1 (the command ran; its result is not usable,
-    e.g. a fit that did not converge) or 2 (bad input or an error; ``message`` says which).
-    """
-    from duffsym.cli import main
 
+def _swapped(value, swaps):
+    """``value`` (strings, lists and dicts of them) with each path ``a`` replaced by ``b``."""
+    if isinstance(value, str):
+        for a, b in swaps:
+            value = value.replace(a, b)
+        return value
+    if isinstance(value, list):
+        return [_swapped(v, swaps) for v in value]
+    if isinstance(value, tuple):
+        return tuple(_swapped(v, swaps) for v in value)
+    if isinstance(value, dict):
+        return {k: _swapped(v, swaps) for k, v in value.items()}
+    return value
+
+
+def _point_at(args, swaps):
+    """A copy of the parsed options with every input path (an option equal to it, or an item of a list option)
+    replaced by its temporary copy."""
+    import argparse
+
+    new = dict(swaps)
+
+    def one(v):
+        if isinstance(v, list):
+            return [one(x) for x in v]
+        return new.get(v, v) if isinstance(v, str) else v
+
+    return argparse.Namespace(**{k: one(v) for k, v in vars(args).items()})
+
+
+def run_record(args, files: tuple[InputFile, ...]):
+    """Run one record's command in this process; never raises for the record's own errors (they are its
+    exit code and message). Ctrl-C in a serial batch stops the batch, not one record."""
+    from dataclasses import replace
+
+    from duffsym.campaign import RecordRun
+    from duffsym.cli import guarded
+    from duffsym.cli.common import err
+    from duffsym.errors import show_notes
+
+    show_notes()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="duffsym-batch-") as tmp:
-        tmp_data = Path(tmp) / "data" / task["data_name"]
-        tmp_data.parent.mkdir()
-        tmp_data.write_bytes(task["data_bytes"])
-        tmp_fit = None
-        if task.get("fit_bytes") is not None:
-            tmp_fit = Path(tmp) / "fit" / task["fit_name"]
-            tmp_fit.parent.mkdir()
-            tmp_fit.write_bytes(task["fit_bytes"])
-        argv = command_line(task["command"], str(tmp_data), None if tmp_fit is None else str(tmp_fit), task["argv"])
-        with _captured() as (out, err):
-            try:
-                code = int(main(argv) or 0)
-            except SystemExit as exc:  # argparse: a bad option in the manifest
-                code = exc.code if isinstance(exc.code, int) else 2
-        stdout, stderr = out.getvalue(), err.getvalue()
+        swaps = []
+        for folder, f in zip(("data", "fit"), files):
+            copy = Path(tmp) / folder / Path(f.path).name
+            copy.parent.mkdir()
+            copy.write_bytes(f.data)
+            swaps.append((f.path, str(copy)))
+        local = _point_at(args, swaps)
+        with _captured() as (_, stderr):
+            result, code = guarded(local, lambda: local.run(local))
+            for line in () if result is None else result.notes:
+                err(line)
+        text = stderr.getvalue()
     if code == 130:  # the command caught an interrupt (Ctrl-C in a serial batch): stop the batch, not one record
         raise KeyboardInterrupt
-    swaps = [(str(tmp_data), task["data_path"])] + ([(str(tmp_fit), task["fit_path"])] if tmp_fit else [])
-    for a, b in swaps:
-        stdout, stderr = stdout.replace(a, b), stderr.replace(a, b)
-        # a JSON string holds the path with JSON escapes
-        stdout = stdout.replace(json.dumps(a)[1:-1], json.dumps(b)[1:-1])
-    result = None
-    if stdout.strip():
-        try:
-            result = json.loads(stdout)
-        except json.JSONDecodeError:
-            result = None
-            code = code or 2
-            stderr += "\nthe command printed something that is not JSON on stdout"
-    message = _last_line(stderr) if code else ""
-    return {"exit_code": code, "result": result, "message": message, "stderr": stderr[-4000:],
-            "seconds": time.perf_counter() - t0, "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    back = [(b, a) for a, b in swaps]
+    if result is not None:
+        code = result.exit_code
+        result = replace(result, data=_swapped(result.portable().data, back), value=None, text="")
+    text = _swapped(text, back)
+    return RecordRun(exit_code=code, result=result, message=_last_line(text) if code else "", stderr=text[-4000:],
+                     seconds=time.perf_counter() - t0, worker=_worker())

@@ -10,7 +10,9 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable
 
 from duffsym.errors import DuffsymError
 
@@ -29,6 +31,66 @@ def emit_json(obj) -> None:
     from duffsym._json import jsonable
 
     print(json.dumps(jsonable(obj), indent=2, allow_nan=False, default=str))
+
+
+@dataclass(frozen=True)
+class CommandResult:
+    """What a command computed, before anything is printed: ``to_dict()`` is its ``--json`` object,
+    ``summary()`` its text, ``exit_code`` its exit code and ``notes`` the stderr lines that follow the output
+    (e.g. "the fit did not succeed"). ``value`` is the library's own result object (an
+    :class:`~duffsym.identify.IdentificationResult`, a validation, a diagnosis, a ladder, a posterior), kept in
+    this process only: ``duffsym batch`` gets the rest back from its workers (:meth:`portable`).
+
+    ``text`` is the summary, or a function making it (the text is made only when printed, as before).
+    """
+
+    command: str
+    data: dict
+    text: str | Callable[[], str] = ""
+    exit_code: int = 0
+    notes: tuple[str, ...] = ()
+    value: Any = None
+
+    def to_dict(self) -> dict:
+        return self.data
+
+    def summary(self) -> str:
+        return self.text() if callable(self.text) else self.text
+
+    @property
+    def success(self) -> bool:
+        return self.exit_code == 0
+
+    def portable(self) -> "CommandResult":
+        """This result with its JSON made JSON-safe and without the library object or a text not yet made:
+        small and picklable (what a batch worker returns; the batch stores ``to_dict()``)."""
+        from dataclasses import replace
+
+        from duffsym._json import jsonable
+
+        return replace(self, data=_plain(jsonable(self.data)), value=None, text="" if callable(self.text) else self.text)
+
+
+def _plain(obj):
+    """JSON types only, as ``json.dumps(..., default=str)`` writes them: any other object as its ``str``."""
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_plain(v) for v in obj]
+    if obj is None or isinstance(obj, (str, bool, int, float)):
+        return obj
+    return str(obj)
+
+
+def show(result: CommandResult, as_json: bool) -> int:
+    """Print a command's result (its JSON with ``--json``, else its text), then its notes on stderr; the exit code."""
+    if as_json:
+        emit_json(result.to_dict())
+    else:
+        print(result.summary())
+    for line in result.notes:
+        err(line)
+    return result.exit_code
 
 
 def parse_assignments(items, what: str) -> dict[str, float]:

@@ -74,7 +74,14 @@ def _progress(args):
 
 
 def cmd_diagnose(args) -> int:
-    from duffsym.cli.common import fit_model
+    from duffsym.cli.common import show
+
+    return show(run_diagnose(args), args.json)
+
+
+def run_diagnose(args):
+    """``duffsym diagnose``'s work (the report written, progress on stderr): a :class:`CommandResult`."""
+    from duffsym.cli.common import CommandResult, fit_model
     from duffsym.diagnose import diagnose
 
     record, cands, mask, fixed = _common(args)
@@ -97,22 +104,18 @@ def cmd_diagnose(args) -> int:
                       progress=_progress(args), engine=engine)
     from duffsym.diagnose.report import write_diagnosis_report
 
-    _output(args, dg, record, write_diagnosis_report)
-    return 0
+    _report(args, dg, record, write_diagnosis_report)
+    return CommandResult("diagnose", dg.to_dict(), dg.summary, value=dg)
 
 
-def _output(args, obj, record, write_report) -> None:
-    """The report (``--report DIR``), then the JSON or the text summary of a diagnosis or ladder."""
-    from duffsym.cli.common import emit_json, err
+def _report(args, obj, record, write_report) -> None:
+    """The report of a diagnosis or ladder (``--report DIR``), written before its JSON or text is printed."""
+    from duffsym.cli.common import err
 
     if args.report:
         path = write_report(obj, record, args.report)
         if not args.quiet:
             err(f"report written to {path}")
-    if args.json:
-        emit_json(obj.to_dict())
-    else:
-        print(obj.summary())
 
 
 def _budget(text: str) -> float | None:
@@ -147,7 +150,14 @@ def _writer(args, record):
 
 
 def cmd_ladder(args) -> int:
-    from duffsym.cli.common import err, fit_model
+    from duffsym.cli.common import show
+
+    return show(run_ladder(args), args.json)
+
+
+def run_ladder(args):
+    """``duffsym ladder``'s work (steps written as they finish, progress on stderr): a :class:`CommandResult`."""
+    from duffsym.cli.common import CommandResult, fit_model
     from duffsym.diagnose import ladder
 
     record, cands, mask, fixed = _common(args)
@@ -165,15 +175,16 @@ def cmd_ladder(args) -> int:
         save_fit(lad.final_fit.with_sampling([record]), args.out, "ladder")
     from duffsym.diagnose.report import write_ladder_report
 
-    _output(args, lad, record, lambda obj, rec, folder: write_ladder_report(obj, rec, folder, written=written))
+    _report(args, lad, record, lambda obj, rec, folder: write_ladder_report(obj, rec, folder, written=written))
+    notes = []
     if not lad.complete:
-        err(f"duffsym ladder: {lad.stopped}; every finished step is kept")
+        notes.append(f"duffsym ladder: {lad.stopped}; every finished step is kept")
     if lad.final_note:
-        err(f"duffsym ladder: {lad.final_note}")
-    if not lad.final_fit.success:
-        err(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
-        return 1
-    return 0
+        notes.append(f"duffsym ladder: {lad.final_note}")
+    ok = lad.final_fit.success
+    if not ok:
+        notes.append(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
+    return CommandResult("ladder", lad.to_dict(), lad.summary, exit_code=0 if ok else 1, notes=tuple(notes), value=lad)
 
 
 def _shared(s) -> None:
@@ -211,7 +222,7 @@ def register(sub) -> None:
     _shared(s)
     s.add_argument("--fit", help="FIT.json of the model to diagnose (its effects included); default: fit it here")
     s.add_argument("--force", action="store_true", help="diagnose around a fit marked success: false")
-    s.set_defaults(func=cmd_diagnose)
+    s.set_defaults(func=cmd_diagnose, run=run_diagnose)
 
     s = sub.add_parser("ladder", help="base fit, then add the best supported effect and refit, while the evidence "
                        "supports it; the error at each step")
@@ -226,4 +237,4 @@ def register(sub) -> None:
                    "no catalogued effect is needed, a drifting parameter or a term found by sparse regression of the "
                    "residual is tried, and added only if it passes the same held-out evidence)")
     s.add_argument("--discover", action="store_true", help="accepted for compatibility (discovery is on by default)")
-    s.set_defaults(func=cmd_ladder)
+    s.set_defaults(func=cmd_ladder, run=run_ladder)

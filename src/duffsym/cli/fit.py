@@ -5,9 +5,9 @@ import dataclasses
 
 from duffsym.cli.common import (
     CLIError,
+    CommandResult,
     add_file_arguments,
     add_model_arguments,
-    emit_json,
     err,
     fit_model,
     check_outputs,
@@ -16,6 +16,7 @@ from duffsym.cli.common import (
     read_record,
     require_success,
     save_fit,
+    show,
 )
 
 
@@ -34,11 +35,16 @@ def _prepared(args, record, mask):
 
 
 def cmd_fit(args) -> int:
+    return show(run_fit(args), args.json)
+
+
+def run_fit(args) -> CommandResult:
+    """``duffsym fit``'s work (files written, notes on stderr), its result not yet printed."""
     from duffsym.identify import fit
     from duffsym.identify.fitdata import finish_fit
 
     if args.manifest or len(args.data) != 1:  # a campaign: one parameter set for several records
-        return _cmd_fit_campaign(args)
+        return _run_fit_campaign(args)
     check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
     full_record = read_record(args, args.data[0])
     model = fit_model(args)
@@ -91,19 +97,14 @@ def _problem(args, model, records, masks, fixed=None):
                    mask_info=next((i for _, i in masks if i), None))
 
 
-def _report_fit(args, result) -> int:
-    """Print the fit (summary or JSON) and turn its success into the exit code."""
-    if args.json:
-        emit_json(_contract_fields(result.to_dict()))
-    else:
-        print(result.summary())
-    if not result.success:
-        err(f"duffsym fit: the fit did not succeed: {result.status}: {result.message}")
-        return 1
-    return 0
+def _report_fit(args, result) -> CommandResult:
+    """The fit's JSON (the contract's keys first) and summary; its success is the exit code."""
+    notes = () if result.success else (f"duffsym fit: the fit did not succeed: {result.status}: {result.message}",)
+    return CommandResult("fit", _contract_fields(result.to_dict()), result.summary, exit_code=0 if result.success
+                         else 1, notes=notes, value=result)
 
 
-def _cmd_fit_campaign(args) -> int:
+def _run_fit_campaign(args) -> CommandResult:
     """``duffsym fit A.csv B.csv ...`` or ``--manifest``: one parameter set for every record."""
     from duffsym.identify import fit
     from duffsym.cli.fit_campaign import campaign_records, hold_unseen_rates, plot_campaign
@@ -176,6 +177,11 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 
 
 def cmd_validate(args) -> int:
+    return show(run_validate(args), args.json)
+
+
+def run_validate(args) -> CommandResult:
+    """``duffsym validate``'s work (notes on stderr, the figure), its result not yet printed."""
     from duffsym.identify import load_result, validate
 
     from duffsym.data.sanity import range_notes, valid_part
@@ -196,15 +202,10 @@ def cmd_validate(args) -> int:
         err(f"duffsym validate: note: {note}: an extrapolation")
     if args.plot and _drawable(val, record):  # a poor prediction (R² < 0) is drawn too: that is when it is looked at
         _plot_validation(val, record, args.plot)
-    if args.json:
-        extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
-        emit_json({**val.to_dict(), **extra})
-    else:
-        print(val.summary())
-    if not val.success:
-        err(f"duffsym validate: the validation did not succeed: {val.message}")
-        return 1
-    return 0
+    extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
+    failed = () if val.success else (f"duffsym validate: the validation did not succeed: {val.message}",)
+    return CommandResult("validate", {**val.to_dict(), **extra}, val.summary, exit_code=0 if val.success else 1,
+                         notes=failed, value=val)
 
 
 def _positive_seconds(text: str) -> float:
@@ -271,7 +272,7 @@ def register(sub) -> None:
     s.add_argument("--plot-transient", action="store_true", help="plot the whole record, start-up included")
     s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
-    s.set_defaults(func=cmd_fit)
+    s.set_defaults(func=cmd_fit, run=run_fit)
 
     s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
     s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
@@ -283,4 +284,4 @@ def register(sub) -> None:
     s.add_argument("--plot", help="figure (PNG/PDF): measured vs predicted over time, a zoom on the largest error, "
                    "and loops of whole cycles (or of windows, where the input does not repeat)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.set_defaults(func=cmd_validate)
+    s.set_defaults(func=cmd_validate, run=run_validate)

@@ -6,11 +6,18 @@ from pathlib import Path
 
 
 def cmd_sample(args) -> int:
+    from duffsym.cli.common import show
+
+    return show(run_sample(args), args.json)
+
+
+def run_sample(args):
+    """``duffsym sample``'s work (chains and figures written, progress on stderr): a :class:`CommandResult`."""
     import warnings
 
     import numpy as np
 
-    from duffsym.cli.common import CLIError, emit_json, err, read_record
+    from duffsym.cli.common import CLIError, CommandResult, err, read_record
     from duffsym.errors import ConvergenceWarning
     from duffsym.identify import load_result
     from duffsym.uncertainty.sampler import ChainTooShort, sample
@@ -101,18 +108,12 @@ def cmd_sample(args) -> int:
 
         write_json_atomic(args.out, jsonable(out))
         written.append(args.out)
-    if args.json:
-        emit_json(out)
-    else:
-        print(chains.summary())
-        if args.identifiability:
-            print(out["identifiability"]["text"])
-    if written and not args.quiet:
-        err(f"wrote {', '.join(written)}")
-    for w in caught:
-        if not args.quiet and str(w.message) not in chains.warnings:
-            err(f"warning: {w.message}")
-    return 0
+    def text() -> str:
+        return chains.summary() + (f"\n{out['identifiability']['text']}" if args.identifiability else "")
+
+    notes = [f"wrote {', '.join(written)}"] if written and not args.quiet else []
+    notes += [f"warning: {w.message}" for w in caught if not args.quiet and str(w.message) not in chains.warnings]
+    return CommandResult("sample", out, text, notes=tuple(notes), value=chains)
 
 
 def _partial_path(chains) -> Path:
@@ -161,7 +162,7 @@ def register(sub) -> None:
     s.add_argument("--out", help="write the JSON summary to this file")
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--quiet", action="store_true", help="no progress bar or messages")
-    s.set_defaults(func=cmd_sample)
+    s.set_defaults(func=cmd_sample, run=run_sample)
 
 
 if __name__ == "__main__":  # pragma: no cover
