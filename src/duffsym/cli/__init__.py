@@ -186,7 +186,3 @@ def _describe(exc: Exception) -> str:
         where = exc.filename if exc.filename is not None else None
         return f"{where}: {exc.strerror}" if where is not None else exc.strerror
     return str(exc)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
