@@ -99,6 +99,33 @@ def test_imports_point_down_the_layers():
     assert not upward, "imports against the layer order:\n" + "\n".join(upward)
 
 
+def test_no_package_imports_the_command_line():
+    """``duffsym.cli`` is the top: parse, call the library, print. Nothing else imports it (the batch gets its
+    per-record task from the command line as an argument, :func:`duffsym.campaign.run_batch`)."""
+    bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges() if d == "cli" and s != "cli"]
+    assert not bad, bad
+
+
+def private_names_imported(path: Path) -> list[tuple[str, str, int]]:
+    """``(module, name, line)`` for every underscore name taken from a ``duffsym`` module by ``from ... import``."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").split(".")[0] == "duffsym":
+            out += [(node.module, a.name, node.lineno) for a in node.names
+                    if a.name.startswith("_") and not a.name.startswith("__")]
+    return out
+
+
+def test_the_command_line_takes_no_private_name_from_another_package():
+    """The command modules use the library's public names only (``cli.common`` is their own shared module)."""
+    bad = []
+    for path in sorted((SRC / "cli").rglob("*.py")):
+        module = _module_name(path)
+        bad += [f"{module}:{line} imports {name} from {src}" for src, name, line in private_names_imported(path)
+                if layer(src) != "cli"]
+    assert not bad, bad
+
+
 def test_effects_never_import_the_fitting_code():
     """An effect is a model extension with its guesses; fitting it lives in ``duffsym.identify.extended``."""
     bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges()
