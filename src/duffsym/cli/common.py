@@ -167,7 +167,7 @@ def require_success(result, args) -> None:
     if result.success:
         return
     if not getattr(args, "force", False):
-        raise CLIError(f"{args.fit} is a failed fit (status {result.status!r}: {str(result.message)[:120]}); refit, "
+        raise CLIError(f"{args.fit} is a failed fit (status {str(result.status)!r}: {str(result.message)[:120]}); refit, "
                        "or pass --force to use it anyway")
     err(f"warning: using the failed fit {args.fit} (--force): {result.status}")
 

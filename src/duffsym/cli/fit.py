@@ -147,6 +147,7 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
     from duffsym.plot.loops import plot_loops, save_figure
     from duffsym.plot.windows import loop_windows
     from duffsym.simulate import Trajectory
+    from duffsym.status import Status
 
     names = tuple(c.name for c in model.inputs)
     u = record.input_matrix(model)
@@ -158,7 +159,7 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
         f"one steady {windows.describe(t, 0)}" if windows.whole_cycles else
         f"one {windows.describe(t, 0)} (the input does not repeat, so no loop closes)")
     common = dict(model=model.name, t=t[sl], x=np.zeros((t[sl].size, 0)), u=u[sl], params=result.params,
-                  success=True, status="ok", message="ok", method="data", input_names=names)
+                  success=True, status=Status.OK, message="ok", method="data", input_names=names)
     measured = Trajectory(y=np.asarray(record.y, dtype=float)[sl], **common)
     fitted = Trajectory(y=y_sim[sl], **common)
     name = f"{record.name or 'record'}{f' ({record.current:g} A)' if record.current is not None else ''}"

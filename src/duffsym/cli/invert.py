@@ -68,7 +68,7 @@ def cmd_invert(args) -> int:
     fit = load_result(args.fit)
     if not fit.success:  # not require_success: here --force is the desired force, --force-fit the override
         if not args.force_fit:
-            raise CLIError(f"{args.fit} is a failed fit (status {fit.status!r}); refit, or pass --force-fit to use it")
+            raise CLIError(f"{args.fit} is a failed fit (status {str(fit.status)!r}); refit, or pass --force-fit to use it")
         err(f"warning: using the failed fit {args.fit} (--force-fit): {fit.status}")
     model = model_from_result(fit)
     command_index(model)
