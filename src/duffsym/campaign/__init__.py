@@ -1,11 +1,12 @@
-"""Many records at once: ``duffsym batch`` and :func:`batch`, on an :class:`~duffsym.engine.Engine`.
+"""Many records at once: :func:`run_batch` (behind ``duffsym batch`` and :func:`duffsym.batch`), on an
+:class:`~duffsym.engine.Engine`.
 
-Each record is one :class:`~duffsym.engine.Task` (made by the caller's ``make_task``: for
-:func:`duffsym.batch` and ``duffsym batch``, in :mod:`duffsym.cli.batch`, the command ``fit``,
-``validate``, ``diagnose``, ``ladder`` or ``sample`` run by its own function), executed by an
-:class:`~duffsym.engine.Engine` in a worker process that has paid the start-up once; it returns a
-:class:`RecordRun` whose ``result.to_dict()`` is the command's JSON. One result file per record is written atomically to the results folder as each record finishes;
-it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
+Each record is one :class:`~duffsym.engine.Task` made by the caller's ``make_task`` (for
+:func:`duffsym.batch` and ``duffsym batch``, :mod:`duffsym.cli.batch`: the command ``fit``,
+``validate``, ``diagnose``, ``ladder`` or ``sample`` run by its own function), executed by the engine
+in a worker process that has paid the start-up once; it returns a :class:`RecordRun` whose
+``result.to_dict()`` is the command's JSON. One result file per record is written atomically to the
+results folder as each record finishes; it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
 options). A rerun skips the records whose result is complete and whose hash is unchanged, so an
 interrupted batch resumes where it stopped. ``summary.json``, ``summary.csv`` and ``summary.png``
 describe every record, failures included: one record's error never stops the others.
