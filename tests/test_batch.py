@@ -137,6 +137,32 @@ def test_manifest_labels_options_and_validate_with_a_fit_folder(data, tmp_path):
         batch([recs[0]], command="fit", out=tmp_path / "x", options="--out f.json", workers=0, progress=False)
 
 
+def test_a_record_task_returns_the_result_the_command_prints(data, capsys):
+    """A batch record is a library task (no command line in the worker): it returns the command's result object,
+    whose JSON is what ``duffsym fit --json`` prints for the record, and a bad option is the parser's message."""
+    from duffsym.campaign.manifest import collect_jobs
+    from duffsym.cli.batch_worker import record_task
+    from duffsym.engine import Task
+
+    rec = sorted((data / "recs").glob("rec*.csv"))[1]
+    job, = collect_jobs([rec], command="fit", options="--seed 3")
+    task = record_task("fit", job)
+    assert isinstance(task, Task) and task.func.__name__ == "run_record"
+    run = Engine().run([task])
+    outcome, = list(run)
+    got = outcome.value
+    assert got.exit_code == 0 and got.message == "" and got.result.command == "fit" and got.result.value is None
+    assert main(["fit", str(rec), "--seed", "3", "--json", "--quiet"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    mine = got.result.to_dict()
+    assert list(mine) == list(printed)  # the same keys, in the contract's order
+    assert _params(mine) == _params(printed) and mine["params"]["c3"] > 0 and mine["records"] == printed["records"]
+    bad, = collect_jobs([rec], command="fit", options="--starts two")
+    refused = record_task("fit", bad).execute()
+    assert refused.exit_code == 2 and refused.result is None
+    assert refused.message == "duffsym fit: error: argument --starts: invalid int value: 'two'"
+
+
 def test_cli_batch_json_and_bad_input(data, tmp_path, capsys):
     code = main(["batch", str(data / "recs" / "rec*.csv"), "--command", "fit", "--out", str(tmp_path / "o"),
                  "--workers", "0", "--json", "--quiet"])
@@ -193,6 +219,12 @@ def test_engine_map_and_as_completed(cluster):
     got = sorted((o.index, o.ok) for o in cluster.as_completed(int, ["1", "x", "3"]))
     assert got == [(0, True), (1, False), (2, True)]
     assert Engine().map(np.sqrt, [4.0]) == [2.0]
+    from duffsym.engine import Task
+
+    tasks = [Task(pow, (2, 10)), Task(int, ("x",)), Task(round, (2.567,), {"ndigits": 1})]
+    for engine in (cluster, Engine()):
+        got = sorted((o.index, o.value if o.ok else type(o.error).__name__) for o in engine.run(tasks))
+        assert got == [(0, 1024), (1, "ValueError"), (2, 2.6)]
     with pytest.raises(duffsym.DuffsymError, match="non-negative integer"):
         Engine(-1)
 

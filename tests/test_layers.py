@@ -3,9 +3,9 @@ another in a circle.
 
 A small check over every ``import``/``from ... import`` in the source (function-level imports included,
 found with :mod:`ast`), so a lazy import inside a function cannot hide a circle. Each module belongs to a
-layer: its top-level package (``duffsym.identify.collocation`` -> ``identify``), except the command-line
-modules (``cli.py``, ``_cli_common.py``, ``*/command.py``, ``*_command.py``), which form the top layer
-``cli`` wherever they sit. ``duffsym/__init__.py`` is the public facade above everything (its lazy
+layer: its top-level package (``duffsym.identify.collocation`` -> ``identify``); the command line is the
+package ``duffsym.cli`` (the top layer ``cli``), and only it: a module named ``command`` elsewhere belongs
+to its own package's layer. ``duffsym/__init__.py`` is the public facade above everything (its lazy
 ``fit``/``read_csv`` re-exports) and ``from duffsym import __version__`` is not a dependency.
 """
 from __future__ import annotations
@@ -41,8 +41,7 @@ RANK = {name: i for i, name in enumerate(LAYERS)}
 
 
 def _is_cli(module: str) -> bool:
-    last = module.rsplit(".", 1)[-1]
-    return last in ("cli", "_cli_common", "command") or last.endswith("_command")
+    return module == "duffsym.cli" or module.startswith("duffsym.cli.")
 
 
 def layer(module: str) -> str | None:
@@ -99,6 +98,33 @@ def test_imports_point_down_the_layers():
     assert not upward, "imports against the layer order:\n" + "\n".join(upward)
 
 
+def test_no_package_imports_the_command_line():
+    """``duffsym.cli`` is the top: parse, call the library, print. Nothing else imports it (the batch gets its
+    per-record task from the command line as an argument, :func:`duffsym.campaign.run_batch`)."""
+    bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges() if d == "cli" and s != "cli"]
+    assert not bad, bad
+
+
+def private_names_imported(path: Path) -> list[tuple[str, str, int]]:
+    """``(module, name, line)`` for every underscore name taken from a ``duffsym`` module by ``from ... import``."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").split(".")[0] == "duffsym":
+            out += [(node.module, a.name, node.lineno) for a in node.names
+                    if a.name.startswith("_") and not a.name.startswith("__")]
+    return out
+
+
+def test_the_command_line_takes_no_private_name_from_another_package():
+    """The command modules use the library's public names only (``cli.common`` is their own shared module)."""
+    bad = []
+    for path in sorted((SRC / "cli").rglob("*.py")):
+        module = _module_name(path)
+        bad += [f"{module}:{line} imports {name} from {src}" for src, name, line in private_names_imported(path)
+                if layer(src) != "cli"]
+    assert not bad, bad
+
+
 def test_effects_never_import_the_fitting_code():
     """An effect is a model extension with its guesses; fitting it lives in ``duffsym.identify.extended``."""
     bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges()
@@ -139,4 +165,5 @@ def test_the_check_sees_a_planted_upward_import(tmp_path):
     found = imports_of(planted / "bad.py")
     assert found == [("duffsym.identify", 2)]
     assert RANK[layer(found[0][0])] > RANK[layer("duffsym.effects.bad")]
-    assert layer("duffsym.identify.command") == "cli" and layer("duffsym.simulate_command") == "cli"
+    assert layer("duffsym.cli.fit") == "cli" and layer("duffsym.cli") == "cli"
+    assert layer("duffsym.identify.command") == "identify" and layer("duffsym.clinic") == "clinic"

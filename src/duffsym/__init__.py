@@ -19,7 +19,7 @@ _LAZY = {
     "Sine": "duffsym.excitation", "SymbolicModel": "duffsym.model", "duffing": "duffsym.model",
     "duffing_like": "duffsym.model", "get_model": "duffsym.model", "mr_damper": "duffsym.model",
     "state_space": "duffsym.model", "Trajectory": "duffsym.simulate", "Problem": "duffsym.identify",
-    "fit": "duffsym.identify", "batch": "duffsym.campaign.command", "read_csv": "duffsym.data",
+    "fit": "duffsym.identify", "batch": "duffsym.cli.batch", "read_csv": "duffsym.data",
     "compare": "duffsym.diagnose.compare",
 }
 

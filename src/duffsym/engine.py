@@ -8,6 +8,7 @@ engine; duffsym adds no scheduler of its own)::
     with Engine(scheduler="tcp://host:8786"):    # the same code on a running Dask cluster
         ...
     Engine()                                     # serial, in this process (the default of the library)
+    for outcome in engine.run(tasks): ...        # Task(func, args, kwargs) objects, as each finishes
 
 A worker process imports duffsym and compiles its generated code once, then serves every task it
 is given: the start-up (~2 s of imports and compilation per ``duffsym`` command) is paid once per
@@ -21,8 +22,8 @@ single-threaded, and two fits in threads of one process would only contend for t
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
-from typing import Any, Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Callable, Iterable, Iterator, Mapping
 
 from duffsym.errors import DuffsymError
 
@@ -44,6 +45,26 @@ class Outcome:
     @property
     def ok(self) -> bool:
         return self.error is None
+
+
+@dataclass(frozen=True)
+class Task:
+    """One piece of library work: a function and its arguments, run by :meth:`Engine.run` where the engine
+    runs (pyPESTO's Engine/Task idea). ``func`` is a module-level function (it travels by name to worker
+    processes), and the arguments and what it returns must be picklable: a typed result object, not text."""
+
+    func: Callable
+    args: tuple = ()
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+    def execute(self) -> Any:
+        """Run the task here and return what its function returns."""
+        return self.func(*self.args, **dict(self.kwargs))
+
+
+def execute(task: Task) -> Any:
+    """``task.execute()``: the function an engine maps over tasks."""
+    return task.execute()
 
 
 def default_workers() -> int:
@@ -176,6 +197,11 @@ class Engine:
         finally:
             for f in futures:
                 f.release()
+
+    def run(self, tasks: Iterable[Task]) -> Iterator[Outcome]:
+        """Execute every :class:`Task`; yield an :class:`Outcome` per task (its index, and the task's return
+        value or its error) as each finishes, as :meth:`as_completed` does."""
+        return self.as_completed(execute, tasks)
 
     def as_completed(self, func: Callable, items: Iterable) -> Iterator[Outcome]:
         """Run ``func`` on every item; yield an :class:`Outcome` per item as each finishes (any order).

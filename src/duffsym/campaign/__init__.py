@@ -1,10 +1,12 @@
-"""Many records at once: ``duffsym batch`` and :func:`batch`, on an :class:`~duffsym.engine.Engine`.
+"""Many records at once: :func:`run_batch` (behind ``duffsym batch`` and :func:`duffsym.batch`), on an
+:class:`~duffsym.engine.Engine`.
 
-Each record is run by its own ``duffsym`` command (``fit``, ``validate``, ``diagnose``, ``ladder`` or
-``sample``) inside a worker process that has paid the start-up once (see :mod:`duffsym.campaign.run_command`;
-the public entry points, :func:`duffsym.batch` and ``duffsym batch``, are in :mod:`duffsym.campaign.command`).
-One result file per record is written atomically to the results folder as each record finishes;
-it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
+Each record is one :class:`~duffsym.engine.Task` made by the caller's ``make_task`` (for
+:func:`duffsym.batch` and ``duffsym batch``, :mod:`duffsym.cli.batch`: the command ``fit``,
+``validate``, ``diagnose``, ``ladder`` or ``sample`` run by its own function), executed by the engine
+in a worker process that has paid the start-up once; it returns a :class:`RecordRun` whose
+``result.to_dict()`` is the command's JSON. One result file per record is written atomically to the
+results folder as each record finishes; it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
 options). A rerun skips the records whose result is complete and whose hash is unchanged, so an
 interrupted batch resumes where it stopped. ``summary.json``, ``summary.csv`` and ``summary.png``
 describe every record, failures included: one record's error never stops the others.
@@ -12,7 +14,6 @@ describe every record, failures included: one record's error never stops the oth
 from __future__ import annotations
 
 import json
-import math
 import sys
 import threading
 import time
@@ -21,16 +22,32 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from duffsym._io import check_output_dir, write_json_atomic
+from duffsym._json import jsonable
 from duffsym.campaign.manifest import COMMANDS, Job, collect_jobs
 from duffsym.campaign.summary import plot_summary, row, write_csv
 from duffsym.errors import DataError
 
 STATUSES = ("ok", "failed", "error")
-__all__ = ["run_batch", "BatchResult", "COMMANDS", "collect_jobs", "Job"]
+__all__ = ["run_batch", "CampaignResult", "BatchResult", "RecordRun", "COMMANDS", "collect_jobs", "Job"]
 
 
 @dataclass(frozen=True)
-class BatchResult:
+class RecordRun:
+    """What the task of one record returns: the command's result (``result.to_dict()`` is its JSON; None when
+    the command failed before it had one), the exit code (0: a usable result; 1: the command ran but its result
+    is not usable, or it crashed; 2: bad input), the last stderr line when the exit code is not 0, the record's
+    stderr (the end of it), the seconds it took and the worker (``host:pid``)."""
+
+    exit_code: int
+    result: Any
+    message: str
+    stderr: str
+    seconds: float
+    worker: str
+
+
+@dataclass(frozen=True)
+class CampaignResult:
     """The outcome of a batch: one row per record, in input order.
 
     Each row has the contract's ``record``, ``status`` (``ok``: a usable result; ``failed``: the
@@ -95,6 +112,11 @@ class BatchResult:
         return "\n".join(lines)
 
 
+#: The former name of :class:`CampaignResult` (``duffsym.simulate.BatchResult`` is another thing: many
+#: simulations at once).
+BatchResult = CampaignResult
+
+
 # ---------------------------------------------------------------------------------------------- stored results
 def _load_complete(path: Path, digest: str) -> dict | None:
     """The stored result if it is complete and made from the same inputs and options, else None."""
@@ -108,23 +130,16 @@ def _load_complete(path: Path, digest: str) -> dict | None:
     return doc
 
 
-def _task(command: str, job: Job) -> dict:
-    return {"command": command, "argv": list(job.argv), "data_name": job.data.name, "data_path": str(job.data),
-            "data_bytes": job.data.read_bytes(), "fit_name": None if job.fit is None else job.fit.name,
-            "fit_path": None if job.fit is None else str(job.fit),
-            "fit_bytes": None if job.fit is None else job.fit.read_bytes()}
-
-
 def _document(command: str, job: Job, digest: str, outcome) -> dict:
     """The result file of a record: the command's JSON and the ``"batch"`` block."""
     if outcome.ok:
-        v = outcome.value
-        status = {0: "ok", 1: "failed"}.get(v["exit_code"], "error")
-        if status == "failed" and ": internal error:" in v["message"]:  # the CLI's exit 1 for a crash
+        v: RecordRun = outcome.value
+        status = {0: "ok", 1: "failed"}.get(v.exit_code, "error")
+        if status == "failed" and ": internal error:" in v.message:  # the CLI's exit 1 for a crash
             status = "error"
-        meta = dict(message=v["message"], seconds=v["seconds"], worker=v["worker"], exit_code=v["exit_code"],
-                    stderr=v["stderr"], complete=True)
-        body = v["result"] or {}
+        meta = dict(message=v.message, seconds=v.seconds, worker=v.worker, exit_code=v.exit_code,
+                    stderr=v.stderr, complete=True)
+        body = {} if v.result is None else v.result.to_dict()
     else:
         # the engine lost the task (a worker died): not complete, so a rerun tries again
         status, body = "error", {}
@@ -139,15 +154,16 @@ def _document(command: str, job: Job, digest: str, outcome) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------- main
-def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manifest=None, fit=None, options: Any = None,
+def run_batch(inputs: Iterable = (), *, make_task, command: str = "fit", out, manifest=None, fit=None, options: Any = None,
               workers: int | None = None, scheduler: str | None = None, engine=None, retry_failed: bool = False,
-              progress: bool = True, figure: bool = True) -> BatchResult:
-    """Run ``runner`` (a picklable function of a task dict, :func:`duffsym.campaign.run_command.run_task`
-    for :func:`duffsym.batch`) on every record of a folder, a glob or a manifest.
+              progress: bool = True, figure: bool = True) -> CampaignResult:
+    """Run the task of every record of a folder, a glob or a manifest, on an engine.
 
     Parameters
     ----------
     inputs : CSV files, folders (their ``*.csv``) and glob patterns.
+    make_task : ``make_task(command, job) -> Task`` for a :class:`Job`, the task returning a :class:`RecordRun`
+        (:func:`duffsym.cli.batch_worker.record_task` for :func:`duffsym.batch`).
     command : ``"fit"``, ``"validate"``, ``"diagnose"``, ``"ladder"`` or ``"sample"``.
     out : the results folder: ``<record>.json`` per record, ``summary.json``, ``summary.csv``, ``summary.png``.
     manifest : CSV or JSON manifest (see :mod:`duffsym.campaign.manifest`): file, columns, model,
@@ -164,7 +180,7 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
 
     Returns
     -------
-    BatchResult
+    CampaignResult
     """
     from duffsym.engine import Engine, default_workers
 
@@ -197,10 +213,10 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
             if own:
                 engine.start()
             n_bad = 0
-            for outcome in engine.as_completed(runner, [_task(command, j) for j in todo]):
+            for outcome in engine.run([make_task(command, j) for j in todo]):
                 job = todo[outcome.index]
                 doc = _document(command, job, digests[job.name], outcome)
-                write_json_atomic(out / f"{job.name}.json", _jsonable(doc), default=str)
+                write_json_atomic(out / f"{job.name}.json", jsonable(doc), default=str)
                 fresh[job.name] = doc
                 if doc["batch"]["status"] != "ok":
                     n_bad += 1
@@ -218,7 +234,7 @@ def run_batch(inputs: Iterable = (), *, runner, command: str = "fit", out, manif
             closing.start()
         try:
             rows = _rows(command, jobs, fresh, done, out)
-            res = BatchResult(command=command, out=out, rows=tuple(rows), seconds=time.perf_counter() - t0,
+            res = CampaignResult(command=command, out=out, rows=tuple(rows), seconds=time.perf_counter() - t0,
                               engine=repr(engine), n_ran=len(fresh), interrupted=interrupted)
             _write_summary(res, figure and not interrupted)
         finally:
@@ -243,7 +259,7 @@ def _rows(command: str, jobs: list[Job], fresh: dict, done: dict, out: Path) -> 
     return rows
 
 
-def _with_figure(res: BatchResult, fig: Path | None) -> BatchResult:
+def _with_figure(res: CampaignResult, fig: Path | None) -> CampaignResult:
     from dataclasses import replace
 
     return replace(res, figure=fig if fig is not None and fig.is_file() else None)
@@ -273,23 +289,13 @@ def _remove_stale_temporaries(out: Path):
     return lock
 
 
-def _write_summary(res: BatchResult, figure: bool) -> None:
+def _write_summary(res: CampaignResult, figure: bool) -> None:
     out = res.out
     if figure:
         plot_summary(list(res.rows), res.command, out / "summary.png")
         res = _with_figure(res, out / "summary.png")
     write_csv(list(res.rows), out / "summary.csv")
-    write_json_atomic(out / "summary.json", _jsonable(res.to_dict()), default=str)
-
-
-def _jsonable(obj):
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    return obj
+    write_json_atomic(out / "summary.json", jsonable(res.to_dict()), default=str)
 
 
 def _progress_bar(total: int, command: str, enabled: bool):

@@ -18,7 +18,7 @@ _FORCE = ("force", "output", "y")
 
 
 def _parse_limits(text: str) -> tuple[float, float]:
-    from duffsym._cli_common import CLIError
+    from duffsym.cli.common import CLIError
 
     try:
         lo, hi = (float(v) for v in text.split(","))
@@ -32,7 +32,6 @@ def _parse_limits(text: str) -> tuple[float, float]:
 def load_motion_and_force(model, disp_path: str, force_path: str, lo: float):
     """Time, the model's input matrix (command column at ``lo``) and the desired force from the two files."""
     from duffsym.data.record import Record
-    from duffsym.identify.collocation import _input_matrix
 
     dcols = read_columns(disp_path, {"time": _TIME, "displacement": _DISP, "velocity": _VEL}, optional=("velocity",))
     fcols = read_columns(force_path, {"time": _TIME, "force": _FORCE})
@@ -42,7 +41,7 @@ def load_motion_and_force(model, disp_path: str, force_path: str, lo: float):
                         "desired force at the displacement's sample times")
     rec = Record(t=t, d=dcols["displacement"], y=fcols["force"], d_dot=dcols.get("velocity"), current=lo,
                  source=str(disp_path))
-    return rec.t, _input_matrix(model, rec), np.asarray(rec.y)
+    return rec.t, rec.input_matrix(model), np.asarray(rec.y)
 
 
 def write_command(res, path: str) -> None:
@@ -57,30 +56,30 @@ def write_command(res, path: str) -> None:
 
 
 def cmd_invert(args) -> int:
-    from duffsym._cli_common import CLIError, _check_outputs, _emit_json, _err
+    from duffsym.cli.common import CLIError, check_outputs, emit_json, err
     from duffsym.control.inverse import command_index, invert
     from duffsym.identify import load_result
     from duffsym.identify.validation import model_from_result
 
-    _check_outputs(args, [args.fit, args.displacement, args.force], options=("out",))
+    check_outputs(args, [args.fit, args.displacement, args.force], options=("out",))
     lo, hi = _parse_limits(args.limits)
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise CLIError(f"--rate must be a positive number (command units per second); got {args.rate}")
     fit = load_result(args.fit)
-    if not fit.success:  # not _require_success: here --force is the desired force, --force-fit the override
+    if not fit.success:  # not require_success: here --force is the desired force, --force-fit the override
         if not args.force_fit:
-            raise CLIError(f"{args.fit} is a failed fit (status {fit.status!r}); refit, or pass --force-fit to use it")
-        _err(f"warning: using the failed fit {args.fit} (--force-fit): {fit.status}")
+            raise CLIError(f"{args.fit} is a failed fit (status {str(fit.status)!r}); refit, or pass --force-fit to use it")
+        err(f"warning: using the failed fit {args.fit} (--force-fit): {fit.status}")
     model = model_from_result(fit)
     command_index(model)
     t, U, force = load_motion_and_force(model, args.displacement, args.force, lo)
     if not args.quiet:
-        _err(f"inverting {model.name} for {t.size} samples of desired force (command in [{lo:g}, {hi:g}]"
+        err(f"inverting {model.name} for {t.size} samples of desired force (command in [{lo:g}, {hi:g}]"
              + (f", rate <= {args.rate:g}/s)" if args.rate else ")"))
     res = invert(model, fit.params, t, U, force, limits=(lo, hi), rate=args.rate, command_name=args.name)
     write_command(res, args.out)
     if args.json:
-        _emit_json({**res.to_dict(), "out": str(args.out)})
+        emit_json({**res.to_dict(), "out": str(args.out)})
     else:
         print(res.summary())
         print(f"  command written to {args.out}")

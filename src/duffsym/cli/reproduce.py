@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from duffsym._cli_common import CLIError, _err
+from duffsym.cli.common import CLIError, err
 
 
 def _find_studies(start: Path) -> Path | None:
@@ -34,7 +34,7 @@ def cmd_reproduce(args) -> int:
         raise CLIError(f"--workers must be at least 1; got {workers}")
     cmd = [sys.executable, str(runner), "--workers", str(workers)] + (["--smoke"] if args.smoke else []) + \
         (["--force"] if args.force else [])
-    _err(f"running {' '.join(cmd)}")
+    err(f"running {' '.join(cmd)}")
     proc = subprocess.run(cmd, cwd=runner.parent.parent, env={**os.environ, "MPLBACKEND": "Agg"})
     if proc.returncode != 0:
         raise CLIError(f"the studies failed (exit {proc.returncode}); see the messages above")

@@ -6,7 +6,7 @@ import sys
 
 
 def cmd_compare(args) -> int:
-    from duffsym._cli_common import CLIError, _check_outputs, _emit_json, _parse_assignments, _read_record
+    from duffsym.cli.common import CLIError, check_outputs, emit_json, parse_assignments, read_record
     from duffsym.diagnose.compare import compare, plot_comparison
 
     models = [m.strip() for m in (args.models or "").split(",") if m.strip()]
@@ -14,13 +14,13 @@ def cmd_compare(args) -> int:
         raise CLIError("--models: give at least one model name, e.g. --models mr-damper-current,spencer,bouc-wen "
                        "(duffsym models lists them)")
     validate_files = [v for v in (args.validate or "").split(",") if v.strip()]
-    _check_outputs(args, list(args.data) + validate_files)
-    records = [_read_record(args, p) for p in args.data]
-    held = [_read_record(args, p) for p in validate_files] or None
+    check_outputs(args, list(args.data) + validate_files)
+    records = [read_record(args, p) for p in args.data]
+    held = [read_record(args, p) for p in validate_files] or None
     say = None if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     result = compare(records, models, validate=held, holdout=args.holdout, n_starts=args.starts,
                      start_spread=args.spread, rng=args.seed, max_iter=args.max_iter, progress=say,
-                     fixed=_parse_assignments(args.fix, "--fix"))
+                     fixed=parse_assignments(args.fix, "--fix"))
     if args.out:
         from duffsym._io import write_json_atomic
         from duffsym._json import jsonable
@@ -29,14 +29,14 @@ def cmd_compare(args) -> int:
     if args.plot:
         plot_comparison(result, args.plot)
     if args.json:
-        _emit_json(result.to_dict())
+        emit_json(result.to_dict())
     else:
         print(result.summary())
     return 0 if any(s.success for s in result.scores) else 1
 
 
 def register(sub) -> None:
-    from duffsym._cli_common import _add_file_arguments
+    from duffsym.cli.common import add_file_arguments
 
     s = sub.add_parser("compare", help="fit several models on the same records and score them on held-out data")
     s.add_argument("data", nargs="+", help="CSV records to fit (see --columns)")
@@ -50,7 +50,7 @@ def register(sub) -> None:
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold a parameter in every model that has "
                    "it (repeat or comma-separate), e.g. eta=100 for records at constant currents")
     s.add_argument("--max-iter", type=int, default=500, help="IPOPT iteration limit per start")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--out", help="write the comparison as JSON")
     s.add_argument("--plot", help="figure (PNG/PDF): held-out error per record, fit time and starts, simulation cost")
     s.add_argument("--json", action="store_true", help="print one JSON object")

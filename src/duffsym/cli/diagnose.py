@@ -6,19 +6,19 @@ import time
 
 def _common(args):
     """Record, model, candidates, mask and fixed values from the shared options."""
-    from duffsym._cli_common import CLIError, _mask_from_args, _parse_assignments, _read_record
+    from duffsym.cli.common import CLIError, mask_from_args, parse_assignments, read_record
     from duffsym.effects import CATALOGUE
 
     from duffsym._io import check_output_dir
 
     inputs = [args.data, getattr(args, "fit", None), None if args.mask in (None, "none", "auto") else args.mask]
     if getattr(args, "out", None):
-        from duffsym._cli_common import _check_outputs
+        from duffsym.cli.common import check_outputs
 
-        _check_outputs(args, inputs, options=("out",))
+        check_outputs(args, inputs, options=("out",))
     if args.report:
         check_output_dir(args.report)
-    record = _read_record(args, args.data)
+    record = read_record(args, args.data)
     cands = None
     if args.candidates:
         cands = [c.strip() for c in args.candidates.split(",") if c.strip()]
@@ -26,8 +26,8 @@ def _common(args):
         if unknown:
             raise CLIError(f"--candidates: unknown effect(s) {unknown}; choose from {{{', '.join(CATALOGUE)}}} "
                            "(duffsym effects lists them)")
-    mask, _ = _mask_from_args(args.mask, record)
-    fixed = _parse_assignments(args.fix, "--fix")
+    mask, _ = mask_from_args(args.mask, record)
+    fixed = parse_assignments(args.fix, "--fix")
     if args.screen != "all":
         try:
             screen = int(args.screen)
@@ -53,7 +53,7 @@ def _engine(args):
 
 def _decimate_option(text: str):
     """``--decimate auto|off|Q`` -> True, False or the largest factor allowed."""
-    from duffsym._cli_common import CLIError
+    from duffsym.cli.common import CLIError
 
     if text in ("auto", "off"):
         return text == "auto"
@@ -74,7 +74,14 @@ def _progress(args):
 
 
 def cmd_diagnose(args) -> int:
-    from duffsym._cli_common import _fit_model
+    from duffsym.cli.common import show
+
+    return show(run_diagnose(args), args.json)
+
+
+def run_diagnose(args):
+    """``duffsym diagnose``'s work (the report written, progress on stderr): a :class:`CommandResult`."""
+    from duffsym.cli.common import CommandResult, fit_model
     from duffsym.diagnose import diagnose
 
     record, cands, mask, fixed = _common(args)
@@ -82,13 +89,13 @@ def cmd_diagnose(args) -> int:
     if args.fit:
         from duffsym.identify import load_result, model_from_result
 
-        from duffsym._cli_common import _require_success
+        from duffsym.cli.common import require_success
 
         fit_result = load_result(args.fit)
-        _require_success(fit_result, args)
+        require_success(fit_result, args)
         model = model_from_result(fit_result)
     else:
-        model = _fit_model(args)
+        model = fit_model(args)
     budget = _budget(args.budget)
     with _engine(args) as engine:
         dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
@@ -97,27 +104,23 @@ def cmd_diagnose(args) -> int:
                       progress=_progress(args), engine=engine)
     from duffsym.diagnose.report import write_diagnosis_report
 
-    _output(args, dg, record, write_diagnosis_report)
-    return 0
+    _report(args, dg, record, write_diagnosis_report)
+    return CommandResult("diagnose", dg.to_dict(), dg.summary, value=dg)
 
 
-def _output(args, obj, record, write_report) -> None:
-    """The report (``--report DIR``), then the JSON or the text summary of a diagnosis or ladder."""
-    from duffsym._cli_common import _emit_json, _err
+def _report(args, obj, record, write_report) -> None:
+    """The report of a diagnosis or ladder (``--report DIR``), written before its JSON or text is printed."""
+    from duffsym.cli.common import err
 
     if args.report:
         path = write_report(obj, record, args.report)
         if not args.quiet:
-            _err(f"report written to {path}")
-    if args.json:
-        _emit_json(obj.to_dict())
-    else:
-        print(obj.summary())
+            err(f"report written to {path}")
 
 
 def _budget(text: str) -> float | None:
     """``--budget SECONDS|none`` -> seconds or None."""
-    from duffsym._cli_common import CLIError
+    from duffsym.cli.common import CLIError
 
     if text.strip().lower() in ("none", "off", "0"):
         return None
@@ -147,11 +150,18 @@ def _writer(args, record):
 
 
 def cmd_ladder(args) -> int:
-    from duffsym._cli_common import _err, _fit_model
+    from duffsym.cli.common import show
+
+    return show(run_ladder(args), args.json)
+
+
+def run_ladder(args):
+    """``duffsym ladder``'s work (steps written as they finish, progress on stderr): a :class:`CommandResult`."""
+    from duffsym.cli.common import CommandResult, fit_model
     from duffsym.diagnose import ladder
 
     record, cands, mask, fixed = _common(args)
-    model = _fit_model(args)
+    model = fit_model(args)
     budget = _budget(args.budget)
     on_step, written = _writer(args, record)
     with _engine(args) as engine:
@@ -160,27 +170,28 @@ def cmd_ladder(args) -> int:
                      decimate=args.decimate_opt, budget=budget, on_step=on_step,
                      progress=_progress(args), engine=engine, discover=not args.no_discover)
     if args.out:
-        from duffsym._cli_common import _save_fit
+        from duffsym.cli.common import save_fit
 
-        _save_fit(lad.final_fit.with_sampling([record]), args.out, "ladder")
+        save_fit(lad.final_fit.with_sampling([record]), args.out, "ladder")
     from duffsym.diagnose.report import write_ladder_report
 
-    _output(args, lad, record, lambda obj, rec, folder: write_ladder_report(obj, rec, folder, written=written))
+    _report(args, lad, record, lambda obj, rec, folder: write_ladder_report(obj, rec, folder, written=written))
+    notes = []
     if not lad.complete:
-        _err(f"duffsym ladder: {lad.stopped}; every finished step is kept")
+        notes.append(f"duffsym ladder: {lad.stopped}; every finished step is kept")
     if lad.final_note:
-        _err(f"duffsym ladder: {lad.final_note}")
-    if not lad.final_fit.success:
-        _err(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
-        return 1
-    return 0
+        notes.append(f"duffsym ladder: {lad.final_note}")
+    ok = lad.final_fit.success
+    if not ok:
+        notes.append(f"duffsym ladder: the final fit did not succeed: {lad.final_fit.status}: {lad.final_fit.message}")
+    return CommandResult("ladder", lad.to_dict(), lad.summary, exit_code=0 if ok else 1, notes=tuple(notes), value=lad)
 
 
 def _shared(s) -> None:
-    from duffsym._cli_common import _add_file_arguments, _add_model_arguments
+    from duffsym.cli.common import add_file_arguments, add_model_arguments
 
     s.add_argument("data", help="CSV record (time, displacement, force, ...; see --columns)")
-    _add_model_arguments(s)
+    add_model_arguments(s)
     s.add_argument("--add", help="effects already in the model, comma-separated (see duffsym effects)")
     s.add_argument("--candidates", help="effects to try, comma-separated (default: the whole catalogue)")
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed in every fit")
@@ -193,7 +204,7 @@ def _shared(s) -> None:
     s.add_argument("--decimate", default="auto", help="fit on the record decimated where its spectrum allows "
                    "(auto, default; the factor is reported), 'off', or the largest factor allowed")
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")
     s.add_argument("--budget", default="600", metavar="SECONDS", help="time budget of the whole run (default 600; "
                    "'none': no limit): each fit gets its share and what ran out is said; a ladder stopped by it "
@@ -211,7 +222,7 @@ def register(sub) -> None:
     _shared(s)
     s.add_argument("--fit", help="FIT.json of the model to diagnose (its effects included); default: fit it here")
     s.add_argument("--force", action="store_true", help="diagnose around a fit marked success: false")
-    s.set_defaults(func=cmd_diagnose)
+    s.set_defaults(func=cmd_diagnose, run=run_diagnose)
 
     s = sub.add_parser("ladder", help="base fit, then add the best supported effect and refit, while the evidence "
                        "supports it; the error at each step")
@@ -226,4 +237,4 @@ def register(sub) -> None:
                    "no catalogued effect is needed, a drifting parameter or a term found by sparse regression of the "
                    "residual is tried, and added only if it passes the same held-out evidence)")
     s.add_argument("--discover", action="store_true", help="accepted for compatibility (discovery is on by default)")
-    s.set_defaults(func=cmd_ladder)
+    s.set_defaults(func=cmd_ladder, run=run_ladder)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from duffsym._cli_common import CLIError, _err, _parse_mapping
+from duffsym.cli.common import CLIError, err, parse_mapping
 
 #: manifest fields that belong to per-record commands (``duffsym batch``), not to one shared fit
 PER_RECORD_ONLY = ("model", "effects", "fit", "options")
@@ -74,7 +74,7 @@ def campaign_records(args, read_record) -> list[tuple[str, object]]:
         if entry.get("columns"):
             cols = entry["columns"]
             args_one = type(args)(**{**vars(args), "columns": cols if isinstance(cols, str)
-                                     else ",".join(f"{k}={v}" for k, v in _parse_mapping(cols, "columns").items())})
+                                     else ",".join(f"{k}={v}" for k, v in parse_mapping(cols, "columns").items())})
         else:
             args_one = args
         record = _label(read_record(args_one, path), entry, path)
@@ -101,7 +101,7 @@ def hold_unseen_rates(model, records, fixed: dict, quiet: bool) -> tuple[dict, s
     reason = (f"held at {eta:g} 1/s: the commands are constant in every record, so the field's lag does not show "
               "(--fix eta=VALUE to choose it)")
     if not quiet:
-        _err(f"duffsym fit: note: eta {reason}")
+        err(f"duffsym fit: note: eta {reason}")
     return {**fixed, "eta": eta}, reason
 
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 
 def cmd_sindy(args) -> int:
-    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record, _require_success
+    from duffsym.cli.common import CLIError, emit_json, err, read_record, require_success
     from duffsym.sindy import crosscheck
 
     fit = None
@@ -12,32 +12,32 @@ def cmd_sindy(args) -> int:
         from duffsym.identify import load_result
 
         fit = load_result(args.fit)
-        _require_success(fit, args)
+        require_success(fit, args)
         if args.model is not None or args.n is not None:
             raise CLIError("--fit gives the model; drop --model/--n")
     else:
         from duffsym.model.library import get_model
 
         model = get_model(args.model or "mr-damper", args.n)
-    records = [_read_record(args, path) for path in args.data]
+    records = [read_record(args, path) for path in args.data]
     if args.models < 2:
         raise CLIError(f"--models must be at least 2 bootstrap fits; got {args.models}")
     if args.window is not None and not args.window > 0:
         raise CLIError(f"--window must be a positive number of seconds; got {args.window}")
     if not args.quiet:
-        _err(f"SINDy cross-check ({args.method} form, {args.models} bootstrap fits) of "
+        err(f"SINDy cross-check ({args.method} form, {args.models} bootstrap fits) of "
              f"{', '.join(args.data)}" + (f" against {args.fit}" if args.fit else ""))
     check = crosscheck(records, model, fit=fit, method=args.method, window=args.window, n_models=args.models,
                        max_power=args.max_power, selection=args.selection, rng=args.seed)
     if args.json:
-        _emit_json(check.to_dict())
+        emit_json(check.to_dict())
     else:
         print(check.summary())
     return 0
 
 
 def register(sub) -> None:
-    from duffsym._cli_common import _add_file_arguments
+    from duffsym.cli.common import add_file_arguments
 
     s = sub.add_parser(
         "sindy", help="SINDy cross-check of the terms of the velocity equation (which terms the data support)",
@@ -60,7 +60,7 @@ def register(sub) -> None:
                         "(plain SINDy; keeps spurious terms among collinear powers under noise)")
     s.add_argument("--max-power", type=int, default=7, help="highest power of x and x' among the generic terms")
     s.add_argument("--seed", type=int, default=0, help="seed of the bootstrap")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=cmd_sindy)

@@ -1,7 +1,7 @@
 """``duffsym models``: the model library (names, parameters, inputs, output)."""
 from __future__ import annotations
 
-from duffsym._cli_common import _emit_json
+from duffsym.cli.common import emit_json
 
 
 def cmd_models(args) -> int:
@@ -13,7 +13,7 @@ def cmd_models(args) -> int:
         rows.append({"model": name, "name": name, "description": m.description, "params": list(m.param_names),
                      "inputs": [c.name for c in m.inputs], "output": m.output_name})
     if args.json:
-        _emit_json({"models": rows})
+        emit_json({"models": rows})
     else:
         w = max(14, *(len(r["model"]) for r in rows))
         for r in rows:

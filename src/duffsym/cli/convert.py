@@ -3,10 +3,10 @@ from __future__ import annotations
 
 
 def cmd_convert(args) -> int:
-    from duffsym._cli_common import CLIError, _emit_json, _err, _parse_mapping
+    from duffsym.cli.common import CLIError, emit_json, err, parse_mapping
     from duffsym.data.convert import convert
 
-    columns = _parse_mapping(args.columns, "--columns")
+    columns = parse_mapping(args.columns, "--columns")
     if not columns:
         raise CLIError("--columns is required, e.g. --columns time=1,displacement=2,force=3 (positions from 1 or "
                        "header names)")
@@ -21,13 +21,13 @@ def cmd_convert(args) -> int:
     if notes:
         summary["notes"] = notes
     if args.json:
-        _emit_json(summary)
+        emit_json(summary)
     elif not args.quiet:
-        _err(f"wrote {args.out}: {record.n_times} samples, dt {record.dt:g} s, {record.duration:g} s "
+        err(f"wrote {args.out}: {record.n_times} samples, dt {record.dt:g} s, {record.duration:g} s "
              f"(time, displacement{', velocity' if record.d_dot is not None else ''}, force)")
     if not args.quiet:
         for note in notes:
-            _err(f"duffsym convert: note: {note}")
+            err(f"duffsym convert: note: {note}")
     return 0
 
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 import math
 import sys
 
-from duffsym._cli_common import (
+from duffsym.cli.common import (
     CLIError,
-    _add_model_arguments,
-    _emit_json,
-    _err,
-    _check_outputs,
-    _parse_assignments,
+    add_model_arguments,
+    emit_json,
+    err,
+    check_outputs,
+    parse_assignments,
 )
 
 
@@ -127,12 +127,12 @@ def cmd_simulate(args) -> int:
             raise CLIError(f"Table 2 was identified with n = {TABLE2_N}; drop --n or give parameters with --param")
     model = get_model(args.model, n)
     params = table2_params(args.voltage) if args.voltage is not None else {}
-    params.update(_parse_assignments(args.param, "--param"))
+    params.update(parse_assignments(args.param, "--param"))
     pvec = model.param_vector(params, fill_defaults=True)
     if args.dt <= 0 or not math.isfinite(args.dt):
         raise CLIError(f"--dt must be a positive number of seconds; got {args.dt}")
     _check_excitation_options(args)
-    _check_outputs(args, [])
+    check_outputs(args, [])
     duration = args.duration if args.periods is None else args.periods / args.frequency
     if duration <= 0 or not math.isfinite(duration):
         raise CLIError(f"the duration must be positive; got {duration}")
@@ -145,7 +145,7 @@ def cmd_simulate(args) -> int:
     command = _command_signal(args, model, t)
     inputs = exc if command is None else _with_command(model, t, exc, command[1])
     if command is not None and not any(pvec[i] for i, n in enumerate(model.param_names) if n.endswith("_u")):
-        _err(f"note: every field coefficient of {model.name} (the *_u parameters) is 0 at its defaults, so the command "
+        err(f"note: every field coefficient of {model.name} (the *_u parameters) is 0 at its defaults, so the command "
              "changes nothing; set them with --param (e.g. c1_u=-4,k2_u=-200,A_f_u=0.8) or fit a record")
     traj = simulate(model, pvec, t, inputs, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
     in_cols, out_col = _simulation_columns(model)
@@ -176,19 +176,19 @@ def cmd_simulate(args) -> int:
                "max_abs_output": float(np.max(np.abs(traj.y))), "substeps_total": int(traj.substeps.sum()),
                "files": written}
     if args.json:
-        _emit_json(summary)
+        emit_json(summary)
     else:
         if not args.out:
             print(",".join(header))
             np.savetxt(sys.stdout, data, delimiter=",", fmt="%.10g")
-        _err(f"{traj.summary()}" + (f"; wrote {', '.join(written)}" if written else ""))
+        err(f"{traj.summary()}" + (f"; wrote {', '.join(written)}" if written else ""))
     return 0
 
 
 def register(sub) -> None:
     s = sub.add_parser("simulate", help="simulate a model under an excitation; CSV (time, displacement, velocity, "
                        "force) and an optional loop plot")
-    _add_model_arguments(s)
+    add_model_arguments(s)
     s.add_argument("--voltage", type=float, default=None, help="use the Table 2 row of this voltage (V)")
     s.add_argument("--param", action="append", metavar="NAME=VALUE", help="set parameters (repeat or comma-separate); "
                    "others keep their defaults")

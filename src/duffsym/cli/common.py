@@ -1,8 +1,8 @@
 """What every subcommand module shares: the usage error, stderr/JSON output, reading a record, the model
 with ``--add`` effects, ``--mask`` and the common arguments.
 
-The command modules (``*/command.py``, ``simulate_command.py``, ``reproduce_command.py``) import from
-here; :mod:`duffsym.cli` only builds the parser from them and turns errors into exit codes.
+The command modules (``duffsym/cli/<topic>.py``) import from here; :mod:`duffsym.cli` only builds the
+parser from them and turns errors into exit codes.
 """
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ import argparse
 import json
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable
 
 from duffsym.errors import DuffsymError
 
@@ -21,17 +23,77 @@ class CLIError(DuffsymError):
     """A command-line usage problem found after parsing."""
 
 
-def _err(msg: str) -> None:
+def err(msg: str) -> None:
     print(msg, file=sys.stderr)
 
 
-def _emit_json(obj) -> None:
+def emit_json(obj) -> None:
     from duffsym._json import jsonable
 
     print(json.dumps(jsonable(obj), indent=2, allow_nan=False, default=str))
 
 
-def _parse_assignments(items, what: str) -> dict[str, float]:
+@dataclass(frozen=True)
+class CommandResult:
+    """What a command computed, before anything is printed: ``to_dict()`` is its ``--json`` object,
+    ``summary()`` its text, ``exit_code`` its exit code and ``notes`` the stderr lines that follow the output
+    (e.g. "the fit did not succeed"). ``value`` is the library's own result object (an
+    :class:`~duffsym.identify.IdentificationResult`, a validation, a diagnosis, a ladder, a posterior), kept in
+    this process only: ``duffsym batch`` gets the rest back from its workers (:meth:`portable`).
+
+    ``text`` is the summary, or a function making it (the text is made only when printed, as before).
+    """
+
+    command: str
+    data: dict
+    text: str | Callable[[], str] = ""
+    exit_code: int = 0
+    notes: tuple[str, ...] = ()
+    value: Any = None
+
+    def to_dict(self) -> dict:
+        return self.data
+
+    def summary(self) -> str:
+        return self.text() if callable(self.text) else self.text
+
+    @property
+    def success(self) -> bool:
+        return self.exit_code == 0
+
+    def portable(self) -> "CommandResult":
+        """This result with its JSON made JSON-safe and without the library object or a text not yet made:
+        small and picklable (what a batch worker returns; the batch stores ``to_dict()``)."""
+        from dataclasses import replace
+
+        from duffsym._json import jsonable
+
+        return replace(self, data=_plain(jsonable(self.data)), value=None, text="" if callable(self.text) else self.text)
+
+
+def _plain(obj):
+    """JSON types only, as ``json.dumps(..., default=str)`` writes them: any other object as its ``str``."""
+    if isinstance(obj, dict):
+        return {k: _plain(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_plain(v) for v in obj]
+    if obj is None or isinstance(obj, (str, bool, int, float)):
+        return obj
+    return str(obj)
+
+
+def show(result: CommandResult, as_json: bool) -> int:
+    """Print a command's result (its JSON with ``--json``, else its text), then its notes on stderr; the exit code."""
+    if as_json:
+        emit_json(result.to_dict())
+    else:
+        print(result.summary())
+    for line in result.notes:
+        err(line)
+    return result.exit_code
+
+
+def parse_assignments(items, what: str) -> dict[str, float]:
     out: dict[str, float] = {}
     for item in items or ():
         for part in item.split(","):
@@ -50,7 +112,7 @@ def _parse_assignments(items, what: str) -> dict[str, float]:
     return out
 
 
-def _parse_mapping(text: str | None, what: str) -> dict[str, str]:
+def parse_mapping(text: str | None, what: str) -> dict[str, str]:
     out: dict[str, str] = {}
     for part in (text or "").split(","):
         if not part:
@@ -62,19 +124,19 @@ def _parse_mapping(text: str | None, what: str) -> dict[str, str]:
     return out
 
 
-def _read_record(args, path):
+def read_record(args, path):
     from duffsym.data import read_csv
 
     if str(path).lower().endswith(".json"):  # the friction damper's JSON layout (data/loaders.py)
         from duffsym.data.loaders import load_friction_damper_json
 
         return load_friction_damper_json(path)
-    return read_csv(path, columns=_parse_mapping(args.columns, "--columns") or None,
-                    units=_parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy,
+    return read_csv(path, columns=parse_mapping(args.columns, "--columns") or None,
+                    units=parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy,
                     sampling=getattr(args, "sampling", "strict"))
 
 
-def _check_outputs(args, inputs, options=("out", "plot")) -> None:
+def check_outputs(args, inputs, options=("out", "plot")) -> None:
     """Before any work: each output option names a writable file that is none of the inputs."""
     from duffsym._io import check_output_path
 
@@ -84,33 +146,33 @@ def _check_outputs(args, inputs, options=("out", "plot")) -> None:
             check_output_path(value, inputs=[i for i in inputs if i], option=f"--{opt.replace('_', '-')}")
 
 
-def _failed_path(path) -> Path:
+def failed_path(path) -> Path:
     """Where a failed fit is written instead of ``--out``: ``NAME.failed.json`` beside it."""
     path = Path(path)
     return path.with_name(f"{path.stem}.failed{path.suffix or '.json'}")
 
 
-def _save_fit(result, out: str, command: str) -> None:
+def save_fit(result, out: str, command: str) -> None:
     """Write a fit to ``--out``; a failed fit goes to ``NAME.failed.json`` and never replaces ``--out``."""
     if result.success:
         result.save(out)
         return
-    failed = _failed_path(out)
+    failed = failed_path(out)
     result.save(failed)
-    _err(f"duffsym {command}: {out} left unchanged; the failed fit is in {failed}")
+    err(f"duffsym {command}: {out} left unchanged; the failed fit is in {failed}")
 
 
-def _require_success(result, args) -> None:
+def require_success(result, args) -> None:
     """Refuse a fit marked ``success: false`` unless ``--force``."""
     if result.success:
         return
     if not getattr(args, "force", False):
-        raise CLIError(f"{args.fit} is a failed fit (status {result.status!r}: {str(result.message)[:120]}); refit, "
+        raise CLIError(f"{args.fit} is a failed fit (status {str(result.status)!r}: {str(result.message)[:120]}); refit, "
                        "or pass --force to use it anyway")
-    _err(f"warning: using the failed fit {args.fit} (--force): {result.status}")
+    err(f"warning: using the failed fit {args.fit} (--force): {result.status}")
 
 
-def _fit_model(args):
+def fit_model(args):
     from duffsym.model.library import get_model
 
     model = get_model(args.model, args.n)
@@ -125,7 +187,7 @@ def _fit_model(args):
     return model
 
 
-def _mask_from_args(spec: str | None, record):
+def mask_from_args(spec: str | None, record):
     """``--mask none|auto|FILE`` -> (mask or None, info or None)."""
     import numpy as np
 
@@ -152,12 +214,12 @@ def _mask_from_args(spec: str | None, record):
     return values.astype(bool), {"rule": f"user mask from {spec}"}
 
 
-def _add_model_arguments(s: argparse.ArgumentParser) -> None:
+def add_model_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--model", default="mr-damper", help="model name (see `duffsym models`; default mr-damper)")
     s.add_argument("--n", type=int, default=None, help="the odd power n (default: the model's, 5 for mr-damper)")
 
 
-def _add_file_arguments(s: argparse.ArgumentParser) -> None:
+def add_file_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--columns", help="map roles to the file's columns, e.g. time=t,input=V1,output=V2 "
                    "(roles: time, displacement/input, force/output, velocity, current, voltage)")
     s.add_argument("--units", help="record units, e.g. input=mm,output=N")

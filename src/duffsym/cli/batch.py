@@ -1,5 +1,7 @@
 """``duffsym batch`` and :func:`duffsym.batch` (see the contract): a command on many records, on local
-processes or a Dask cluster."""
+processes or a Dask cluster. Each record is a :class:`~duffsym.engine.Task` running the command's own
+function (:mod:`duffsym.cli.batch_worker`); :func:`duffsym.campaign.run_batch` runs them on an engine and
+keeps the results."""
 from __future__ import annotations
 
 
@@ -10,17 +12,17 @@ def batch(inputs=(), *, command: str = "fit", out, **options):
 
     Returns
     -------
-    duffsym.campaign.BatchResult
+    duffsym.campaign.CampaignResult
         One row per record (status, NRMSE, result file, message, ...), with ``summary()`` and ``to_dict()``.
     """
     from duffsym.campaign import run_batch
-    from duffsym.campaign.run_command import run_task
+    from duffsym.cli.batch_worker import record_task
 
-    return run_batch(inputs, runner=run_task, command=command, out=out, **options)
+    return run_batch(inputs, make_task=record_task, command=command, out=out, **options)
 
 
 def cmd_batch(args) -> int:
-    from duffsym._cli_common import CLIError, _emit_json
+    from duffsym.cli.common import CLIError, emit_json
 
     if args.workers is not None and args.workers < 0:
         raise CLIError(f"--workers must be 0 (in this process) or more; got {args.workers}")
@@ -30,7 +32,7 @@ def cmd_batch(args) -> int:
                 options=args.options, workers=args.workers, scheduler=args.scheduler,
                 retry_failed=args.retry_failed, progress=not args.quiet, figure=not args.no_figure)
     if args.json:
-        _emit_json(res.to_dict())
+        emit_json(res.to_dict())
     else:
         print(res.summary())
     return 0 if res.all_ok else 1

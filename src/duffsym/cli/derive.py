@@ -1,17 +1,17 @@
 """``duffsym derive``: the paper's derivations for a model (state space, Lyapunov, invariant set, stability, symmetry)."""
 from __future__ import annotations
 
-from duffsym._cli_common import _add_model_arguments, _emit_json, _fit_model
+from duffsym.cli.common import add_model_arguments, emit_json, fit_model
 
 
 def cmd_derive(args) -> int:
     from duffsym.derive.report import derivation_report
 
-    model = _fit_model(args)  # the model with --add effects, so the report shows what they change
+    model = fit_model(args)  # the model with --add effects, so the report shows what they change
 
     report = derivation_report(model)
     if args.json:
-        _emit_json(report.to_dict())
+        emit_json(report.to_dict())
     elif args.latex:
         print(report.to_latex())
     else:
@@ -22,7 +22,7 @@ def cmd_derive(args) -> int:
 def register(sub) -> None:
     s = sub.add_parser("derive", help="the paper's derivations for a model: state space, Lyapunov, invariant set, "
                        "stability conditions, scaling symmetry")
-    _add_model_arguments(s)
+    add_model_arguments(s)
     s.add_argument("--add", help="effects to add to the model first, comma-separated (see duffsym effects): the "
                    "report then shows what they do to the Lyapunov argument")
     fmt = s.add_mutually_exclusive_group()

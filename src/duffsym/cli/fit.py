@@ -3,19 +3,20 @@ from __future__ import annotations
 
 import dataclasses
 
-from duffsym._cli_common import (
+from duffsym.cli.common import (
     CLIError,
-    _add_file_arguments,
-    _add_model_arguments,
-    _emit_json,
-    _err,
-    _fit_model,
-    _check_outputs,
-    _mask_from_args,
-    _parse_assignments,
-    _read_record,
-    _require_success,
-    _save_fit,
+    CommandResult,
+    add_file_arguments,
+    add_model_arguments,
+    err,
+    fit_model,
+    check_outputs,
+    mask_from_args,
+    parse_assignments,
+    read_record,
+    require_success,
+    save_fit,
+    show,
 )
 
 
@@ -29,46 +30,51 @@ def _prepared(args, record, mask):
     data = prepare_fit_data(record, mask, keep_invalid=getattr(args, "keep_invalid", False), decimate=decimate)
     if not args.quiet:
         for line in data.notes():
-            _err(f"duffsym fit: note: {line}")
+            err(f"duffsym fit: note: {line}")
     return data
 
 
 def cmd_fit(args) -> int:
+    return show(run_fit(args), args.json)
+
+
+def run_fit(args) -> CommandResult:
+    """``duffsym fit``'s work (files written, notes on stderr), its result not yet printed."""
     from duffsym.identify import fit
     from duffsym.identify.fitdata import finish_fit
 
     if args.manifest or len(args.data) != 1:  # a campaign: one parameter set for several records
-        return _cmd_fit_campaign(args)
-    _check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
-    full_record = _read_record(args, args.data[0])
-    model = _fit_model(args)
-    mask, mask_info = _mask_from_args(args.mask, full_record)
+        return _run_fit_campaign(args)
+    check_outputs(args, [args.data[0], None if args.mask in (None, "none", "auto") else args.mask])
+    full_record = read_record(args, args.data[0])
+    model = fit_model(args)
+    mask, mask_info = mask_from_args(args.mask, full_record)
     data = _prepared(args, full_record, mask)
     record = data.record
     problem = _problem(args, model, [record], [(data.mask, mask_info)])
     if not args.quiet:
-        _err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data[0]} "
+        err(f"fitting {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} to {args.data[0]} "
              f"({record.t.size} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
-                 progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling([record])
+                 progress=None if args.quiet else (lambda msg: err(f"  {msg}"))).with_sampling([record])
     result = finish_fit(result, data, model)
     if record.metadata.get("sampling", {}).get("rebuilt") and not args.quiet:
-        _err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
+        err(f"duffsym fit: note: {record.metadata['sampling']['rule']}")
     from duffsym.data.record import time_unit_note
 
     if time_unit_note(record.t) and not args.quiet:
-        _err(f"duffsym fit: note: {time_unit_note(record.t)}")
+        err(f"duffsym fit: note: {time_unit_note(record.t)}")
     if result.flags:
-        _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
+        err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
-        _save_fit(result, args.out, "fit")
+        save_fit(result, args.out, "fit")
     if args.plot:
         _plot_fit(result, record, model, args.plot, transient=args.plot_transient)
     return _report_fit(args, result)
 
 
 def _fixed_from_args(args) -> dict:
-    fixed = _parse_assignments(args.fix, "--fix")
+    fixed = parse_assignments(args.fix, "--fix")
     if args.af != "max":
         try:
             fixed["A_f"] = float(args.af)
@@ -91,42 +97,37 @@ def _problem(args, model, records, masks, fixed=None):
                    mask_info=next((i for _, i in masks if i), None))
 
 
-def _report_fit(args, result) -> int:
-    """Print the fit (summary or JSON) and turn its success into the exit code."""
-    if args.json:
-        _emit_json(_contract_fields(result.to_dict()))
-    else:
-        print(result.summary())
-    if not result.success:
-        _err(f"duffsym fit: the fit did not succeed: {result.status}: {result.message}")
-        return 1
-    return 0
+def _report_fit(args, result) -> CommandResult:
+    """The fit's JSON (the contract's keys first) and summary; its success is the exit code."""
+    notes = () if result.success else (f"duffsym fit: the fit did not succeed: {result.status}: {result.message}",)
+    return CommandResult("fit", _contract_fields(result.to_dict()), result.summary, exit_code=0 if result.success
+                         else 1, notes=notes, value=result)
 
 
-def _cmd_fit_campaign(args) -> int:
+def _run_fit_campaign(args) -> CommandResult:
     """``duffsym fit A.csv B.csv ...`` or ``--manifest``: one parameter set for every record."""
     from duffsym.identify import fit
-    from duffsym.identify.campaign_command import campaign_records, hold_unseen_rates, plot_campaign
+    from duffsym.cli.fit_campaign import campaign_records, hold_unseen_rates, plot_campaign
 
     if args.mask not in (None, "none", "auto"):
         raise CLIError("--mask FILE is for one record; a campaign takes --mask none or auto (found per record)")
-    pairs = campaign_records(args, _read_record)
-    _check_outputs(args, [p for p, _ in pairs] + [args.manifest])
+    pairs = campaign_records(args, read_record)
+    check_outputs(args, [p for p, _ in pairs] + [args.manifest])
     records = [r for _, r in pairs]
-    model = _fit_model(args)
+    model = fit_model(args)
     fixed, held = hold_unseen_rates(model, records, _fixed_from_args(args), args.quiet)
-    problem = _problem(args, model, records, [_mask_from_args(args.mask, r) for r in records], fixed)
+    problem = _problem(args, model, records, [mask_from_args(args.mask, r) for r in records], fixed)
     if not args.quiet:
-        _err(f"fitting one {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} parameter set to "
+        err(f"fitting one {model.name}{' + ' + ', '.join(model.effects) if model.effects else ''} parameter set to "
              f"{len(records)} records ({sum(r.n_times for r in records)} samples)")
     result = fit(problem, n_starts=args.starts, rng=args.seed, max_wall_time=args.time_limit,
-                 progress=None if args.quiet else (lambda msg: _err(f"  {msg}"))).with_sampling(records)
+                 progress=None if args.quiet else (lambda msg: err(f"  {msg}"))).with_sampling(records)
     if held:
         result = dataclasses.replace(result, defaults_applied={**result.defaults_applied, "eta": held})
     if result.flags:
-        _err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
+        err("duffsym fit: note: " + "; ".join(f["message"] for f in result.flags))
     if args.out:
-        _save_fit(result, args.out, "fit")
+        save_fit(result, args.out, "fit")
     if args.plot:
         plot_campaign(result, records, args.plot)
     return _report_fit(args, result)
@@ -145,10 +146,11 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 
     from duffsym.plot.loops import plot_loops, save_figure
     from duffsym.plot.windows import loop_windows
-    from duffsym.simulate import Trajectory, input_matrix
+    from duffsym.simulate import Trajectory
+    from duffsym.status import Status
 
     names = tuple(c.name for c in model.inputs)
-    u = input_matrix(model, record.t, record.inputs_for(model))
+    u = record.input_matrix(model)
     y_sim = np.asarray(result.y_sim[0], dtype=float)
     windows = None if transient else loop_windows(record.d, count=1)
     sl = windows.slices[0] if windows else slice(0, record.n_times)
@@ -157,7 +159,7 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
         f"one steady {windows.describe(t, 0)}" if windows.whole_cycles else
         f"one {windows.describe(t, 0)} (the input does not repeat, so no loop closes)")
     common = dict(model=model.name, t=t[sl], x=np.zeros((t[sl].size, 0)), u=u[sl], params=result.params,
-                  success=True, status="ok", message="ok", method="data", input_names=names)
+                  success=True, status=Status.OK, message="ok", method="data", input_names=names)
     measured = Trajectory(y=np.asarray(record.y, dtype=float)[sl], **common)
     fitted = Trajectory(y=y_sim[sl], **common)
     name = f"{record.name or 'record'}{f' ({record.current:g} A)' if record.current is not None else ''}"
@@ -176,35 +178,35 @@ def _plot_fit(result, record, model, path, transient: bool = False) -> None:
 
 
 def cmd_validate(args) -> int:
+    return show(run_validate(args), args.json)
+
+
+def run_validate(args) -> CommandResult:
+    """``duffsym validate``'s work (notes on stderr, the figure), its result not yet printed."""
     from duffsym.identify import load_result, validate
 
     from duffsym.data.sanity import range_notes, valid_part
     from duffsym.identify.fitdata import score_valid
 
-    _check_outputs(args, [args.fit, args.data], options=("plot",))
+    check_outputs(args, [args.fit, args.data], options=("plot",))
     result = load_result(args.fit)
-    _require_success(result, args)
-    record = _read_record(args, args.data)
+    require_success(result, args)
+    record = read_record(args, args.data)
     valid = None if getattr(args, "keep_invalid", False) else valid_part(record)
     if valid is not None:
         record = valid.record
     val = score_valid(validate(result, record), record, None if valid is None else valid.mask)
     notes = range_notes(result.extras.get("training_ranges", {}), record)
     if valid is not None and not valid.report.ok:
-        _err(f"duffsym validate: note: {valid.report.summary()}; left out of the score (--keep-invalid keeps them)")
+        err(f"duffsym validate: note: {valid.report.summary()}; left out of the score (--keep-invalid keeps them)")
     for note in notes:
-        _err(f"duffsym validate: note: {note}: an extrapolation")
+        err(f"duffsym validate: note: {note}: an extrapolation")
     if args.plot and _drawable(val, record):  # a poor prediction (R² < 0) is drawn too: that is when it is looked at
         _plot_validation(val, record, args.plot)
-    if args.json:
-        extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
-        _emit_json({**val.to_dict(), **extra})
-    else:
-        print(val.summary())
-    if not val.success:
-        _err(f"duffsym validate: the validation did not succeed: {val.message}")
-        return 1
-    return 0
+    extra = {"range_notes": notes, **({"data_sanity": valid.to_dict()} if valid is not None else {})}
+    failed = () if val.success else (f"duffsym validate: the validation did not succeed: {val.message}",)
+    return CommandResult("validate", {**val.to_dict(), **extra}, val.summary, exit_code=0 if val.success else 1,
+                         notes=failed, value=val)
 
 
 def _positive_seconds(text: str) -> float:
@@ -246,7 +248,7 @@ def register(sub) -> None:
                    "with its own initial state and its labels (a constant current/voltage column)")
     s.add_argument("--manifest", help="a CSV/JSON manifest of the records to fit together (as for duffsym batch: file, "
                    "name, columns, and labels such as current or voltage)")
-    _add_model_arguments(s)
+    add_model_arguments(s)
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed (repeat or "
                    "comma-separate); k3 = 0 by default (not identifiable from one sine amplitude)")
     s.add_argument("--af", default="max", help="A_f: 'max' (= max|y|, the paper's choice; the scaling symmetry makes "
@@ -264,14 +266,14 @@ def register(sub) -> None:
     s.add_argument("--time-limit", type=_positive_seconds, metavar="SECONDS", help="wall-clock budget of the "
                    "IPOPT solves: past it the fit stops with a message naming the phase (a bound restart that runs "
                    "out keeps the converged fit it started from); default none")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--out", help="write the fit as JSON (usable by `duffsym validate`)")
     s.add_argument("--plot", help="loop plot of measured vs fitted (PNG/PDF): one steady full-stroke cycle where the "
                    "input repeats, else one window (a sweep, a random record); several records: one panel each")
     s.add_argument("--plot-transient", action="store_true", help="plot the whole record, start-up included")
     s.add_argument("--json", action="store_true", help="print the fit as one JSON object")
     s.add_argument("--quiet", action="store_true", help="no progress messages")
-    s.set_defaults(func=cmd_fit)
+    s.set_defaults(func=cmd_fit, run=run_fit)
 
     s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
     s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
@@ -279,8 +281,8 @@ def register(sub) -> None:
     s.add_argument("--force", action="store_true", help="use a fit marked success: false")
     s.add_argument("--keep-invalid", action="store_true", help="score clipped or frozen stretches too (by default "
                    "they are found, reported and left out)")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--plot", help="figure (PNG/PDF): measured vs predicted over time, a zoom on the largest error, "
                    "and loops of whole cycles (or of windows, where the input does not repeat)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.set_defaults(func=cmd_validate)
+    s.set_defaults(func=cmd_validate, run=run_validate)

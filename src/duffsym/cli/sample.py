@@ -6,11 +6,18 @@ from pathlib import Path
 
 
 def cmd_sample(args) -> int:
+    from duffsym.cli.common import show
+
+    return show(run_sample(args), args.json)
+
+
+def run_sample(args):
+    """``duffsym sample``'s work (chains and figures written, progress on stderr): a :class:`CommandResult`."""
     import warnings
 
     import numpy as np
 
-    from duffsym._cli_common import CLIError, _emit_json, _err, _read_record
+    from duffsym.cli.common import CLIError, CommandResult, err, read_record
     from duffsym.errors import ConvergenceWarning
     from duffsym.identify import load_result
     from duffsym.uncertainty.sampler import ChainTooShort, sample
@@ -24,23 +31,23 @@ def cmd_sample(args) -> int:
         raise CLIError(f"--checkpoint-every must be a positive number of seconds; got {args.checkpoint_every}")
     if args.thin is not None and args.thin < 1:
         raise CLIError(f"--thin must be >= 1; got {args.thin}")
-    from duffsym._cli_common import _check_outputs, _require_success
+    from duffsym.cli.common import check_outputs, require_success
 
-    _check_outputs(args, [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
+    check_outputs(args, [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
                    options=("out", "chains", "corner", "bands"))
     result = load_result(args.fit)
-    _require_success(result, args)
-    record = _read_record(args, args.data)
+    require_success(result, args)
+    record = read_record(args, args.data)
     mask = None
     if args.mask not in ("fit",):
-        from duffsym._cli_common import _mask_from_args
+        from duffsym.cli.common import mask_from_args
 
-        mask, _ = _mask_from_args(args.mask, record)
+        mask, _ = mask_from_args(args.mask, record)
     if args.mask in (None, "fit") and result.mask and np.size(result.mask[0]) != record.n_times:
         raise CLIError(f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
                        f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE")
     if not args.quiet:  # stderr: --json keeps stdout to the one JSON object
-        _err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
+        err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
              f"{args.steps} steps")
     pool = None
     if (args.workers and args.workers > 1) or args.scheduler:
@@ -58,7 +65,7 @@ def cmd_sample(args) -> int:
                             checkpoint=partial, checkpoint_every=args.checkpoint_every)
     except KeyboardInterrupt:
         if partial is not None and partial.exists():
-            _err(f"interrupted: the steps run so far are in {partial} (duffsym.uncertainty.load_partial_chain)")
+            err(f"interrupted: the steps run so far are in {partial} (duffsym.uncertainty.load_partial_chain)")
         raise
     except ChainTooShort as exc:
         if exc.chains is not None and args.chains:
@@ -101,18 +108,12 @@ def cmd_sample(args) -> int:
 
         write_json_atomic(args.out, jsonable(out))
         written.append(args.out)
-    if args.json:
-        _emit_json(out)
-    else:
-        print(chains.summary())
-        if args.identifiability:
-            print(out["identifiability"]["text"])
-    if written and not args.quiet:
-        _err(f"wrote {', '.join(written)}")
-    for w in caught:
-        if not args.quiet and str(w.message) not in chains.warnings:
-            _err(f"warning: {w.message}")
-    return 0
+    def text() -> str:
+        return chains.summary() + (f"\n{out['identifiability']['text']}" if args.identifiability else "")
+
+    notes = [f"wrote {', '.join(written)}"] if written and not args.quiet else []
+    notes += [f"warning: {w.message}" for w in caught if not args.quiet and str(w.message) not in chains.warnings]
+    return CommandResult("sample", out, text, notes=tuple(notes), value=chains)
 
 
 def _partial_path(chains) -> Path:
@@ -123,7 +124,7 @@ def _partial_path(chains) -> Path:
 
 
 def register(sub) -> None:
-    from duffsym._cli_common import _add_file_arguments
+    from duffsym.cli.common import add_file_arguments
 
     s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, "
                        "tau, ESS, Laplace comparison)")
@@ -157,11 +158,11 @@ def register(sub) -> None:
     s.add_argument("--bands", help="posterior predictive bands on the loops and the time series (PNG/PDF)")
     s.add_argument("--identifiability", action="store_true", help="add the identifiability report (symmetry, "
                    "Fisher spectrum, posterior correlations)")
-    _add_file_arguments(s)
+    add_file_arguments(s)
     s.add_argument("--out", help="write the JSON summary to this file")
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     s.add_argument("--quiet", action="store_true", help="no progress bar or messages")
-    s.set_defaults(func=cmd_sample)
+    s.set_defaults(func=cmd_sample, run=run_sample)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -3,12 +3,12 @@ from __future__ import annotations
 
 
 def cmd_effects(args) -> int:
-    from duffsym._cli_common import _emit_json
+    from duffsym.cli.common import emit_json
     from duffsym.effects import CATALOGUE
 
     rows = [e.describe() for e in CATALOGUE.values()]
     if args.json:
-        _emit_json({"effects": rows})
+        emit_json({"effects": rows})
         return 0
     width = max(len(r["effect"]) for r in rows)
     for r in rows:

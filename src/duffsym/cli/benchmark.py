@@ -4,7 +4,7 @@ from __future__ import annotations
 import sys
 from dataclasses import replace
 
-from duffsym._cli_common import CLIError, _emit_json
+from duffsym.cli.common import CLIError, emit_json
 
 
 def cmd_benchmark(args) -> int:
@@ -36,7 +36,7 @@ def cmd_benchmark(args) -> int:
     if args.out:
         write_json_atomic(args.out, jsonable(res.to_dict()))
     if args.json:
-        _emit_json(res.to_dict())
+        emit_json(res.to_dict())
     else:
         print(res.summary())
     return 0

@@ -4,7 +4,7 @@ Thin: this module only builds the parser and turns errors into exit codes. Every
 beside the code it drives, in a module listed in :data:`COMMAND_MODULES` that defines
 ``register(subparsers)``: it adds its parser(s) with ``set_defaults(func=...)``, and ``func(args)``
 returns the exit code. Shared helpers (usage errors, JSON output, reading a record, the common
-arguments) are in :mod:`duffsym._cli_common`. ``--json`` prints one JSON object on stdout and
+arguments) are in :mod:`duffsym.cli.common`. ``--json`` prints one JSON object on stdout and
 nothing else there; messages go to stderr. Bad input exits non-zero with one line, no traceback.
 """
 from __future__ import annotations
@@ -13,38 +13,25 @@ import argparse
 import importlib
 import sys
 
-# Re-exported for code that imported the helpers from here before they moved to duffsym._cli_common.
-from duffsym._cli_common import (  # noqa: F401
-    EXIT_ERROR,
-    CLIError,
-    _add_file_arguments,
-    _add_model_arguments,
-    _emit_json,
-    _err,
-    _fit_model,
-    _mask_from_args,
-    _parse_assignments,
-    _parse_mapping,
-    _read_record,
-)
+from duffsym.cli.common import EXIT_ERROR, err
 from duffsym.errors import DuffsymError
 
 #: Modules that add subcommands, in the order ``duffsym --help`` lists them.
 COMMAND_MODULES = (
-    "duffsym.model.command",        # models
-    "duffsym.derive.command",       # derive
-    "duffsym.simulate_command",     # simulate
-    "duffsym.identify.command",     # fit, validate
-    "duffsym.reproduce_command",    # reproduce
-    "duffsym.effects.command",      # effects
-    "duffsym.diagnose.command",     # diagnose, ladder
-    "duffsym.diagnose.compare_command",  # compare
-    "duffsym.uncertainty.command",  # sample
-    "duffsym.sindy.command",        # sindy
-    "duffsym.data.command",         # convert
-    "duffsym.campaign.command",     # batch
-    "duffsym.benchmark.command",    # benchmark
-    "duffsym.control.command",      # invert
+    "duffsym.cli.models",     # models
+    "duffsym.cli.derive",     # derive
+    "duffsym.cli.simulate",   # simulate
+    "duffsym.cli.fit",        # fit, validate
+    "duffsym.cli.reproduce",  # reproduce
+    "duffsym.cli.effects",    # effects
+    "duffsym.cli.diagnose",   # diagnose, ladder
+    "duffsym.cli.compare",    # compare
+    "duffsym.cli.sample",     # sample
+    "duffsym.cli.sindy",      # sindy
+    "duffsym.cli.convert",    # convert
+    "duffsym.cli.batch",      # batch
+    "duffsym.cli.benchmark",  # benchmark
+    "duffsym.cli.invert",     # invert
 )
 
 
@@ -53,33 +40,33 @@ COMMAND_MODULES = (
 #: modules (their packages pull in SymPy, CasADi and numba: ~1.5 s), and ``duffsym COMMAND`` imports only
 #: the module of COMMAND.
 COMMANDS = (
-    ("models", "duffsym.model.command", "list the models"),
-    ("derive", "duffsym.derive.command", "the paper's derivations for a model: state space, Lyapunov, invariant "
+    ("models", "duffsym.cli.models", "list the models"),
+    ("derive", "duffsym.cli.derive", "the paper's derivations for a model: state space, Lyapunov, invariant "
      "set, stability conditions, scaling symmetry"),
-    ("simulate", "duffsym.simulate_command", "simulate a model under an excitation; CSV (time, displacement, "
+    ("simulate", "duffsym.cli.simulate", "simulate a model under an excitation; CSV (time, displacement, "
      "velocity, force) and an optional loop plot"),
-    ("fit", "duffsym.identify.command", "identify a model's parameters from a measured record (collocation + IPOPT)"),
-    ("validate", "duffsym.identify.command", "free-run error of a saved fit on another record"),
-    ("reproduce", "duffsym.reproduce_command", "run the studies and regenerate every figure and number"),
-    ("effects", "duffsym.effects.command", "list the physical effects that can be added to a model (fit --add, "
+    ("fit", "duffsym.cli.fit", "identify a model's parameters from a measured record (collocation + IPOPT)"),
+    ("validate", "duffsym.cli.fit", "free-run error of a saved fit on another record"),
+    ("reproduce", "duffsym.cli.reproduce", "run the studies and regenerate every figure and number"),
+    ("effects", "duffsym.cli.effects", "list the physical effects that can be added to a model (fit --add, "
      "ladder)"),
-    ("diagnose", "duffsym.diagnose.command", "where the model fails on a record, and which catalogued effect is "
+    ("diagnose", "duffsym.cli.diagnose", "where the model fails on a record, and which catalogued effect is "
      "missing"),
-    ("ladder", "duffsym.diagnose.command", "base fit, then add the best supported effect and refit, while the "
+    ("ladder", "duffsym.cli.diagnose", "base fit, then add the best supported effect and refit, while the "
      "evidence supports it; the error at each step"),
-    ("compare", "duffsym.diagnose.compare_command", "fit several models on the same records and score them on "
+    ("compare", "duffsym.cli.compare", "fit several models on the same records and score them on "
      "held-out data"),
-    ("sample", "duffsym.uncertainty.command", "emcee posterior of a saved fit's free parameters (medians, 90 %% "
+    ("sample", "duffsym.cli.sample", "emcee posterior of a saved fit's free parameters (medians, 90 %% "
      "intervals, tau, ESS, Laplace comparison)"),
-    ("sindy", "duffsym.sindy.command", "SINDy cross-check of the terms of the velocity equation (which terms the "
+    ("sindy", "duffsym.cli.sindy", "SINDy cross-check of the terms of the velocity equation (which terms the "
      "data support)"),
-    ("convert", "duffsym.data.command", "turn a text/CSV/.mat data file into a duffsym CSV record (time, "
+    ("convert", "duffsym.cli.convert", "turn a text/CSV/.mat data file into a duffsym CSV record (time, "
      "displacement, velocity, force)"),
-    ("batch", "duffsym.campaign.command", "run fit, validate, diagnose, ladder or sample on many records (local "
+    ("batch", "duffsym.cli.batch", "run fit, validate, diagnose, ladder or sample on many records (local "
      "processes or a Dask cluster); one result file per record, resumable, with a summary table and figure"),
-    ("benchmark", "duffsym.benchmark.command", "score a public benchmark by its own protocol (silverbox, bouc-wen) "
+    ("benchmark", "duffsym.cli.benchmark", "score a public benchmark by its own protocol (silverbox, bouc-wen) "
      "beside the published figures"),
-    ("invert", "duffsym.control.command", "the command (current/voltage) history that makes a fitted model produce "
+    ("invert", "duffsym.cli.invert", "the command (current/voltage) history that makes a fitted model produce "
      "a desired force"),
 )
 
@@ -116,7 +103,7 @@ def main(argv=None) -> int:
         return _main(argv)
     except KeyboardInterrupt:
         _quiet_dask_shutdown()
-        _err("interrupted")
+        err("interrupted")
         return 130
 
 
@@ -152,37 +139,45 @@ def _main(argv=None) -> int:
     show_notes()  # expected numerical conditions as one-line notes, not Python's two-line warnings
     parser = build_parser(sys.argv[1:] if argv is None else list(argv))
     args = parser.parse_args(argv)
-    name = args.subcommand
+    value, code = guarded(args, lambda: int(args.func(args) or 0))
+    return value if code is None else code
+
+
+def guarded(args, work):
+    """Run ``work()`` for the parsed command ``args`` as the command line does: ``(its value, None)``, or, when
+    it raises, ``(None, exit code)`` with the error as one line on stderr (``duffsym NAME: error: ...``; the
+    traceback only with ``--debug``). ``duffsym batch`` runs each record's work through this too."""
+    name, debug = args.subcommand, getattr(args, "debug", False)
     try:
-        return int(args.func(args) or 0)
+        return work(), None
     except DuffsymError as exc:
-        _err(f"duffsym {name}: error: {exc}")
-        return EXIT_ERROR
+        err(f"duffsym {name}: error: {exc}")
+        return None, EXIT_ERROR
     except (OSError, ValueError) as exc:
-        if args.debug:
+        if debug:
             raise
-        _err(f"duffsym {name}: error: {_describe(exc)}")
-        return EXIT_ERROR
+        err(f"duffsym {name}: error: {_describe(exc)}")
+        return None, EXIT_ERROR
     except KeyboardInterrupt:
         _quiet_dask_shutdown()
-        _err("interrupted")
-        return 130
+        err("interrupted")
+        return None, 130
     except RecursionError:
-        if args.debug:
+        if debug:
             raise
-        _err(f"duffsym {name}: error: input nested too deeply to process; check the input files")
-        return EXIT_ERROR
+        err(f"duffsym {name}: error: input nested too deeply to process; check the input files")
+        return None, EXIT_ERROR
     except MemoryError:
-        if args.debug:
+        if debug:
             raise
-        _err(f"duffsym {name}: error: out of memory; use a shorter or decimated record")
-        return EXIT_ERROR
+        err(f"duffsym {name}: error: out of memory; use a shorter or decimated record")
+        return None, EXIT_ERROR
     except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
-        if args.debug:
+        if debug:
             raise
-        _err(f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
-             "and please report it)")
-        return 1
+        err(f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
+            "and please report it)")
+        return None, 1
 
 
 def _describe(exc: Exception) -> str:
@@ -191,7 +186,3 @@ def _describe(exc: Exception) -> str:
         where = exc.filename if exc.filename is not None else None
         return f"{where}: {exc.strerror}" if where is not None else exc.strerror
     return str(exc)
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
