@@ -27,8 +27,8 @@ from duffsym.model.core import SymbolicModel
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
 _GENERATOR_VERSION = "12"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
-#: dependency chain of each stage (~30 % faster); no "nnan"/"ninf", so the blow-up test on
-#: non-finite states stays valid.
+#: dependency chain of each stage (the simulator's speed: benchmarks/bench_simulate.py); no "nnan"/"ninf",
+#: so the blow-up test on non-finite states stays valid.
 _FASTMATH = '{"reassoc", "contract", "nsz", "arcp"}'
 _lock = threading.Lock()
 
