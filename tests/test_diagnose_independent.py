@@ -108,7 +108,8 @@ def test_nested_simpler_effects_come_from_the_parameters():
 @pytest.mark.slow
 @pytest.mark.claim
 @pytest.mark.xfail(strict=True, reason="fails on main d580dd2 (3 of 3 runs, 2026-11-26): nothing is needed "
-                   "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis is fixed")
+                   "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis "
+                   "is fixed")
 def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
     # measured before: on the offset + lag record, with the offset taken (as gas-accumulator), output-lag was
     # still being fitted after the 30 screening iterations, ranked 10 of 11 behind converged candidates and was
