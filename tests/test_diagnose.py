@@ -113,14 +113,27 @@ def test_ladder_adds_two_hidden_effects_and_stops_at_the_noise():
 
 
 # ------------------------------------------------------------------------------------------------ CLI
+OFFSET_SEED = 1  # the independent generator's force-offset record, seed 1
+
+
 @pytest.fixture(scope="module")
 def offset_csv(tmp_path_factory):
-    m = apply_effects(mr_damper(), [CATALOGUE["force-offset"]])
-    rec = synthetic_record(m, {**table2_params(0.4), "off_y0": 0.15}, Sine(1.0, 2.0), dt=0.005, duration=3.0,
-                           noise=0.01, rng=1)
+    """A load-cell offset hidden in a record of the independent generator (tests/independent_sim.py: no duffsym
+    code), written as CSV for the command line."""
+    import independent_sim as gen
+    from duffsym.data.record import Record
+
+    g = gen.scenario("force-offset", OFFSET_SEED)
+    rec = Record(t=g.t, d=g.d, y=g.y, name="offset", source="independent_sim")
     path = tmp_path_factory.mktemp("diag") / "offset.csv"
     write_csv(rec, path)
     return path
+
+
+def _true_offset() -> float:
+    import independent_sim as gen
+
+    return gen.scenario("force-offset", OFFSET_SEED).truth["physics"]["offset"]
 
 
 def test_cli_diagnose_json_follows_the_contract(offset_csv, capsys, tmp_path):
@@ -132,7 +145,7 @@ def test_cli_diagnose_json_follows_the_contract(offset_csv, capsys, tmp_path):
     assert doc["needed"] == ["force-offset"]
     assert [c["effect"] for c in doc["candidates"]] == ["force-offset", "output-lag"]
     first = doc["candidates"][0]
-    assert first["params"]["off_y0"] == pytest.approx(0.15, rel=0.05)
+    assert first["params"]["off_y0"] == pytest.approx(_true_offset(), rel=0.05)
     assert first["delta_bic"] < -100 and first["nrmse_after"] < doc["nrmse"] / 5
     assert isinstance(doc["verdict"], str) and "force-offset" in doc["verdict"]
     md = (tmp_path / "rep" / "diagnosis.md").read_text()
