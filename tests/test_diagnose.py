@@ -74,8 +74,17 @@ def test_hidden_friction_under_random_input_is_found():
     assert best.nrmse_after <= 2 * g.noise_std / np.std(rec.y[k:])  # close to the noise floor
 
 
+def _independent(effect: str, seed: int, **kw):
+    """A record of the independent generator (tests/independent_sim.py: no duffsym code) and its truth."""
+    import independent_sim as gen
+    from duffsym.data.record import Record
+
+    g = gen.scenario(effect, seed, **kw)
+    return Record(t=g.t, d=g.d, y=g.y, name=f"{effect}-{seed}", source="independent_sim"), g
+
+
 def test_clean_data_need_no_effect():
-    rec = hidden_effect_record("clean", seed=1)  # multisine, 0.3 V row
+    rec, _ = _independent("clean", 1, kind="multisine", voltage=0.3)
     dg = diagnose(rec, candidates=FEW)
     assert dg.needed == ()
     assert dg.residuals.at_noise_level
@@ -85,7 +94,7 @@ def test_clean_data_need_no_effect():
 
 
 def test_drift_outside_the_catalogue_gets_no_confident_wrong_verdict():
-    rec = hidden_effect_record("drift", seed=0)  # c1 and c3 fall by half over the record
+    rec, _ = _independent("drift", 0)  # the damping falls by half over the record
     dg = diagnose(rec, candidates=["input-delay", "output-lag", "inertia", "force-offset"])
     assert dg.needed == ()
     assert dg.verdict.startswith("No catalogued effect explains")
