@@ -44,6 +44,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 ROOT = Path(__file__).resolve().parents[1]
 #: the installed ``duffsym`` command beside this Python (what a user's shell loop calls)
@@ -158,7 +159,7 @@ def main(argv=None) -> int:
         res["machine"] = {"cpus": os.cpu_count(), "loadavg_at_end": os.getloadavg(),
                           "note": "2 cores shared with other jobs; niced"}
         out = ROOT / "benchmarks" / "results" / "batch_diagnose.json"
-        out.write_text(json.dumps(res, indent=2) + "\n")
+        out.write_text(json.dumps(stamp(res, args), indent=2) + "\n")
         print(f"diagnose {args.diagnose}: serial {res['serial_seconds']:.1f} s, {args.workers} workers "
               f"{res['parallel_seconds']:.1f} s, ratio {res['ratio']:.2f}; candidates identical "
               f"{res['candidates_identical']}, verdict identical {res['verdict_identical']}; wrote {out}")
@@ -198,7 +199,7 @@ def main(argv=None) -> int:
     }
     name = "batch.json" if args.records is None else f"batch_{len(names)}.json"
     out = ROOT / "benchmarks" / "results" / name
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    out.write_text(json.dumps(stamp(result, args), indent=2) + "\n")
     print(f"serial CLI {t_serial:.1f} s, batch {t_batch:.1f} s on {args.workers} workers: ratio "
           f"{t_serial / t_batch:.2f} (CPU {c_serial:.1f} s vs {c_batch:.1f} s); batch in one process {t_one:.1f} s "
           f"(ratio {t_serial / t_one:.2f}); identical results {cmp_['identical']}/{cmp_['n']} and "

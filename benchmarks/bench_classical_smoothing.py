@@ -29,6 +29,7 @@ import independent_classical_sim as ics  # noqa: E402
 from duffsym.identify.result import nrmse  # noqa: E402
 from duffsym.model import classical  # noqa: E402
 from duffsym.simulate import simulate  # noqa: E402
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 EPS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-5)
 DAMPER = ics.Sines((1.0, 0.4), (2.5, 7.0), (0.3, 1.1))
@@ -80,7 +81,7 @@ def main() -> int:
                   f"{r['nrmse_vs_sharp']:.2e}  {r['us_per_sample']:.3f} us/sample  substeps "
                   f"{r['substeps_mean']:.1f}/{r['substeps_max']}  (sharp Radau {radau:.2f} s)")
     out = HERE / "results" / "classical_smoothing.json"
-    out.write_text(json.dumps({"rows": rows}, indent=2))
+    out.write_text(json.dumps(stamp({"rows": rows}, {"cases": list(CASES)}), indent=2))
     print(f"wrote {out}")
     return 0
 

@@ -30,6 +30,7 @@ from duffsym.identify import Problem, fit  # noqa: E402
 from duffsym.identify.initial import path_start  # noqa: E402
 from duffsym.identify.structure import scaled_to  # noqa: E402
 from duffsym.model import get_model  # noqa: E402
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 V_EPS0 = 300.0  # mm/s, the start: three times the campaign's fastest drive (94 mm/s), where path ~ clock time
 
@@ -77,7 +78,7 @@ def main(argv=None) -> int:
           f"{out['median']:.3f} worst {out['worst']:.3f} ({out['wall_s']:.0f} s)")
     path = ROOT / "benchmarks" / "results" / f"current_path_{a.variant}{'' if a.holdout is None else '_' + a.holdout}.json"
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(out, indent=1, default=float))
+    tmp.write_text(json.dumps(stamp(out, a), indent=1, default=float))
     tmp.replace(path)
     return 0
 

@@ -33,6 +33,8 @@ import sys
 import time
 from pathlib import Path
 
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
@@ -142,8 +144,8 @@ def _line(r: dict) -> str:
 def _write(out: Path, results: list, args) -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"results": results, "timeout_s": args.timeout, "cpu_limit_s": args.cpu_limit},
-                              indent=2, default=str))
+    doc = {"results": results, "timeout_s": args.timeout, "cpu_limit_s": args.cpu_limit}
+    tmp.write_text(json.dumps(stamp(doc, args), indent=2, default=str))
     tmp.replace(out)
 
 

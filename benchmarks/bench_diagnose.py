@@ -54,6 +54,7 @@ import platform
 import sys
 import time
 from pathlib import Path
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
@@ -362,7 +363,7 @@ def main(argv=None) -> int:
                    pairs=summarise_pairs(rows), screen=args.screen, python=sys.version.split()[0], machine=platform.machine(),
                    cpus=os.cpu_count(), workers=args.workers, wall_seconds=time.perf_counter() - t0,
                    summary=summary, runs=rows)
-        out_path.write_text(json.dumps(doc, indent=1, default=float, allow_nan=True))
+        out_path.write_text(json.dumps(stamp(doc, args), indent=1, default=float, allow_nan=True))
         return summary
 
     runner = run_one if args.source == "scenarios" else (run_pair if args.pairs else run_independent)

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 WORST = ("2mm5Hz", "25mm0x5Hz", "25mm0x25Hz", "25mm0x1Hz")
 HERE = Path(__file__).resolve().parent
@@ -73,7 +74,8 @@ def main(argv=None) -> int:
               f"{'  [needed]' if r['needed'] else ('  [supported]' if r['supported'] else '')}")
     out = HERE / "results" / f"discover_utfsm_tries{args.tries}.json"
     tmp = out.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps({"per_period": args.per_period, "tries": args.tries, "rows": rows}, indent=1, default=float))
+    doc = {"per_period": args.per_period, "tries": args.tries, "rows": rows}
+    tmp.write_text(json.dumps(stamp(doc, args), indent=1, default=float))
     tmp.replace(out)
     return 0
 

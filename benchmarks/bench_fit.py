@@ -40,6 +40,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
@@ -531,7 +532,7 @@ def main(argv=None) -> int:
         res = {"main": part_main, "starts": part_starts, "sweep": part_sweep}[part](args)
         res["machine"] = machine()
         name = f"fit_{part}_{args.tag}.json" if args.tag else f"fit_{part}.json"
-        (RESULTS / name).write_text(json.dumps(res, indent=1, default=float) + "\n")
+        (RESULTS / name).write_text(json.dumps(stamp(res, args), indent=1, default=float) + "\n")
     merge()
     return 0
 

@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = ("shipped-sine", "silverbox-3000-V-s", "silverbox-3000-mV-ms", "dyke-6s-500Hz", "utfsm-sine")
@@ -149,7 +150,7 @@ def main(argv=None) -> int:
                   f"{' (' + str(f.get('restart_stopped')) + ')' if f.get('restart_stopped') else ''}", flush=True)
     out = ROOT / "benchmarks" / "results" / "bench_ipopt_iterations.json"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps({"load": os.getloadavg(), "limit_s": a.limit, "rows": rows}, indent=1))
+    out.write_text(json.dumps(stamp({"load": os.getloadavg(), "limit_s": a.limit, "rows": rows}, a), indent=1))
     return 0
 
 

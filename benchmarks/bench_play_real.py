@@ -18,6 +18,7 @@ import os
 import sys
 import time
 from pathlib import Path
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
               f"{r['seconds']:.0f} s  {r['message']}", flush=True)
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(dict(runs=rows, budget=args.budget), indent=1, default=str))
+        out.write_text(json.dumps(stamp(dict(runs=rows, budget=args.budget), args), indent=1, default=str))
     return 0
 
 

@@ -21,6 +21,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "studies"))
@@ -106,7 +107,7 @@ def main(argv=None) -> int:
         for cand, r in run_fold(fold, [c for c in args.candidates.split(",") if c], cfg, recs):
             results["folds"][fold][cand] = r
             tmp = out.with_suffix(".tmp")
-            tmp.write_text(json.dumps(results, indent=2, default=lambda v: None if isinstance(v, float) and
+            tmp.write_text(json.dumps(stamp(results, args), indent=2, default=lambda v: None if isinstance(v, float) and
                                       not math.isfinite(v) else str(v)))
             tmp.replace(out)
     return 0

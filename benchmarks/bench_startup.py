@@ -20,6 +20,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,7 +55,7 @@ def main(argv=None) -> int:
         print(f"ratio {name:26s} before/after (median) {b['median_s'] / n['median_s']:.2f}x")
     out = ROOT / "benchmarks" / "results" / "bench_startup.json"
     out.parent.mkdir(exist_ok=True)
-    out.write_text(json.dumps({"load": os.getloadavg(), "rows": rows}, indent=1))
+    out.write_text(json.dumps(stamp({"load": os.getloadavg(), "rows": rows}, a), indent=1))
     return 0
 
 

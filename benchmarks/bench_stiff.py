@@ -23,6 +23,7 @@ import numpy as np
 from duffsym.data import external_data_dir, read_csv
 from duffsym.model.library import mr_damper
 from duffsym.simulate import IMPLICIT_ATOL, IMPLICIT_RTOL, simulate
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -102,7 +103,7 @@ def main(argv=None) -> int:
     except Exception as exc:  # noqa: BLE001 - the external record is optional here
         print(f"Dyke record skipped: {exc}")
     (HERE / "results").mkdir(exist_ok=True)
-    (HERE / "results" / "stiff.json").write_text(json.dumps(out, indent=2))
+    (HERE / "results" / "stiff.json").write_text(json.dumps(stamp(out, args), indent=2))
     return 0
 
 

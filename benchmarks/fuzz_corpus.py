@@ -34,6 +34,7 @@ sys.path.insert(0, str(ROOT / "tests"))
 from _fuzz_mutations import mutate_csv, tamper_fit  # noqa: E402
 
 from duffsym.cli import main  # noqa: E402
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 
 class Hang(BaseException):
@@ -172,7 +173,7 @@ def main_corpus() -> int:
         report["seconds"] = time.perf_counter() - t0
     out = Path(a.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(report, indent=2))
+    out.write_text(json.dumps(stamp(report, a), indent=2))
     print(json.dumps({k: v["counts"] if isinstance(v, dict) else v for k, v in report.items()}, indent=2))
     return 0
 

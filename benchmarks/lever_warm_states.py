@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -95,7 +96,7 @@ def main(argv=None) -> int:
                   f"{row['heldout'] if row['heldout'] is None else round(row['heldout'], 5)}", flush=True)
     out = HERE / "results" / f"lever_{args.lever}_{args.case}.json"
     doc = dict(case=args.case, lever=args.lever, n_fit=rf.n_times, factor=q, base_iter=base.n_iter, rows=rows)
-    out.write_text(json.dumps(doc, indent=1, default=str))
+    out.write_text(json.dumps(stamp(doc, args), indent=1, default=str))
     return 0
 
 

@@ -44,6 +44,7 @@ def _same_fit(a, b, se) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.claim  # a real-data fit (the Dyke MR damper record) in every CI run
 def test_dyke_printed_time_fits_like_the_exact_time(tmp_path):
     """2 s past t = 13 s (6000 samples, all stamps rounded to 0.1 ms). Measured: the rebuilt fit matches
     the exact one (c1..c3 within 5e-5, k1 0.35 %, k2 4.7 % = 0.1 of its spread); with the stamps taken as

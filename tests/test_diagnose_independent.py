@@ -24,6 +24,7 @@ def test_fitted_play_half_width_within_10_percent_of_the_exact_play(seed):
 
 
 @pytest.mark.slow
+@pytest.mark.claim  # README: the diagnosis names the hidden effect among several candidates on independent records
 def test_piston_seal_friction_is_found_as_seal_friction_not_as_internal_friction():
     rec, g = record("seal-friction", 0)
     dg = diagnose(rec, candidates=["coulomb-friction", "seal-friction", "backlash"], sindy=False)
@@ -57,6 +58,7 @@ def test_noise_free_record_is_said_to_fit_exactly():
 
 
 @pytest.mark.slow
+@pytest.mark.claim  # the diagnosis adds no effect to a clean record (no false positive) on independent data
 def test_clean_noisy_record_is_said_to_fit_to_the_noise_first():
     rec, g = record("clean", 0)
     dg = diagnose(rec, candidates=["force-offset", "output-lag", "seal-friction"], sindy=False)
@@ -82,6 +84,9 @@ def test_candidate_outside_the_stability_certificate_is_marked_and_not_needed():
 
 
 @pytest.mark.slow
+@pytest.mark.claim
+@pytest.mark.xfail(strict=True, reason="fails on main d580dd2 (2 of 2 runs, 2026-11-26): force-offset is ranked "
+                   "first, not gas-accumulator; a claim the README makes, left visible until the diagnosis is fixed")
 def test_second_start_recovers_a_true_effect_lost_to_a_diverged_fit():
     # measured: from the base optimum + data guess, the gas-accumulator fit converged to a set whose free run
     # diverged, so the true effect ranked below force-offset; the second start (base solution) finds it
@@ -101,6 +106,10 @@ def test_nested_simpler_effects_come_from_the_parameters():
 
 
 @pytest.mark.slow
+@pytest.mark.claim
+@pytest.mark.xfail(strict=True, reason="fails on main d580dd2 (3 of 3 runs, 2026-11-26): nothing is needed "
+                   "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis "
+                   "is fixed")
 def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
     # measured before: on the offset + lag record, with the offset taken (as gas-accumulator), output-lag was
     # still being fitted after the 30 screening iterations, ranked 10 of 11 behind converged candidates and was
@@ -115,6 +124,7 @@ def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
 
 
 @pytest.mark.slow
+@pytest.mark.claim  # the ladder names two hidden effects among the whole catalogue on an independent record
 def test_ladder_finds_offset_and_lag_by_their_names():
     # measured before (3 seeds): the ladder ended with gas-accumulator (+ output-lag) in 3/3, the lag screened
     # out in 1/3; now seed 1 ends with exactly force-offset + output-lag at the noise (end / noise 1.0)

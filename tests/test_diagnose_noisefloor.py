@@ -105,6 +105,7 @@ def test_utfsm_noise_is_called_not_measurable(name):
 
 
 @pytest.mark.slow
+@pytest.mark.claim  # the diagnosis on a real record (UTFSM) in every CI run
 def test_utfsm_verdict_does_not_quote_the_quantisation_as_noise():
     rec = _utfsm("25mm0x25Hz0x5A.txt")
     dg = diagnose(rec, candidates=["seal-friction", "force-offset"], sindy=False)

@@ -53,7 +53,7 @@ class _Package(types.ModuleType):
 
 sys.modules[__name__].__class__ = _Package
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"  # the one place the version lives (pyproject.toml reads it; CHANGELOG.md says what changed)
 
 # duffsym's own warnings (expected numerical conditions) print as one line, "note: ...", from the API too;
 # other packages' warnings keep Python's form (duffsym.errors.show_notes)

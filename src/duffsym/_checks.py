@@ -1,4 +1,5 @@
 """Input checks shared by the boundary classes (records, simulation, loop measures)."""
+
 from __future__ import annotations
 
 import numpy as np

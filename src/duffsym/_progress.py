@@ -9,6 +9,7 @@ items done so far. ``--quiet`` passes None instead, and nothing is printed.
 Library functions take ``progress`` as any callable of one message string (``print`` works);
 :func:`reporter` adapts it, so they can pass counts without knowing what they were given.
 """
+
 from __future__ import annotations
 
 import sys
@@ -17,8 +18,11 @@ import time
 
 def _clock(seconds: float) -> str:
     seconds = int(round(seconds))
-    return f"{seconds // 60}:{seconds % 60:02d}" if seconds < 3600 else \
-        f"{seconds // 3600}:{seconds % 3600 // 60:02d}:{seconds % 60:02d}"
+    return (
+        f"{seconds // 60}:{seconds % 60:02d}"
+        if seconds < 3600
+        else f"{seconds // 3600}:{seconds % 3600 // 60:02d}:{seconds % 60:02d}"
+    )
 
 
 class Progress:

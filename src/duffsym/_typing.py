@@ -1,7 +1,9 @@
 """Array aliases used in signatures (time is always the first axis)."""
+
 from __future__ import annotations
 
-from typing import Mapping, Union
+from collections.abc import Mapping
+from typing import Union
 
 import numpy as np
 import numpy.typing as npt

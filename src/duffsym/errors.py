@@ -2,6 +2,7 @@
 
 Every error message says what is wrong, where, and what to do about it.
 """
+
 from __future__ import annotations
 
 
@@ -51,8 +52,9 @@ def show_notes(stream=None) -> None:
     default = warnings.showwarning
 
     def showwarning(message, category, filename, lineno, file=None, line=None):
-        if issubclass(category, ConvergenceWarning) or (issubclass(category, UserWarning)
-                                                        and "duffsym" in str(filename).replace("\\", "/")):
+        if issubclass(category, ConvergenceWarning) or (
+            issubclass(category, UserWarning) and "duffsym" in str(filename).replace("\\", "/")
+        ):
             out = file or stream or sys.stderr
             try:
                 out.write(f"note: {' '.join(str(message).split())}\n")
@@ -61,5 +63,5 @@ def show_notes(stream=None) -> None:
             return
         default(message, category, filename, lineno, file, line)
 
-    showwarning._duffsym_notes = True
+    showwarning._duffsym_notes = True  # type: ignore[attr-defined]  # the mark show_notes() looks for
     warnings.showwarning = showwarning

@@ -1,4 +1,5 @@
 """Input signals with exact time derivatives: sine, multisine and band-limited random."""
+
 from __future__ import annotations
 
 import math
@@ -139,8 +140,10 @@ class BandLimitedRandom(Excitation):
         f0 = 1.0 / self.duration
         freqs = np.arange(f0, self.f_max + 0.5 * f0, f0)
         if freqs.size == 0:
-            raise DataError(f"random excitation: f_max = {self.f_max:g} Hz is below the lowest line 1/duration = "
-                            f"{f0:g} Hz; raise f_max or the duration")
+            raise DataError(
+                f"random excitation: f_max = {self.f_max:g} Hz is below the lowest line 1/duration = "
+                f"{f0:g} Hz; raise f_max or the duration"
+            )
         amps = rng.rayleigh(1.0, freqs.size)
         amps *= self.rms / math.sqrt(0.5 * np.sum(amps**2))
         lines = Multisine(tuple(amps), tuple(freqs), tuple(rng.uniform(0, 2 * math.pi, freqs.size)), self.signal)

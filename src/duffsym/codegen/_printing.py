@@ -1,4 +1,5 @@
 """Shared helpers to turn model expressions into code."""
+
 from __future__ import annotations
 
 import sympy as sp

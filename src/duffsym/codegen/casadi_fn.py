@@ -1,4 +1,5 @@
 """CasADi functions generated from a model (used by identification)."""
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -13,9 +14,22 @@ def _casadi_modules():
     import casadi as ca
 
     return {
-        "sin": ca.sin, "cos": ca.cos, "tan": ca.tan, "exp": ca.exp, "log": ca.log, "sqrt": ca.sqrt,
-        "tanh": ca.tanh, "sinh": ca.sinh, "cosh": ca.cosh, "atan": ca.atan, "arctan": ca.atan,
-        "Abs": ca.fabs, "sign": ca.sign, "Max": ca.fmax, "Min": ca.fmin, "Heaviside": lambda z: ca.if_else(z > 0, 1, 0),
+        "sin": ca.sin,
+        "cos": ca.cos,
+        "tan": ca.tan,
+        "exp": ca.exp,
+        "log": ca.log,
+        "sqrt": ca.sqrt,
+        "tanh": ca.tanh,
+        "sinh": ca.sinh,
+        "cosh": ca.cosh,
+        "atan": ca.atan,
+        "arctan": ca.atan,
+        "Abs": ca.fabs,
+        "sign": ca.sign,
+        "Max": ca.fmax,
+        "Min": ca.fmin,
+        "Heaviside": lambda z: ca.if_else(z > 0, 1, 0),
         "erf": ca.erf,
     }
 

@@ -4,6 +4,7 @@ The generated source is written once to a cache directory (``$DUFFSYM_CACHE`` or
 ``~/.cache/duffsym``) under the model's hash, and numba caches its machine code beside it, so a
 second process pays neither code generation nor compilation.
 """
+
 from __future__ import annotations
 
 import os
@@ -26,8 +27,8 @@ from duffsym.model.core import SymbolicModel
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
 _GENERATOR_VERSION = "12"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
-#: dependency chain of each stage (~30 % faster); no "nnan"/"ninf", so the blow-up test on
-#: non-finite states stays valid.
+#: dependency chain of each stage (the simulator's speed: benchmarks/bench_simulate.py); no "nnan"/"ninf",
+#: so the blow-up test on non-finite states stays valid.
 _FASTMATH = '{"reassoc", "contract", "nsz", "arcp"}'
 _lock = threading.Lock()
 
@@ -63,8 +64,10 @@ def cache_dir() -> Path:
     base = os.environ.get("DUFFSYM_CACHE")
     candidates = [Path(base).expanduser()] if base else []
     uid = os.getuid() if hasattr(os, "getuid") else None
-    candidates += [Path.home() / ".cache" / "duffsym",
-                   Path(tempfile.gettempdir()) / (f"duffsym-cache-{uid}" if uid is not None else "duffsym-cache")]
+    candidates += [
+        Path.home() / ".cache" / "duffsym",
+        Path(tempfile.gettempdir()) / (f"duffsym-cache-{uid}" if uid is not None else "duffsym-cache"),
+    ]
     problems = []
     for c in candidates:
         why = _unsafe_reason(c)
@@ -72,10 +75,15 @@ def cache_dir() -> Path:
             return c
         problems.append(f"{c}: {why}")
         if base and c == candidates[0]:
-            warnings.warn(f"DUFFSYM_CACHE={base} is not used for generated code ({why}); using a private "
-                          "cache instead", UserWarning, stacklevel=2)
-    raise OSError("no safe cache directory for generated code (" + "; ".join(problems) + "); set DUFFSYM_CACHE "
-                  "to a folder you own that no one else can write to")
+            warnings.warn(
+                f"DUFFSYM_CACHE={base} is not used for generated code ({why}); using a private cache instead",
+                UserWarning,
+                stacklevel=2,
+            )
+    raise OSError(
+        "no safe cache directory for generated code (" + "; ".join(problems) + "); set DUFFSYM_CACHE "
+        "to a folder you own that no one else can write to"
+    )
 
 
 def _unsafe_reason(folder: Path) -> str | None:
@@ -122,13 +130,13 @@ def _scalar_rk4(model: SymbolicModel, printer: _Printer) -> list[str]:
     exprs = [e.xreplace(subs) for e in model.rhs]
     outs = [f"_r{i}" for i in range(n)]
     lines = [
-        "@njit(cache=True, inline=\"always\")",
+        '@njit(cache=True, inline="always")',
         f"def _f({', '.join(xs + us + ps)}):",
         *_assign_block(outs, exprs, printer),
         f"    return ({', '.join(outs)},)",
         "",
         "",
-        "@njit(cache=True, inline=\"always\", fastmath=FASTMATH)",
+        '@njit(cache=True, inline="always", fastmath=FASTMATH)',
         "def _advance(x, U, k, p, dt, m, hold, xo):",
         "    h = dt / m",
         *[f"    {v} = p[{j}]" for j, v in enumerate(ps)],
@@ -181,7 +189,7 @@ def generate_source(model: SymbolicModel) -> str:
         f"FASTMATH = {_FASTMATH}",
         "",
         "",
-        "@njit(cache=True, inline=\"always\")",
+        '@njit(cache=True, inline="always")',
         "def rhs(x, u, p, out):",
         *unpack,
         *_assign_block([f"out[{i}]" for i in range(n)], list(model.rhs), printer),
@@ -190,13 +198,13 @@ def generate_source(model: SymbolicModel) -> str:
         *_scalar_rk4(model, printer),
         "",
         "",
-        "@njit(cache=True, inline=\"always\")",
+        '@njit(cache=True, inline="always")',
         "def jac(x, u, p, out):",
         *unpack,
         *_assign_block([f"out[{i}, {j}]" for i in range(n) for j in range(n)], list(jac), printer),
         "",
         "",
-        "@njit(cache=True, inline=\"always\")",
+        '@njit(cache=True, inline="always")',
         "def output(x, u, p):",
         *unpack,
         *_assign_block(["_y"], [model.output], printer),
@@ -255,14 +263,20 @@ def remove_untrusted(folder: Path, key: str) -> list[Path]:
         except FileNotFoundError:
             continue
         foreign = hasattr(os, "getuid") and st.st_uid != os.getuid()
-        if stat.S_ISLNK(st.st_mode) or foreign or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH) \
-                or not stat.S_ISREG(st.st_mode):
+        if (
+            stat.S_ISLNK(st.st_mode)
+            or foreign
+            or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+            or not stat.S_ISREG(st.st_mode)
+        ):
             try:
                 p.unlink()
             except OSError as exc:
-                raise OSError(f"the code cache holds {p}, which is not safe to load (another user's, writable by "
-                              f"others, or a link) and cannot be removed ({exc.strerror or exc}); delete it or set "
-                              "DUFFSYM_CACHE to a private folder") from None
+                raise OSError(
+                    f"the code cache holds {p}, which is not safe to load (another user's, writable by "
+                    f"others, or a link) and cannot be removed ({exc.strerror or exc}); delete it or set "
+                    "DUFFSYM_CACHE to a private folder"
+                ) from None
             removed.append(p)
     return removed
 

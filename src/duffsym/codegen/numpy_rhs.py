@@ -1,9 +1,10 @@
 """NumPy functions generated from a model with ``lambdify`` (vectorised, for analysis and checks)."""
+
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Callable
 
 import numpy as np
 import sympy as sp
