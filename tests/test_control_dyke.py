@@ -30,7 +30,6 @@ def test_inverse_of_a_dyke_fit_recovers_the_measured_voltage_and_tracks_the_meas
     from duffsym.control import invert
     from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.identify import Problem, fit
-    from duffsym.identify.collocation import _input_matrix
     from duffsym.model import get_model
     from duffsym.simulate import simulate
 
@@ -42,7 +41,7 @@ def test_inverse_of_a_dyke_fit_recovers_the_measured_voltage_and_tracks_the_meas
     a = rec.n_times // 2 + int(round(3.0 / rec.dt))
     part = rec.slice(a, a + int(round(0.6 / rec.dt)))
     t = np.asarray(part.t) - part.t[0]
-    U = _input_matrix(model, part)
+    U = part.input_matrix(model)
     measured = U[:, 2].copy()
     y = np.asarray(part.y)
     inv = invert(model, res.params, t, U, y, limits=LIMITS)

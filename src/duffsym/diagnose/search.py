@@ -229,10 +229,6 @@ def free_run(model, params: Mapping[str, float], record: Record, x0) -> np.ndarr
     return y if tr.success and np.all(np.isfinite(y)) else None
 
 
-#: the name this module gave :func:`free_run` before (``diagnose/discover.py`` and two benchmarks still call it)
-_free_run = free_run
-
-
 def with_default_af(model, fixed: Mapping[str, float] | None, record: Record) -> dict:
     """``fixed`` with ``A_f = max|y|`` of ``record`` added when the model has ``A_f`` and it is not given:
     every fit of a diagnosis (and of a ladder) then shares the same output scale."""

@@ -546,15 +546,3 @@ def _random_starts(th0, lo, hi, scale, n, spread, rng) -> list[np.ndarray]:
         th = np.clip(th, lo + 1e-6 * span, hi - 1e-6 * span)
         out.append(th)
     return out
-
-
-# Kept only for callers outside this package's fit pipeline that still use the old private names
-# (diagnose/search.py, diagnose/discover.py, control/command.py); they move to ``Record.input_matrix`` and
-# ``duffsym.simulate.simulate_record``, after which these two go.
-def _input_matrix(model, record) -> np.ndarray:
-    return record.input_matrix(model)
-
-
-def _free_run(model, params, record, U, x0):
-    tr = simulate_record(model, params, record, x0=x0, on_failure="return")
-    return np.asarray(tr.y, dtype=float), tr.success, tr.message

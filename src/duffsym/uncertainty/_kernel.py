@@ -30,10 +30,10 @@ STATUS = {0: "ok", 1: "blow-up", 2: "too stiff"}
 @lru_cache(maxsize=32)
 def kernel_module(model) -> ModuleType:
     """Import (generating on first use) the model's compiled module with the schedule kernel."""
-    from duffsym.codegen.compiled import _GENERATOR_VERSION, generate_source, load_generated
+    from duffsym.codegen.compiled import GENERATOR_VERSION, generate_source, load_generated
 
     source = generate_source(model) + "\n\n" + _TEMPLATE.read_text()
-    return load_generated(f"duffsym_unc_{model.key}_v{_GENERATOR_VERSION}_{_VERSION}", source)
+    return load_generated(f"duffsym_unc_{model.key}_v{GENERATOR_VERSION}_{_VERSION}", source)
 
 
 class ScheduleSimulator:
