@@ -1,4 +1,5 @@
 """Paths of the real third-party records (``../shared/data/external``) for the tests; skip when absent."""
+
 from __future__ import annotations
 
 from pathlib import Path

@@ -5,6 +5,7 @@ Every mutation says whether it breaks the file (the reader must refuse it) or ke
 (the reader must accept it with the same values): a broken file read without an error is a
 *silently accepted* one, the failure the fuzzing is looking for.
 """
+
 from __future__ import annotations
 
 import copy
@@ -74,8 +75,18 @@ def benign_upper_header(h, rows, rng):
     return _join([x.upper() for x in h], rows)
 
 
-BENIGN = [benign_bom, benign_crlf, benign_trailing_delimiter, benign_blank_lines, benign_spaces, benign_quotes,
-          benign_semicolon, benign_extra_column, benign_permuted, benign_upper_header]
+BENIGN = [
+    benign_bom,
+    benign_crlf,
+    benign_trailing_delimiter,
+    benign_blank_lines,
+    benign_spaces,
+    benign_quotes,
+    benign_semicolon,
+    benign_extra_column,
+    benign_permuted,
+    benign_upper_header,
+]
 
 
 # ---------------------------------------------------------------------------------------- broken
@@ -196,18 +207,35 @@ def broken_too_few_rows(h, rows, rng):
 
 def broken_constant_signal(h, rows, rng):
     j = rng.choice([1, 2])
-    return _join(h, [[*r[:j], "0.5", *r[j + 1:]] for r in rows])
+    return _join(h, [[*r[:j], "0.5", *r[j + 1 :]] for r in rows])
 
 
 def broken_long_line(h, rows, rng):
     return "a," * rng.randint(100_000, 600_000) + "\n"
 
 
-BROKEN = [broken_short_row, broken_long_row, broken_decimal_comma, broken_decimal_comma_semicolon,
-          broken_text_value, broken_duplicate_header, broken_empty_header, broken_missing_column,
-          broken_unsorted_time, broken_jittered_time, broken_nan, broken_huge, broken_binary, broken_latin1,
-          broken_utf16, broken_unclosed_quote, broken_header_only, broken_too_few_rows, broken_constant_signal,
-          broken_long_line]
+BROKEN = [
+    broken_short_row,
+    broken_long_row,
+    broken_decimal_comma,
+    broken_decimal_comma_semicolon,
+    broken_text_value,
+    broken_duplicate_header,
+    broken_empty_header,
+    broken_missing_column,
+    broken_unsorted_time,
+    broken_jittered_time,
+    broken_nan,
+    broken_huge,
+    broken_binary,
+    broken_latin1,
+    broken_utf16,
+    broken_unclosed_quote,
+    broken_header_only,
+    broken_too_few_rows,
+    broken_constant_signal,
+    broken_long_line,
+]
 
 
 def _layout(text: str, rng) -> str:
@@ -235,8 +263,23 @@ def tamper_fit(fit: dict, seed: int) -> tuple[str, object]:
     rng = random.Random(seed)
     d = copy.deepcopy(fit)
     keys = list(d)
-    kind = rng.choice(["delete", "retype", "number", "nest", "param", "structural", "mask", "x0", "covariance",
-                       "effects", "model", "toplevel", "success"])
+    kind = rng.choice(
+        [
+            "delete",
+            "retype",
+            "number",
+            "nest",
+            "param",
+            "structural",
+            "mask",
+            "x0",
+            "covariance",
+            "effects",
+            "model",
+            "toplevel",
+            "success",
+        ]
+    )
     junk = [None, True, "text", [], {}, [1, 2], {"a": 1}, -1, 0, 1e308, -1e308, 10**30, "1e400", 1.5]
     if kind == "delete":
         k = rng.choice(keys)
@@ -264,16 +307,28 @@ def tamper_fit(fit: dict, seed: int) -> tuple[str, object]:
         d["structural"] = {"n_x": rng.choice(junk + [2, 4, 99999, -3]), "n_v": rng.choice([5, 3, 0, "x"])}
         return "structural", d
     if kind == "mask":
-        d["mask"] = rng.choice([[{"n_times": rng.choice(junk + [5, 10**12]), "ranges": rng.choice(junk + [[[0, 3]], [[5, 2]], [[0, 10**9]]])}],
-                                "x", [None], [[1, 2]]])
+        d["mask"] = rng.choice(
+            [
+                [
+                    {
+                        "n_times": rng.choice(junk + [5, 10**12]),
+                        "ranges": rng.choice(junk + [[[0, 3]], [[5, 2]], [[0, 10**9]]]),
+                    }
+                ],
+                "x",
+                [None],
+                [[1, 2]],
+            ]
+        )
         return "mask", d
     if kind == "x0":
         d["x0"] = rng.choice([[["a"]], [[1e308, -1e308]], [[1, 2, 3, 4]], [[]], "x", [[math.pi] * 2] * 3])
         return "x0", d
     if kind == "covariance":
         n = len(d.get("free", []))
-        d["covariance"] = rng.choice([[[1.0]], "x", [[1.0] * n] * (n + 1), [[-1.0] * n for _ in range(n)],
-                                      [[1e308] * n for _ in range(n)]])
+        d["covariance"] = rng.choice(
+            [[[1.0]], "x", [[1.0] * n] * (n + 1), [[-1.0] * n for _ in range(n)], [[1e308] * n for _ in range(n)]]
+        )
         return "covariance", d
     if kind == "effects":
         d["effects"] = rng.choice([["backlash"], ["nope"], "backlash", [1], [["a"]], ["backlash", "backlash"]])

@@ -1,4 +1,5 @@
 """Run one study with ``--smoke`` into a temporary output root (shared by the studies' smoke tests)."""
+
 from __future__ import annotations
 
 import importlib

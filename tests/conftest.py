@@ -1,4 +1,5 @@
 """Shared test set-up: the studies folder is importable (tests check the studies' computations)."""
+
 import sys
 from pathlib import Path
 

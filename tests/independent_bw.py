@@ -26,6 +26,7 @@ element's own time is the path s of its driving displacement (ds = rho dt, rho =
 Integration: classical RK4 with ``substeps`` steps per sample; the force u is the sampled input held
 linearly between samples (as the benchmark's upsampled multisine), evaluated at every stage.
 """
+
 from __future__ import annotations
 
 import math
@@ -36,8 +37,9 @@ import numpy as np
 BOUC_WEN = dict(m=2.0, c=10.0, k=5e4, alpha=5e4, beta=1e3, gamma=0.8, delta=-1.1, nu=1.0)
 
 
-def multisine(n: int, fs: float, *, f_lo: float = 5.0, f_hi: float = 150.0, rms: float = 50.0,
-              seed: int = 0) -> np.ndarray:
+def multisine(
+    n: int, fs: float, *, f_lo: float = 5.0, f_hi: float = 150.0, rms: float = 50.0, seed: int = 0
+) -> np.ndarray:
     """One period of a random-phase multisine of ``n`` samples, flat amplitude on ``[f_lo, f_hi]``, scaled to ``rms``."""
     rng = np.random.default_rng(seed)
     k = np.arange(n // 2 + 1)
@@ -63,8 +65,9 @@ def _dl_rhs(s, u, p):
     n = p["n"]
     force = p["A_f"] * w
     acc = (u - p["c"] * v - p["k"] * y - force) / p["m"]
-    xacc = (p["k1"] * y + p["c1"] * v - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x
-            - p["k3"] * x**n - p["c3"] * w**n)
+    xacc = (
+        p["k1"] * y + p["c1"] * v - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x - p["k3"] * x**n - p["c3"] * w**n
+    )
     return np.array([v, acc, w, xacc])
 
 
@@ -73,8 +76,10 @@ def _dlp_rhs(s, u, p):
     n = p["n"]
     rho = math.sqrt(v * v + p["eps"] ** 2)
     acc = (u - p["c"] * v - p["k"] * y - p["A_f"] * w) / p["m"]
-    wdot = rho * (p["k1"] * y - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x - p["k3"] * x**n
-                  - p["c3"] * w**n) + p["c1"] * v
+    wdot = (
+        rho * (p["k1"] * y - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x - p["k3"] * x**n - p["c3"] * w**n)
+        + p["c1"] * v
+    )
     wdot -= p.get("c_dir", 0.0) * v * abs(w)  # the directional damping (sign of y') |w| per unit path
     return np.array([v, acc, rho * w, wdot])
 
@@ -124,8 +129,17 @@ def path_element_loop(amplitude: float, params: dict, *, cycles: int = 3, per_cy
     def rhs(s, theta, p):
         x, w = s
         dth, rate = A * math.cos(theta), abs(A * math.cos(theta))
-        wdot = rate * (p["k1"] * A * math.sin(theta) - (p["c1"] + p["c2"]) * w - (p["k1"] + p["k2"]) * x
-                       - p["k3"] * x**n - p["c3"] * w**n) + p["c1"] * dth
+        wdot = (
+            rate
+            * (
+                p["k1"] * A * math.sin(theta)
+                - (p["c1"] + p["c2"]) * w
+                - (p["k1"] + p["k2"]) * x
+                - p["k3"] * x**n
+                - p["c3"] * w**n
+            )
+            + p["c1"] * dth
+        )
         return np.array([rate * w, wdot])
 
     theta = np.arange(cycles * per_cycle + 1) * (2 * math.pi / per_cycle)

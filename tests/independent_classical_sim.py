@@ -16,6 +16,7 @@ approximate. Parameter names are the papers' (Spencer's alpha, alpha_u = alpha_b
 The displacement is a sum of sines (exact derivative at every stage); the command a constant or a function of t.
 ``simulate`` runs scipy's Radau (the reference) or a fixed-step RK4.
 """
+
 from __future__ import annotations
 
 import math
@@ -101,8 +102,20 @@ def output(model: str, X, d, v, cmd, p, n=2):
 N_STATES = {"bouc-wen": 1, "spencer": 3, "dahl": 1, "lugre": 1, "bingham": 1, "biviscous": 1}
 
 
-def simulate(model: str, p: dict, t, drive: Sines, command=None, *, x0=None, n=2, method="Radau",
-             rtol=1e-9, atol=1e-10, max_step=None):
+def simulate(
+    model: str,
+    p: dict,
+    t,
+    drive: Sines,
+    command=None,
+    *,
+    x0=None,
+    n=2,
+    method="Radau",
+    rtol=1e-9,
+    atol=1e-10,
+    max_step=None,
+):
     """States and force at ``t``: scipy ``method`` (Radau by default) on the exact right-hand side."""
     t = np.asarray(t, dtype=float)
     cmd = command if callable(command) else (lambda tt, c=float(command or 0.0): c + 0.0 * tt)

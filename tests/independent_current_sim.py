@@ -12,6 +12,7 @@ d(t) is a sum of sines and the command i(t) a smooth random switching signal (ta
 analytic and evaluated at every RK4 stage; ``substeps`` RK4 steps per sample. The command may also
 be constant (one test at one current).
 """
+
 from __future__ import annotations
 
 import math
@@ -20,8 +21,22 @@ from dataclasses import dataclass
 import numpy as np
 
 #: A device in the spirit of Table 2 of the paper (coefficients fall as the field grows; per ampere).
-TRUTH = dict(c1=10.0, c2=30.0, c3=330.0, k1=45.0, k2=600.0, k3=0.0, A_f=1.5,
-             c1_u=-4.0, c2_u=-20.0, c3_u=-80.0, k1_u=-15.0, k2_u=-200.0, A_f_u=0.8, eta=60.0)
+TRUTH = dict(
+    c1=10.0,
+    c2=30.0,
+    c3=330.0,
+    k1=45.0,
+    k2=600.0,
+    k3=0.0,
+    A_f=1.5,
+    c1_u=-4.0,
+    c2_u=-20.0,
+    c3_u=-80.0,
+    k1_u=-15.0,
+    k2_u=-200.0,
+    A_f_u=0.8,
+    eta=60.0,
+)
 FIELD = ("c1", "c2", "c3", "k1", "k2")
 
 
@@ -66,8 +81,14 @@ def coefficients(p: dict, u):
 
 def rhs(p: dict, n: int, x, v, u, d, dd, i):
     c = coefficients(p, u)
-    acc = (-(c["c1"] + c["c2"]) * v - (c["k1"] + c["k2"]) * x - p["k3"] * x**n - c["c3"] * v**n
-           + c["k1"] * d + c["c1"] * dd)
+    acc = (
+        -(c["c1"] + c["c2"]) * v
+        - (c["k1"] + c["k2"]) * x
+        - p["k3"] * x**n
+        - c["c3"] * v**n
+        + c["k1"] * d
+        + c["c1"] * dd
+    )
     return v, acc, -p["eta"] * (u - i)
 
 
@@ -98,15 +119,40 @@ def integrate(rhs_fn, disp: Sines, command, *, dt: float, duration: float, settl
     return t, out, n_settle
 
 
-def generate(p: dict, disp: Sines, command, *, dt: float = 0.002, duration: float = 6.0, n: int = 5,
-             noise: float = 0.01, settle: float = 1.0, substeps: int = 10, seed: int = 0) -> dict:
+def generate(
+    p: dict,
+    disp: Sines,
+    command,
+    *,
+    dt: float = 0.002,
+    duration: float = 6.0,
+    n: int = 5,
+    noise: float = 0.01,
+    settle: float = 1.0,
+    substeps: int = 10,
+    seed: int = 0,
+) -> dict:
     """Simulate and sample: ``{"t", "d", "d_dot", "command", "y", "y_clean"}`` after ``settle`` seconds."""
-    t, out, n_settle = integrate(lambda x, v, u, d, dd, i: rhs(p, n, x, v, u, d, dd, i), disp, command, dt=dt,
-                                 duration=duration, settle=settle, substeps=substeps)
+    t, out, n_settle = integrate(
+        lambda x, v, u, d, dd, i: rhs(p, n, x, v, u, d, dd, i),
+        disp,
+        command,
+        dt=dt,
+        duration=duration,
+        settle=settle,
+        substeps=substeps,
+    )
     keep = slice(n_settle, None)
     y_clean = p["A_f"] * (1 + p["A_f_u"] * out[keep, 2]) * out[keep, 1]
     rng = np.random.default_rng(seed)
     y = y_clean + noise * float(np.sqrt(np.mean(y_clean**2))) * rng.standard_normal(y_clean.size)
     tk = t[keep] - t[n_settle]
-    return {"t": tk, "d": disp(t[keep]), "d_dot": disp(t[keep], 1), "command": command(t[keep]), "y": y,
-            "y_clean": y_clean, "field": out[keep, 2]}
+    return {
+        "t": tk,
+        "d": disp(t[keep]),
+        "d_dot": disp(t[keep], 1),
+        "command": command(t[keep]),
+        "y": y,
+        "y_clean": y_clean,
+        "field": out[keep, 2],
+    }

@@ -34,6 +34,7 @@ dissipates, which lowers the fluid damping ``c2, c3`` by ``(1 - b theta)`` (``ex
 Integration: classical RK4 with ``substeps`` (>= 20) steps per sample; the inputs are analytic
 (sums of sinusoids), evaluated at every stage; the play operator is evaluated on the half-step grid.
 """
+
 from __future__ import annotations
 
 import math
@@ -120,7 +121,9 @@ class Physics:
     damping_drift: float = 0.0  # relative fall of c1, c3 over the record (warming fluid; not catalogued)
     d_offset: float = 0.0  # displacement-sensor zero error (benign: the model absorbs it)
     # ---- outside the catalogue (no catalogued effect has these forms; issue 22)
-    stroke_friction: float = 0.0  # F_0: seal friction F_0 (1 + g (p/P)^2) tanh(p'/eps_s), level grows to the stroke ends
+    stroke_friction: float = (
+        0.0  # F_0: seal friction F_0 (1 + g (p/P)^2) tanh(p'/eps_s), level grows to the stroke ends
+    )
     stroke_friction_growth: float = 0.0  # g; P = stroke_length
     stroke_length: float = 1.0  # P (input units)
     stribeck_coulomb: float = 0.0  # F_c: (F_c + (F_s - F_c) exp(-(p'/v_s)^2)) tanh(p'/eps_s) on the piston
@@ -223,8 +226,9 @@ def simulate_device(params: dict, phys: Physics, inp: SumOfSines, t: np.ndarray,
 
 
 def _has_outside(phys: Physics) -> bool:
-    return bool(phys.stroke_friction or phys.stribeck_coulomb or phys.stribeck_static or phys.orifice
-                or phys.gas_spring)
+    return bool(
+        phys.stroke_friction or phys.stribeck_coulomb or phys.stribeck_static or phys.orifice or phys.gas_spring
+    )
 
 
 def outside_catalogue_force(phys: Physics, p: float, v: float, eps_s: float) -> float:
@@ -275,9 +279,20 @@ class Generated:
     extra: dict = field(default_factory=dict)  # the device's hidden signals on the sample grid (e.g. temperature)
 
 
-def generate(params: dict, phys: Physics, inp: SumOfSines, *, dt: float = 0.005, duration: float = 4.0,
-             noise: float = 0.01, rng=0, substeps: int = 20, filter_kind: str | None = None,
-             filter_width: float = 5, time_jitter: float = 0.0) -> Generated:
+def generate(
+    params: dict,
+    phys: Physics,
+    inp: SumOfSines,
+    *,
+    dt: float = 0.005,
+    duration: float = 4.0,
+    noise: float = 0.01,
+    rng=0,
+    substeps: int = 20,
+    filter_kind: str | None = None,
+    filter_width: float = 5,
+    time_jitter: float = 0.0,
+) -> Generated:
     """A record: the device simulated, 1 % (``noise``) white noise of the clean force's RMS added,
     optionally pre-filtered; time stamps nominal (``k dt``) even when the true sampling instants
     jitter by ``time_jitter`` (std, s)."""
@@ -294,29 +309,54 @@ def generate(params: dict, phys: Physics, inp: SumOfSines, *, dt: float = 0.005,
     e = rng.normal(0.0, sigma, n)
     y = prefilter(y0 + e, filter_kind, filter_width, dt)
     e_f = prefilter(e, filter_kind, filter_width, dt)
-    truth = dict(params=dict(params), physics=dict(phys.__dict__), noise_std_raw=sigma,
-                 filter=filter_kind, filter_width=filter_width, substeps=substeps)
+    truth = dict(
+        params=dict(params),
+        physics=dict(phys.__dict__),
+        noise_std_raw=sigma,
+        filter=filter_kind,
+        filter_width=filter_width,
+        substeps=substeps,
+    )
     truth.update(extra_summary(extra))
-    return Generated(t=t, d=d, y=y, y_clean=prefilter(y0, filter_kind, filter_width, dt),
-                     noise_std=float(np.std(e_f)), truth=truth, extra=extra)
+    return Generated(
+        t=t,
+        d=d,
+        y=y,
+        y_clean=prefilter(y0, filter_kind, filter_width, dt),
+        noise_std=float(np.std(e_f)),
+        truth=truth,
+        extra=extra,
+    )
 
 
 def extra_summary(extra: dict) -> dict:
-    return {"max_piston_velocity": float(np.max(np.abs(extra["piston_velocity"]))),
-            "max_x_dot": float(np.max(np.abs(extra["x_dot"])))}
+    return {
+        "max_piston_velocity": float(np.max(np.abs(extra["piston_velocity"]))),
+        "max_x_dot": float(np.max(np.abs(extra["x_dot"]))),
+    }
 
 
 # ---------------------------------------------------------------------------------------------- scenarios
 #: The effects of the scenarios, by the catalogue name that should be called for each
 #: (``seal-friction`` and ``coulomb-friction`` are the piston-side and fluid-side frictions).
-EFFECTS = ("force-offset", "gas-accumulator", "inertia", "coulomb-friction", "seal-friction", "asymmetry",
-           "output-lag", "input-delay", "backlash")
+EFFECTS = (
+    "force-offset",
+    "gas-accumulator",
+    "inertia",
+    "coulomb-friction",
+    "seal-friction",
+    "asymmetry",
+    "output-lag",
+    "input-delay",
+    "backlash",
+)
 ROWS = (0.2, 0.3, 0.4, 0.5, 0.6, 0.8)
 KINDS = ("sine", "multisine", "random")
 
 
-def physics_for(effects, rng: np.random.Generator, peak: float, stroke: float, acc: float, vel: float = 1.0,
-                energy: float = 1.0) -> Physics:
+def physics_for(
+    effects, rng: np.random.Generator, peak: float, stroke: float, acc: float, vel: float = 1.0, energy: float = 1.0
+) -> Physics:
     """Random magnitudes of each effect in ``effects``, from ranges of real dampers relative to the
     clean record's peak force ``peak``, input amplitude ``stroke`` and peak acceleration ``acc`` (and,
     for the effects outside the catalogue, peak velocity ``vel`` and dissipated energy ``energy``)."""
@@ -355,8 +395,9 @@ def physics_for(effects, rng: np.random.Generator, peak: float, stroke: float, a
 OUTSIDE = ("stroke-friction", "stribeck-friction", "heating", "orifice", "gas-spring")
 
 
-def outside_physics(ph: Physics, e: str, rng: np.random.Generator, peak: float, stroke: float, vel: float,
-                    energy: float) -> None:
+def outside_physics(
+    ph: Physics, e: str, rng: np.random.Generator, peak: float, stroke: float, vel: float, energy: float
+) -> None:
     """Random magnitudes of an out-of-catalogue effect ``e`` (in place), relative to the clean record's
     peak force, stroke, peak piston velocity ``vel`` and dissipated energy over the record ``energy``."""
     u = rng.uniform
@@ -376,12 +417,24 @@ def outside_physics(ph: Physics, e: str, rng: np.random.Generator, peak: float, 
         ph.orifice = float(u(0.10, 0.20) * peak / vel**2)
     elif e == "gas-spring":  # polytropic (1.4) gas spring, column 1.3-2x the stroke, 8-15 % of the peak at full stroke
         ph.gas_spring_length = float(u(1.3, 2.0) * stroke)
-        ph.gas_spring = float(u(0.08, 0.15) * peak / ((ph.gas_spring_length / (ph.gas_spring_length - stroke)) ** 1.4 - 1))
+        ph.gas_spring = float(
+            u(0.08, 0.15) * peak / ((ph.gas_spring_length / (ph.gas_spring_length - stroke)) ** 1.4 - 1)
+        )
 
 
-def scenario(effects, seed: int, *, kind: str | None = None, voltage: float | None = None, noise: float = 0.01,
-             filter_kind: str | None = None, filter_width: float = 5, dt: float = 0.005, duration: float = 4.0,
-             substeps: int = 20) -> Generated:
+def scenario(
+    effects,
+    seed: int,
+    *,
+    kind: str | None = None,
+    voltage: float | None = None,
+    noise: float = 0.01,
+    filter_kind: str | None = None,
+    filter_width: float = 5,
+    dt: float = 0.005,
+    duration: float = 4.0,
+    substeps: int = 20,
+) -> Generated:
     """A record with ``effects`` (a name or a tuple of names; "clean", "drift") hidden, the Table 2
     row (perturbed by +-10 %), input kind and magnitudes drawn from ``seed``."""
     effects = (effects,) if isinstance(effects, str) else tuple(effects)
@@ -399,7 +452,17 @@ def scenario(effects, seed: int, *, kind: str | None = None, voltage: float | No
     vel = float(np.max(np.abs(inp(t, 1))))
     energy = float(np.sum(clean * inp(t, 1)) * dt) if "heating" in effects else 1.0  # dissipated by the clean device
     phys = physics_for(effects, rng, float(np.max(np.abs(clean))), stroke, acc, vel, energy)
-    g = generate(params, phys, inp, dt=dt, duration=duration, noise=noise, rng=rng, substeps=substeps,
-                 filter_kind=filter_kind, filter_width=filter_width)
+    g = generate(
+        params,
+        phys,
+        inp,
+        dt=dt,
+        duration=duration,
+        noise=noise,
+        rng=rng,
+        substeps=substeps,
+        filter_kind=filter_kind,
+        filter_width=filter_width,
+    )
     g.truth.update(effects=list(effects), voltage=volt, kind=kind, seed=seed, period=inp.period)
     return g

@@ -1,6 +1,7 @@
 """duffsym batch and the Engine: results equal to the single commands, on a Dask LocalCluster of 2 worker
 processes and in this process; resumable after a kill; atomic files; per-record failures; the engine as
 the diagnosis' candidate runner and as emcee's pool."""
+
 from __future__ import annotations
 
 import json
@@ -36,8 +37,9 @@ def _records(folder: Path, n: int, periods: float = 3.0) -> list[Path]:
     paths = []
     for i in range(n):
         v = VOLTS[i % len(VOLTS)]
-        rec = synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.01, duration=periods / 2.0,
-                               noise=0.02, rng=i)
+        rec = synthetic_record(
+            MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.01, duration=periods / 2.0, noise=0.02, rng=i
+        )
         p = folder / f"rec{i}_{v:g}V.csv"
         write_csv(rec, p)
         paths.append(p)
@@ -93,11 +95,21 @@ def test_batch_on_a_local_cluster_equals_serial_and_the_single_fits(data, cluste
 
 def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path, monkeypatch):
     out = tmp_path / "res"
-    first = batch([data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"], command="fit", out=out,
-                  workers=0, progress=False)
+    first = batch(
+        [data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"],
+        command="fit",
+        out=out,
+        workers=0,
+        progress=False,
+    )
     assert first.n_ran == 2
-    again = batch([data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"], command="fit", out=out,
-                  workers=0, progress=False)
+    again = batch(
+        [data / "recs" / "rec0_0.2V.csv", data / "recs" / "rec1_0.4V.csv"],
+        command="fit",
+        out=out,
+        workers=0,
+        progress=False,
+    )
     assert again.n_ran == 0 and all(r["reused"] for r in again)
     # a result of another duffsym release is recomputed, not reused
     monkeypatch.setattr(duffsym, "__version__", "0.0.0-other")
@@ -105,8 +117,14 @@ def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path, mo
     assert other.n_ran == 1
     monkeypatch.undo()
     # changed options rerun every record; the stored result then holds the new options
-    opt = batch([data / "recs" / "rec0_0.2V.csv"], command="fit", out=out, workers=0, progress=False,
-                options={"fix": ["c1=2.5"]})
+    opt = batch(
+        [data / "recs" / "rec0_0.2V.csv"],
+        command="fit",
+        out=out,
+        workers=0,
+        progress=False,
+        options={"fix": ["c1=2.5"]},
+    )
     assert opt.n_ran == 1 and opt.result("rec0_0.2V")["params"]["c1"] == 2.5
     # changed input bytes rerun that record only
     changed = tmp_path / "rec1_0.4V.csv"
@@ -117,17 +135,25 @@ def test_rerun_skips_complete_records_and_reruns_changed_ones(data, tmp_path, mo
 def test_manifest_labels_options_and_validate_with_a_fit_folder(data, tmp_path):
     recs = sorted((data / "recs").glob("rec*.csv"))
     manifest = tmp_path / "m.json"
-    manifest.write_text(json.dumps({"records": [
-        {"file": str(r), "name": f"r{i}", "voltage": VOLTS[i], "amplitude": 1.0}
-        for i, r in enumerate(recs)] + [{"file": str(recs[0]), "name": "typo", "options": "--bogus 1"}]}))
+    manifest.write_text(
+        json.dumps(
+            {
+                "records": [
+                    {"file": str(r), "name": f"r{i}", "voltage": VOLTS[i], "amplitude": 1.0} for i, r in enumerate(recs)
+                ]
+                + [{"file": str(recs[0]), "name": "typo", "options": "--bogus 1"}]
+            }
+        )
+    )
     res = batch(command="fit", manifest=manifest, out=tmp_path / "fits", workers=0, progress=False)
     assert res["typo"]["status"] == "error" and "unrecognized arguments: --bogus" in res["typo"]["message"]
     assert res["r1"]["labels"] == {"voltage": 0.4, "amplitude": 1.0} and res["r1"]["params"]["c3"] > 0
     # parameters against the manifest's voltage in the summary figure
     assert (tmp_path / "fits" / "summary.png").stat().st_size > 20_000
     # validate every record with the fit of the same name from the batch fit's folder
-    val = batch(command="validate", manifest=manifest, fit=tmp_path / "fits", out=tmp_path / "val", workers=0,
-                progress=False)
+    val = batch(
+        command="validate", manifest=manifest, fit=tmp_path / "fits", out=tmp_path / "val", workers=0, progress=False
+    )
     # the same record: validate re-estimates the initial state, so the free run is close to the fit's
     assert val["r2"]["nrmse"] == pytest.approx(res["r2"]["nrmse"], rel=0.02)
     assert val["typo"]["status"] == "error"  # the fit of 'typo' is an error record, not a fit
@@ -145,11 +171,11 @@ def test_a_record_task_returns_the_result_the_command_prints(data, capsys):
     from duffsym.engine import Task
 
     rec = sorted((data / "recs").glob("rec*.csv"))[1]
-    job, = collect_jobs([rec], command="fit", options="--seed 3")
+    (job,) = collect_jobs([rec], command="fit", options="--seed 3")
     task = record_task("fit", job)
     assert isinstance(task, Task) and task.func.__name__ == "run_record"
     run = Engine().run([task])
-    outcome, = list(run)
+    (outcome,) = list(run)
     got = outcome.value
     assert got.exit_code == 0 and got.message == "" and got.result.command == "fit" and got.result.value is None
     assert main(["fit", str(rec), "--seed", "3", "--json", "--quiet"]) == 0
@@ -157,15 +183,27 @@ def test_a_record_task_returns_the_result_the_command_prints(data, capsys):
     mine = got.result.to_dict()
     assert list(mine) == list(printed)  # the same keys, in the contract's order
     assert _params(mine) == _params(printed) and mine["params"]["c3"] > 0 and mine["records"] == printed["records"]
-    bad, = collect_jobs([rec], command="fit", options="--starts two")
+    (bad,) = collect_jobs([rec], command="fit", options="--starts two")
     refused = record_task("fit", bad).execute()
     assert refused.exit_code == 2 and refused.result is None
     assert refused.message == "duffsym fit: error: argument --starts: invalid int value: 'two'"
 
 
 def test_cli_batch_json_and_bad_input(data, tmp_path, capsys):
-    code = main(["batch", str(data / "recs" / "rec*.csv"), "--command", "fit", "--out", str(tmp_path / "o"),
-                 "--workers", "0", "--json", "--quiet"])
+    code = main(
+        [
+            "batch",
+            str(data / "recs" / "rec*.csv"),
+            "--command",
+            "fit",
+            "--out",
+            str(tmp_path / "o"),
+            "--workers",
+            "0",
+            "--json",
+            "--quiet",
+        ]
+    )
     out = capsys.readouterr()
     assert code == 0 and out.err == ""
     doc = json.loads(out.out)
@@ -173,8 +211,22 @@ def test_cli_batch_json_and_bad_input(data, tmp_path, capsys):
     assert main(["batch", str(tmp_path / "nothing*.csv"), "--command", "fit", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "matches no file" in err[0]
-    assert main(["batch", str(data / "recs"), "--command", "fit", "--out", str(tmp_path / "o2"), "--workers", "0",
-                 "--quiet"]) == 1  # the short record is not usable: exit 1, the summary says which
+    assert (
+        main(
+            [
+                "batch",
+                str(data / "recs"),
+                "--command",
+                "fit",
+                "--out",
+                str(tmp_path / "o2"),
+                "--workers",
+                "0",
+                "--quiet",
+            ]
+        )
+        == 1
+    )  # the short record is not usable: exit 1, the summary says which
 
 
 def _complete_results(out: Path) -> list[str]:
@@ -185,12 +237,29 @@ def _complete_results(out: Path) -> list[str]:
 def test_killed_batch_leaves_no_truncated_file_and_resumes(tmp_path, sig, workers):
     recs = _records(tmp_path / "recs", 8, periods=8.0)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "duffsym.cli", "batch", str(tmp_path / "recs"), "--command", "fit", "--out", str(out),
-           "--workers", str(workers), "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "duffsym.cli",
+        "batch",
+        str(tmp_path / "recs"),
+        "--command",
+        "fit",
+        "--out",
+        str(out),
+        "--workers",
+        str(workers),
+        "--quiet",
+    ]
     # a shell's background job ignores SIGINT and its children inherit that: give the batch the default
     # (Python then turns SIGINT into KeyboardInterrupt, as at a terminal)
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.time() + 120
     while time.time() < deadline and len(_complete_results(out)) < 2 and proc.poll() is None:
         time.sleep(0.01)
@@ -249,13 +318,18 @@ def test_diagnosis_candidates_on_the_engine_equal_the_serial_ones(cluster):
     from duffsym.effects import CATALOGUE, apply_effects
 
     m = apply_effects(MODEL, [CATALOGUE["force-offset"]])
-    rec = synthetic_record(m, {**table2_params(0.4), "off_y0": 0.15}, Sine(1.0, 2.0), dt=0.005, duration=3.0,
-                           noise=0.01, rng=1)  # the record of test_diagnose's CLI tests
+    rec = synthetic_record(
+        m, {**table2_params(0.4), "off_y0": 0.15}, Sine(1.0, 2.0), dt=0.005, duration=3.0, noise=0.01, rng=1
+    )  # the record of test_diagnose's CLI tests
     kw = dict(candidates=["force-offset", "output-lag"], sindy=False, candidate_cpu_time=None)
     a = diagnose(rec, **kw)
     b = diagnose(rec, engine=cluster, **kw)
     assert a.needed == b.needed == ("force-offset",)
     for ca, cb in zip(a.candidates, b.candidates):
-        assert (ca.effect, ca.all_params, ca.nrmse_after, ca.delta_bic) == (cb.effect, cb.all_params, cb.nrmse_after,
-                                                                            cb.delta_bic)
+        assert (ca.effect, ca.all_params, ca.nrmse_after, ca.delta_bic) == (
+            cb.effect,
+            cb.all_params,
+            cb.nrmse_after,
+            cb.delta_bic,
+        )
     assert a.verdict == b.verdict

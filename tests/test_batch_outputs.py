@@ -1,4 +1,5 @@
 """Batch outputs no record can overwrite, and two batches sharing a results folder (issue 24)."""
+
 from __future__ import annotations
 
 import json
@@ -25,8 +26,9 @@ def test_a_record_named_summary_keeps_its_result(tmp_path):
     assert "records" in json.loads((out / "summary.json").read_text())
     # a rerun reuses it, and `batch validate --fit OUT` finds it
     assert batch([tmp_path / "recs"], command="fit", out=out, workers=0, progress=False, figure=False).n_ran == 0
-    val = batch([tmp_path / "recs"], command="validate", fit=out, out=tmp_path / "val", workers=0, progress=False,
-                figure=False)
+    val = batch(
+        [tmp_path / "recs"], command="validate", fit=out, out=tmp_path / "val", workers=0, progress=False, figure=False
+    )
     assert val.all_ok, [r for r in val]
 
 

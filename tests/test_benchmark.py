@@ -4,6 +4,7 @@ Checks numbers, not shapes: the Bouc-Wen scores equal the RMSE recomputed from t
 with the benchmark's initialisation rules, and the true Bouc-Wen system (independent simulator) run by
 the same rules scores far below any fitted model (the protocol is the benchmark's, not ours).
 """
+
 from __future__ import annotations
 
 import importlib
@@ -36,7 +37,7 @@ def test_multisine_test_set_is_in_periodic_steady_state():
 
     test = load_bouc_wen(part="multisine")
     u, y = np.asarray(test.d), np.asarray(test.y)
-    steady = B.simulate_bouc_wen(np.r_[u, u], substeps=10)[u.size:, 0]
+    steady = B.simulate_bouc_wen(np.r_[u, u], substeps=10)[u.size :, 0]
     rest = B.simulate_bouc_wen(u, substeps=10)[:, 0]
     rms = lambda e: float(np.sqrt(np.mean(e**2)))  # noqa: E731
     assert rms(steady - y) < 1.2e-5
@@ -59,7 +60,7 @@ def test_bouc_wen_smoke_scores_recomputed():
     test = load_bouc_wen(part="multisine", unit="mm")
     u = np.tile(np.asarray(test.d), 3)
     tr = simulate(bouc_wen_model(opts), res.params, np.arange(u.size) / 750.0, {"F": u})
-    e = 1e-3 * (tr.y[-test.n_times:] - test.y)
+    e = 1e-3 * (tr.y[-test.n_times :] - test.y)
     assert d["scores"]["multisine"] == pytest.approx(float(np.sqrt(np.mean(e**2))), rel=1e-9)
     assert 1e-5 < d["scores"]["multisine"] < 5e-4  # a fitted model: above the true system, below y's RMS 6.7e-4
 

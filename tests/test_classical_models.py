@@ -1,6 +1,7 @@
 """The classical models (duffsym.model.classical): simulation against an independent Radau run of the exact
 nonsmooth laws, parameter recovery from independent records within the standard errors, and the UTFSM authors'
 published Spencer parameters re-simulated to their quoted errors."""
+
 from __future__ import annotations
 
 import math
@@ -19,8 +20,8 @@ from duffsym.model import get_model
 from duffsym.model.classical import abs_power, bouc_wen, lugre, smooth_abs, smooth_sign
 from duffsym.simulate import simulate
 
-SLOW_DRIVE = ics.Sines((0.1, 0.04), (0.7, 2.1), (0.3, 1.1))     # friction tests (m, m/s)
-DAMPER_DRIVE = ics.Sines((1.0, 0.4), (1.5, 4.1), (0.3, 1.1))    # damper tests (cm, cm/s)
+SLOW_DRIVE = ics.Sines((0.1, 0.04), (0.7, 2.1), (0.3, 1.1))  # friction tests (m, m/s)
+DAMPER_DRIVE = ics.Sines((1.0, 0.4), (1.5, 4.1), (0.3, 1.1))  # damper tests (cm, cm/s)
 #: Spencer's Table 1 with a wider Bouc-Wen transition (gamma, beta / 100, A / 10, alpha rescaled), resolved
 #: at 500 Hz: with their gamma = 363 cm^-2 the transition after a reversal spans 0.04 mm of stroke.
 SPENCER_TRUTH = dict(get_model("spencer").defaults(), alpha=44.0, alpha_u=220.0, gamma=3.63, beta=3.63, A=30.1)
@@ -92,8 +93,9 @@ def test_models_without_an_exponent_refuse_n():
 
 
 def _record(name, fs=500.0, duration=3.0, seed=0):
-    t, d, v, c, y, _ = ics.record(name, TRUTH[name], duration=duration, fs=fs, drive=_drive(name),
-                                  command=_command(name), noise=0.01, seed=seed)
+    t, d, v, c, y, _ = ics.record(
+        name, TRUTH[name], duration=duration, fs=fs, drive=_drive(name), command=_command(name), noise=0.01, seed=seed
+    )
     cmd = {"command": c, "command_name": "voltage"} if name == "spencer" else {}
     return Record(t=t, d=d, y=y, d_dot=v, name=f"independent {name}", **cmd)
 
@@ -130,8 +132,9 @@ def test_recovers_known_parameters(name):
 def test_recovers_known_parameters_slow(name):
     # Spencer at 400 Hz: converges in ~11 s (idle machine); the same record at 500 Hz hit IPOPT's 500-iteration
     # limit from this start (measured once, 463 s under load) - the collocation fit of Spencer's model is not robust
-    res = _check_recovery(name, fixed={"A": 30.1} if name == "spencer" else None,
-                          fs=400.0 if name == "spencer" else 500.0)
+    res = _check_recovery(
+        name, fixed={"A": 30.1} if name == "spencer" else None, fs=400.0 if name == "spencer" else 500.0
+    )
     if name == "spencer":
         assert res.params["eta"] == pytest.approx(190.0, rel=0.15)
 
@@ -151,14 +154,32 @@ UTFSM_P = [1.50e-4, 1.239, 2.31e-3, -38.15, 41.51, 15.22, 1.894, -3.656, 7.626, 
 def utfsm_params(i: float) -> dict:
     p1, p2, p3, p4, p5, p6, p7, p8, p9, p10, p11, p12 = UTFSM_P
     g = p7 * math.exp(p8 * i)
-    return dict(alpha=p4 * i * i + p5 * i + p6, alpha_u=0.0, c0=p9 * i + p10, c0_u=0.0, c1=p11 * i + p12,
-                c1_u=0.0, k0=p1, k1=p2, x0=p3, gamma=g, beta=g, A=300.0, eta=190.0)
+    return dict(
+        alpha=p4 * i * i + p5 * i + p6,
+        alpha_u=0.0,
+        c0=p9 * i + p10,
+        c0_u=0.0,
+        c1=p11 * i + p12,
+        c1_u=0.0,
+        k0=p1,
+        k1=p2,
+        x0=p3,
+        gamma=g,
+        beta=g,
+        A=300.0,
+        eta=190.0,
+    )
 
 
-@pytest.mark.parametrize("test_name, current, quoted, tol", [
-    ("5mm3Hz1A", 1.0, 0.079, 0.003), ("10mm1Hz0x5A", 0.5, 0.118, 0.003), ("25mm0x1Hz0A", 0.0, 0.247, 0.003),
-    ("2mm5Hz0A", 0.0, 0.169, 0.01),
-])
+@pytest.mark.parametrize(
+    "test_name, current, quoted, tol",
+    [
+        ("5mm3Hz1A", 1.0, 0.079, 0.003),
+        ("10mm1Hz0x5A", 0.5, 0.118, 0.003),
+        ("25mm0x1Hz0A", 0.0, 0.247, 0.003),
+        ("2mm5Hz0A", 0.0, 0.169, 0.01),
+    ],
+)
 def test_utfsm_published_spencer_parameters_reproduce_their_errors(test_name, current, quoted, tol):
     """An independent check of the Spencer implementation: the authors' parameters, re-simulated from rest on
     the full-rate record (their coefficients evaluated at the test's current), give their quoted NRMSE

@@ -1,4 +1,5 @@
 """The command line: results against the Python API, and one-line errors with non-zero exits."""
+
 import json
 import re
 import subprocess
@@ -22,16 +23,50 @@ def test_models_json_lists_the_paper_models(capsys):
     code, out, err = run(["models", "--json"], capsys)
     assert code == 0
     names = [m["model"] for m in json.loads(out)["models"]]
-    assert names == ["mr-damper", "mr-damper-current", "mr-damper-current-quadratic", "mr-damper-current-saturating",
-                     "mr-damper-current-path-viscous", "duffing-like", "duffing", "duffing-gain", "structure",
-                     "bouc-wen", "bouc-wen-current", "spencer", "dahl", "lugre", "bingham", "bingham-current",
-                     "biviscous", "biviscous-current"]  # the classical models (issue 25) follow the paper's; duffing-gain: Eq. 1 with an input gain; structure: a mass carrying the element; *-current: driven by the coil command
+    assert (
+        names
+        == [
+            "mr-damper",
+            "mr-damper-current",
+            "mr-damper-current-quadratic",
+            "mr-damper-current-saturating",
+            "mr-damper-current-path-viscous",
+            "duffing-like",
+            "duffing",
+            "duffing-gain",
+            "structure",
+            "bouc-wen",
+            "bouc-wen-current",
+            "spencer",
+            "dahl",
+            "lugre",
+            "bingham",
+            "bingham-current",
+            "biviscous",
+            "biviscous-current",
+        ]
+    )  # the classical models (issue 25) follow the paper's; duffing-gain: Eq. 1 with an input gain; structure: a mass carrying the element; *-current: driven by the coil command
 
 
 def test_simulate_table2_row_matches_python_api(tmp_path, capsys):
     csv = tmp_path / "sim.csv"
-    code, out, err = run(["simulate", "--voltage", "0.6", "--periods", "2", "--frequency", "2", "--dt", "0.005",
-                          "--out", str(csv), "--json"], capsys)
+    code, out, err = run(
+        [
+            "simulate",
+            "--voltage",
+            "0.6",
+            "--periods",
+            "2",
+            "--frequency",
+            "2",
+            "--dt",
+            "0.005",
+            "--out",
+            str(csv),
+            "--json",
+        ],
+        capsys,
+    )
     assert code == 0
     summary = json.loads(out)
     assert summary["success"] and summary["params"]["k2"] == 450.0
@@ -45,23 +80,39 @@ def test_simulate_table2_row_matches_python_api(tmp_path, capsys):
 
 
 def test_simulate_param_override(tmp_path, capsys):
-    code, out, _ = run(["simulate", "--voltage", "0.4", "--param", "c3=100,A_f=3", "--periods", "1",
-                        "--out", str(tmp_path / "a.csv"), "--json"], capsys)
+    code, out, _ = run(
+        [
+            "simulate",
+            "--voltage",
+            "0.4",
+            "--param",
+            "c3=100,A_f=3",
+            "--periods",
+            "1",
+            "--out",
+            str(tmp_path / "a.csv"),
+            "--json",
+        ],
+        capsys,
+    )
     params = json.loads(out)["params"]
     assert code == 0 and params["c3"] == 100.0 and params["A_f"] == 3.0 and params["k1"] == 34.0
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["simulate", "--voltage", "0.35"], "0.35 V is not a row of Table 2"),
-    (["simulate", "--param", "c4=1"], r"unknown parameter\(s\) \['c4'\]"),
-    (["simulate", "--param", "c3=inf"], "must be finite"),
-    (["simulate", "--param", "c3"], "must look like NAME=VALUE"),
-    (["simulate", "--n", "4"], "n must be odd"),
-    (["simulate", "--dt", "0"], "--dt must be a positive"),
-    (["simulate", "--param", "c3=-300", "--amplitude", "3", "--periods", "2"], "blew up at t="),
-    (["simulate", "--voltage", "0.4", "--model", "duffing"], "--voltage selects a Table 2 row"),
-    (["derive", "--model", "bouc"], "unknown model 'bouc'"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["simulate", "--voltage", "0.35"], "0.35 V is not a row of Table 2"),
+        (["simulate", "--param", "c4=1"], r"unknown parameter\(s\) \['c4'\]"),
+        (["simulate", "--param", "c3=inf"], "must be finite"),
+        (["simulate", "--param", "c3"], "must look like NAME=VALUE"),
+        (["simulate", "--n", "4"], "n must be odd"),
+        (["simulate", "--dt", "0"], "--dt must be a positive"),
+        (["simulate", "--param", "c3=-300", "--amplitude", "3", "--periods", "2"], "blew up at t="),
+        (["simulate", "--voltage", "0.4", "--model", "duffing"], "--voltage selects a Table 2 row"),
+        (["derive", "--model", "bouc"], "unknown model 'bouc'"),
+    ],
+)
 def test_bad_input_exits_nonzero_with_one_line(argv, message, capsys):
     code, out, err = run(argv, capsys)
     assert code == 2
@@ -79,8 +130,9 @@ def test_reproduce_without_studies_says_where_to_run(tmp_path, capsys, monkeypat
 
 def test_console_script_reports_without_traceback(tmp_path):
     """The installed entry point, as a user runs it: one stderr line, exit 2."""
-    proc = subprocess.run([sys.executable, "-m", "duffsym.cli", "simulate", "--n", "2"],
-                          capture_output=True, text=True, cwd=tmp_path)
+    proc = subprocess.run(
+        [sys.executable, "-m", "duffsym.cli", "simulate", "--n", "2"], capture_output=True, text=True, cwd=tmp_path
+    )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert "n must be odd" in proc.stderr
@@ -136,9 +188,13 @@ def test_fit_recovers_symmetry_invariant_combinations(table2_csv, tmp_path, caps
     assert d["success"] and d["nrmse"] < 1e-3 and d["effects"] == []
     p, t = d["params"], TABLE2[0.4]
     assert p["k3"] == 0.0 and "k3" not in d["stderr"]
-    for got, want in [(p["c1"] * p["A_f"], t["c1"] * t["A_f"]), (p["k1"] * p["A_f"], t["k1"] * t["A_f"]),
-                      (p["c1"] + p["c2"], t["c1"] + t["c2"]), (p["k1"] + p["k2"], t["k1"] + t["k2"]),
-                      (p["c3"] / p["A_f"] ** 4, t["c3"] / t["A_f"] ** 4)]:
+    for got, want in [
+        (p["c1"] * p["A_f"], t["c1"] * t["A_f"]),
+        (p["k1"] * p["A_f"], t["k1"] * t["A_f"]),
+        (p["c1"] + p["c2"], t["c1"] + t["c2"]),
+        (p["k1"] + p["k2"], t["k1"] + t["k2"]),
+        (p["c3"] / p["A_f"] ** 4, t["c3"] / t["A_f"] ** 4),
+    ]:
         assert got == pytest.approx(want, rel=2e-3)
     code, stdout, err = run(["validate", str(out), str(table2_csv), "--json"], capsys)
     v = json.loads(stdout)
@@ -157,8 +213,12 @@ def _bad_files(folder):
     nan, unsorted = rows.copy(), rows.copy()
     nan[50, 2] = np.nan
     unsorted[[10, 11]] = unsorted[[11, 10]]
-    for name, data, header in [("nan", nan, "time,displacement,force"), ("unsorted", unsorted, "time,displacement,force"),
-                               ("missing", rows[:, :2], "time,displacement"), ("short", rows[:10], "time,displacement,force")]:
+    for name, data, header in [
+        ("nan", nan, "time,displacement,force"),
+        ("unsorted", unsorted, "time,displacement,force"),
+        ("missing", rows[:, :2], "time,displacement"),
+        ("short", rows[:10], "time,displacement,force"),
+    ]:
         path = folder / f"{name}.csv"
         np.savetxt(path, data, delimiter=",", header=header, comments="")
     for name, raw in files.items():
@@ -166,11 +226,18 @@ def _bad_files(folder):
     return folder
 
 
-@pytest.mark.parametrize("name, message", [
-    ("empty", "the file is empty"), ("header", "header but no data rows"), ("nan", "NaN/inf values in y"),
-    ("unsorted", "strictly increasing"), ("missing", "missing column 'force'"), ("short", "too few samples"),
-    ("binary", "binary file"),
-])
+@pytest.mark.parametrize(
+    "name, message",
+    [
+        ("empty", "the file is empty"),
+        ("header", "header but no data rows"),
+        ("nan", "NaN/inf values in y"),
+        ("unsorted", "strictly increasing"),
+        ("missing", "missing column 'force'"),
+        ("short", "too few samples"),
+        ("binary", "binary file"),
+    ],
+)
 def test_fit_bad_files_exit_2_with_one_line(name, message, tmp_path, capsys):
     folder = _bad_files(tmp_path)
     code, out, err = run(["fit", str(folder / f"{name}.csv")], capsys)

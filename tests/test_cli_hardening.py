@@ -1,5 +1,6 @@
 """Hostile and careless input to the command line: one line on stderr, non-zero exit, nothing destroyed
 (issue 15, defects 5, 8 and 9)."""
+
 from __future__ import annotations
 
 import json
@@ -36,9 +37,17 @@ def record_csv(tmp_path_factory):
 
 
 def _fit_json(path, success=True, **changes):
-    d = {"model": "mr-damper", "effects": [], "structural": {"n_x": 5, "n_v": 5}, "params": dict(TABLE2[0.4]),
-         "stderr": {}, "nrmse": 0.01, "status": "Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
-         "success": success, "message": "ok" if success else "IPOPT stopped: too many iterations"}
+    d = {
+        "model": "mr-damper",
+        "effects": [],
+        "structural": {"n_x": 5, "n_v": 5},
+        "params": dict(TABLE2[0.4]),
+        "stderr": {},
+        "nrmse": 0.01,
+        "status": "Solve_Succeeded" if success else "Maximum_Iterations_Exceeded",
+        "success": success,
+        "message": "ok" if success else "IPOPT stopped: too many iterations",
+    }
     d.update(changes)
     path.write_text(json.dumps(d))
     return path
@@ -144,8 +153,7 @@ def test_sample_refuses_a_failed_fit(record_csv, tmp_path, capsys):
 
 # ------------------------------------------------------------------------------------------- bounds on work
 def _cli(args, timeout=120):
-    return subprocess.run([sys.executable, "-m", "duffsym.cli", *args], capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run([sys.executable, "-m", "duffsym.cli", *args], capture_output=True, text=True, timeout=timeout)
 
 
 def test_fifo_is_refused_not_waited_on(tmp_path):
@@ -169,21 +177,29 @@ def test_huge_power_is_refused(record_csv, capsys):
     one_line_error(code, err, "largest supported power")
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["simulate", "--excitation", "multisine", "--lines", "0"], "--lines must be between 1"),
-    (["simulate", "--dt", "1e-9"], "samples, more than"),
-    (["simulate", "--frequency", "nan"], "--frequency must be a positive"),
-    (["simulate", "--substeps", "0"], "--substeps must be between"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["simulate", "--excitation", "multisine", "--lines", "0"], "--lines must be between 1"),
+        (["simulate", "--dt", "1e-9"], "samples, more than"),
+        (["simulate", "--frequency", "nan"], "--frequency must be a positive"),
+        (["simulate", "--substeps", "0"], "--substeps must be between"),
+    ],
+)
 def test_simulate_options_out_of_range(argv, message, capsys):
     code, _, err = run(argv, capsys)
     one_line_error(code, err, message)
 
 
 # ------------------------------------------------------------------------------------------- values
-@pytest.mark.parametrize("extra, message", [
-    (["--fix", "A_f=0"], "A_f"), (["--af", "-1"], "A_f"), (["--fix", "c1=-5"], "c1"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--fix", "A_f=0"], "A_f"),
+        (["--af", "-1"], "A_f"),
+        (["--fix", "c1=-5"], "c1"),
+    ],
+)
 def test_out_of_range_fixed_values_are_refused(record_csv, extra, message, capsys):
     code, _, err = run(["fit", str(record_csv), "--quiet", *extra], capsys)
     one_line_error(code, err, message)
@@ -203,8 +219,14 @@ def test_mask_values_other_than_0_1_are_refused(record_csv, tmp_path, values, ca
 def test_extreme_force_magnitudes_are_refused(record_csv, tmp_path, scale, message, capsys):
     a = np.genfromtxt(record_csv, delimiter=",", names=True)
     p = tmp_path / "x.csv"
-    np.savetxt(p, np.column_stack([a["time"], a["displacement"], a["velocity"], a["force"] * scale]),
-               delimiter=",", header="time,displacement,velocity,force", comments="", fmt="%.17g")
+    np.savetxt(
+        p,
+        np.column_stack([a["time"], a["displacement"], a["velocity"], a["force"] * scale]),
+        delimiter=",",
+        header="time,displacement,velocity,force",
+        comments="",
+        fmt="%.17g",
+    )
     code, _, err = run(["fit", str(p), "--quiet"], capsys)
     one_line_error(code, err, message)
 
@@ -216,13 +238,22 @@ def test_deeply_nested_json_is_a_one_line_error(record_csv, tmp_path, capsys):
     one_line_error(code, err, "nested too deeply")
 
 
-@pytest.mark.parametrize("change, field", [
-    ({"params": {"c1": "ten"}}, "params.c1"), ({"params": [1, 2]}, "params"), ({"success": "yes"}, "success"),
-    ({"structural": {"n_x": 10**9}}, "structural.n_x"), ({"x0": [["a", 1]]}, "x0[0]"),
-    ({"covariance": [[1, 2], [3]]}, "covariance"), ({"mask": [{"n_times": 10**15, "ranges": []}]}, "mask"),
-    ({"effects": "backlash"}, "effects"), ({"model": 5}, "model"), ({"nrmse": 1e400}, "nrmse"),
-    ({"params": {"c1": 1e400}}, "params.c1"),
-])
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"params": {"c1": "ten"}}, "params.c1"),
+        ({"params": [1, 2]}, "params"),
+        ({"success": "yes"}, "success"),
+        ({"structural": {"n_x": 10**9}}, "structural.n_x"),
+        ({"x0": [["a", 1]]}, "x0[0]"),
+        ({"covariance": [[1, 2], [3]]}, "covariance"),
+        ({"mask": [{"n_times": 10**15, "ranges": []}]}, "mask"),
+        ({"effects": "backlash"}, "effects"),
+        ({"model": 5}, "model"),
+        ({"nrmse": 1e400}, "nrmse"),
+        ({"params": {"c1": 1e400}}, "params.c1"),
+    ],
+)
 def test_tampered_fit_json_names_the_field(record_csv, tmp_path, change, field, capsys):
     p = tmp_path / "t.json"
     _fit_json(p, **change)
@@ -243,8 +274,12 @@ def test_single_line_5MB_file_is_not_echoed(tmp_path, capsys):
 
 def test_process_substitution_pipe_is_named(tmp_path):
     """`fit <(cat file)`: a pipe used to be read as "the file is empty"."""
-    proc = subprocess.run(["bash", "-c", f"{sys.executable} -m duffsym.cli fit <(printf 'time,displacement,force\\n')"],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        ["bash", "-c", f"{sys.executable} -m duffsym.cli fit <(printf 'time,displacement,force\\n')"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2 and "FIFO" in proc.stderr and "empty" not in proc.stderr
 
 
@@ -291,8 +326,21 @@ def test_interrupted_sample_keeps_the_chain_so_far(record_csv, tmp_path, capsys,
     monkeypatch.setattr(sampler._Vectorized, "__call__", interrupt_later)
     capsys.readouterr()
     chains = tmp_path / "chains.npz"
-    code = main(["sample", str(record_csv), "--fit", str(fit_json), "--walkers", "16", "--steps", "400",
-                 "--chains", str(chains), "--quiet"])
+    code = main(
+        [
+            "sample",
+            str(record_csv),
+            "--fit",
+            str(fit_json),
+            "--walkers",
+            "16",
+            "--steps",
+            "400",
+            "--chains",
+            str(chains),
+            "--quiet",
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 130 and "Traceback" not in err and "chains.partial.npz" in err
     assert not chains.exists()
@@ -307,8 +355,10 @@ def test_sample_with_a_chain_too_short_for_tau_reports_not_converged(record_csv,
     fit_json = tmp_path / "fit.json"
     assert main(["fit", str(record_csv), "--out", str(fit_json), "--quiet"]) == 0
     capsys.readouterr()
-    code, out, err = run(["sample", str(record_csv), "--fit", str(fit_json), "--steps", "3", "--walkers", "16",
-                          "--quiet", "--json"], capsys)
+    code, out, err = run(
+        ["sample", str(record_csv), "--fit", str(fit_json), "--steps", "3", "--walkers", "16", "--quiet", "--json"],
+        capsys,
+    )
     assert code == 0, err
     d = json.loads(out)
     assert d["converged"] is False and d["n_steps"] == 3 and d["burn"] == 1
@@ -317,6 +367,8 @@ def test_sample_with_a_chain_too_short_for_tau_reports_not_converged(record_csv,
 def test_random_excitation_without_lines_is_a_one_line_error(tmp_path, capsys):
     """--f-max below 1/duration left the random excitation without a line: ZeroDivisionError (found by
     tests/test_fuzz.py)."""
-    code, _, err = run(["simulate", "--excitation", "random", "--duration", "1", "--f-max", "0.5",
-                        "--out", str(tmp_path / "s.csv")], capsys)
+    code, _, err = run(
+        ["simulate", "--excitation", "random", "--duration", "1", "--f-max", "0.5", "--out", str(tmp_path / "s.csv")],
+        capsys,
+    )
     one_line_error(code, err, "below the lowest line")

@@ -1,6 +1,7 @@
 """Every input or output path problem is one line naming the path and the command, exit 2 (issue 24):
 symbolic link loops, a batch's error under its own name (not its --command's), write errors that name
 the file they could not write."""
+
 from __future__ import annotations
 
 import errno
@@ -38,13 +39,16 @@ def _one_line_exit_2(capsys, argv, *words):
     return err[0]
 
 
-@pytest.mark.parametrize("argv", [
-    ["fit", "{rec}", "--out", "{loop}"],
-    ["fit", "{rec}", "--plot", "{loop}"],
-    ["fit", "{loop}"],
-    ["batch", "{rec}", "--command", "fit", "--out", "{loop}", "--workers", "0"],
-    ["convert", "{rec}", "--columns", "time=1,displacement=2,force=3", "--out", "{loop}"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["fit", "{rec}", "--out", "{loop}"],
+        ["fit", "{rec}", "--plot", "{loop}"],
+        ["fit", "{loop}"],
+        ["batch", "{rec}", "--command", "fit", "--out", "{loop}", "--workers", "0"],
+        ["convert", "{rec}", "--columns", "time=1,displacement=2,force=3", "--out", "{loop}"],
+    ],
+)
 def test_a_symlink_loop_is_one_line_and_exit_2(capsys, record, loop, argv):
     argv = [a.format(rec=record, loop=loop) for a in argv]
     _one_line_exit_2(capsys, argv, f"duffsym {argv[0]}:", "loop")
@@ -52,8 +56,9 @@ def test_a_symlink_loop_is_one_line_and_exit_2(capsys, record, loop, argv):
 
 def test_a_batch_error_carries_the_batch_command_name(capsys, record, tmp_path):
     (tmp_path / "afile").write_text("x")
-    line = _one_line_exit_2(capsys, ["batch", str(record), "--command", "fit", "--out", str(tmp_path / "afile"),
-                                     "--workers", "0"], "afile")
+    line = _one_line_exit_2(
+        capsys, ["batch", str(record), "--command", "fit", "--out", str(tmp_path / "afile"), "--workers", "0"], "afile"
+    )
     assert line.startswith("duffsym batch:")
 
 

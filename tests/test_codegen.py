@@ -6,6 +6,7 @@ inputs and parameters (fixed seeds), to 1e-12 relative to the size of the terms 
 large terms that cancel is judged against the terms, not the near-zero result). Jacobians are
 checked against central finite differences of the generated right-hand side.
 """
+
 from __future__ import annotations
 
 import mpmath
@@ -188,8 +189,11 @@ def test_jacobians_match_central_differences(model):
         fd_p = _central_difference(lambda v: nm.rhs(x, u, v), p)
         Jc = np.empty((n, n))
         mod.jac(x, u, p, Jc)
-        for got, fd, what in ((nm.jac_states(x, u, p), fd_x, "jac_states"), (Jc, fd_x, "compiled jac"),
-                              (nm.jac_params(x, u, p), fd_p, "jac_params")):
+        for got, fd, what in (
+            (nm.jac_states(x, u, p), fd_x, "jac_states"),
+            (Jc, fd_x, "compiled jac"),
+            (nm.jac_params(x, u, p), fd_p, "jac_params"),
+        ):
             tol = 1e-6 * (1.0 + np.abs(fd).max())
             np.testing.assert_allclose(got, fd, rtol=1e-6, atol=tol, err_msg=f"{model.name} {what}")
 
@@ -220,11 +224,17 @@ def test_symbolic_power_refused_by_numeric_code():
 @pytest.mark.parametrize(
     "build, rhs_symbols, out_symbols",
     [
-        (lambda: mr_damper(5), [r"\dot{d}", "c_{1}", "c_{2}", "c_{3}", "k_{1}", "k_{2}", "k_{3}", "x_{2}^{5}",
-                                "x_{1}^{5}"], ["A_{f}", "x_{2}"]),
+        (
+            lambda: mr_damper(5),
+            [r"\dot{d}", "c_{1}", "c_{2}", "c_{3}", "k_{1}", "k_{2}", "k_{3}", "x_{2}^{5}", "x_{1}^{5}"],
+            ["A_{f}", "x_{2}"],
+        ),
         (lambda: mr_damper(n_x=3, n_v=5), ["x_{1}^{3}", "x_{2}^{5}", r"\dot{d}"], ["A_{f}"]),
-        (lambda: duffing_like(3), [r"\gamma", r"\alpha", r"\beta", r"\delta", "k_{1}", "c_{1}", r"\dot{d}",
-                                   "x_{1}^{3}", "x_{2}^{3}"], ["A_{f}"]),
+        (
+            lambda: duffing_like(3),
+            [r"\gamma", r"\alpha", r"\beta", r"\delta", "k_{1}", "c_{1}", r"\dot{d}", "x_{1}^{3}", "x_{2}^{3}"],
+            ["A_{f}"],
+        ),
         (duffing, [r"\gamma", r"\alpha", r"\beta", "F", "x_{1}^{3}"], ["x_{1}"]),
         (lag_friction_model, [r"\tanh", r"\mu", r"\epsilon", r"\tau", "A_{f}", "c_{3}"], ["z"]),
     ],

@@ -1,4 +1,5 @@
 """The generated-code cache runs only code duffsym generated, from folders only this user controls."""
+
 import os
 import py_compile
 import subprocess
@@ -13,8 +14,9 @@ from duffsym.codegen import compiled
 
 def _run(code: str, cache, tmp_path) -> subprocess.CompletedProcess:
     env = {**os.environ, "DUFFSYM_CACHE": str(cache), "TMPDIR": str(tmp_path)}
-    return subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True,
-                          timeout=300)
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)], env=env, capture_output=True, text=True, timeout=300
+    )
 
 
 def test_planted_bytecode_is_never_executed(tmp_path):
@@ -31,11 +33,15 @@ def test_planted_bytecode_is_never_executed(tmp_path):
     pyc = cache / "__pycache__" / f"{key}.{sys.implementation.cache_tag}.pyc"
     pyc.parent.mkdir(mode=0o700)
     py_compile.compile(str(evil), cfile=str(pyc), invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
-    proc = _run(f"""
+    proc = _run(
+        f"""
         from duffsym.codegen.compiled import load_generated
         m = load_generated({key!r}, {source!r})
         print(m.VALUE)
-    """, cache, tmp_path)
+    """,
+        cache,
+        tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     assert not marker.exists(), "the planted bytecode ran"
     assert proc.stdout.strip() == "1"
@@ -46,10 +52,14 @@ def test_tampered_source_is_regenerated_not_run(tmp_path):
     cache.mkdir(mode=0o700)
     key = "duffsym_gen_tampered_test"
     (cache / f"{key}.py").write_text("VALUE = 666\n")
-    proc = _run(f"""
+    proc = _run(
+        f"""
         from duffsym.codegen.compiled import load_generated
         print(load_generated({key!r}, "VALUE = 1\\n").VALUE)
-    """, cache, tmp_path)
+    """,
+        cache,
+        tmp_path,
+    )
     assert proc.stdout.strip() == "1", proc.stderr
     assert (cache / f"{key}.py").read_text() == "VALUE = 1\n"
 
@@ -85,6 +95,7 @@ def test_fallback_temp_cache_is_per_user_and_private(tmp_path, monkeypatch):
     monkeypatch.setenv("HOME", str(home))
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     import tempfile
+
     monkeypatch.setattr(tempfile, "tempdir", None)
     try:
         chosen = compiled.cache_dir()

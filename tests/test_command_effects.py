@@ -3,6 +3,7 @@ element (``parallel-damping``, field-dependent on a command model) and a field t
 different rates (``field-asymmetry``); and the default start of a command model extended by effects. Data
 from the independent generator (tests/independent_current_sim.py, numpy only), the effect's term added
 to its output by hand."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -19,8 +20,22 @@ from duffsym.model import get_model
 DISP = gen.Sines((0.45, 0.25, 0.12), (0.7, 1.6, 2.7), (0.0, 1.0, 2.0))
 SWITCH = gen.Switching(0.05, 0.95, gen.Sines((1.0, 0.7, 0.5), (0.4, 0.9, 1.4), (0.3, 2.0, 4.0)), sharp=2.0)
 #: s12's damper (force grows with the current).
-TRUTH = dict(c1=4.0, c2=20.0, c3=400.0, k1=20.0, k2=300.0, k3=0.0, A_f=1.0, c1_u=40.0, c2_u=-10.0,
-             c3_u=-300.0, k1_u=30.0, k2_u=100.0, A_f_u=0.0, eta=100.0)
+TRUTH = dict(
+    c1=4.0,
+    c2=20.0,
+    c3=400.0,
+    k1=20.0,
+    k2=300.0,
+    k3=0.0,
+    A_f=1.0,
+    c1_u=40.0,
+    c2_u=-10.0,
+    c3_u=-300.0,
+    k1_u=30.0,
+    k2_u=100.0,
+    A_f_u=0.0,
+    eta=100.0,
+)
 
 
 def _record(extra=lambda g: 0.0, duration=3.0) -> Record:
@@ -49,8 +64,10 @@ def test_field_asymmetry_gives_different_rise_and_decay_rates():
     while it decays; only for a model with a field."""
     cur = get_model("mr-damper-current")
     m = CATALOGUE["field-asymmetry"].apply(cur)
-    f = sp.lambdify([m.states[2], m.input_symbols[2], m.param("eta").symbol, m.param("fa_a").symbol,
-                     m.param("fa_eps").symbol], m.rhs[2])
+    f = sp.lambdify(
+        [m.states[2], m.input_symbols[2], m.param("eta").symbol, m.param("fa_a").symbol, m.param("fa_eps").symbol],
+        m.rhs[2],
+    )
     assert f(0.0, 1.0, 100.0, 0.3, 1e-3) == pytest.approx(100.0 * 1.3 * 1.0)
     assert f(1.0, 0.0, 100.0, 0.3, 1e-3) == pytest.approx(-100.0 * 0.7 * 1.0)
     assert f(0.5, 0.5, 100.0, 0.3, 1e-3) == 0.0

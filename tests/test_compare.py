@@ -1,6 +1,7 @@
 """``duffsym compare`` and ``duffsym.compare()`` on records of the independent Bouc-Wen generator: the true model
 wins on held-out data at the noise level, the static Bingham law cannot follow the loop, and the table, JSON and
 figure say so; bad input gives a one-line error."""
+
 from __future__ import annotations
 
 import json
@@ -35,8 +36,8 @@ def comparison(records):
 def test_the_true_model_wins_at_the_noise_level(comparison):
     bw, bi = comparison.scores
     assert comparison.best().model == "bouc-wen"
-    assert 0.008 < bw.heldout_nrmse < 0.013           # 1 % noise
-    assert bi.heldout_nrmse > 0.3                        # a static law misses the pre-yield loop
+    assert 0.008 < bw.heldout_nrmse < 0.013  # 1 % noise
+    assert bi.heldout_nrmse > 0.3  # a static law misses the pre-yield loop
     assert bw.bic < bi.bic
     assert (bw.n_params, bi.n_params) == (6, 3)
     assert bw.certificate == "Bouc-Wen z bound (literature): holds" and bi.certificate == "none derived"
@@ -65,16 +66,37 @@ def test_summary_and_dict(comparison):
 
 def _csv(tmp_path, rec, name):
     path = tmp_path / name
-    np.savetxt(path, np.column_stack([rec.t, rec.d, rec.d_dot, rec.y]), delimiter=",",
-               header="time,displacement,velocity,force", comments="")
+    np.savetxt(
+        path,
+        np.column_stack([rec.t, rec.d, rec.d_dot, rec.y]),
+        delimiter=",",
+        header="time,displacement,velocity,force",
+        comments="",
+    )
     return path
 
 
 def test_cli_compare_with_validation_files(tmp_path, records, capsys):
     a, b = _csv(tmp_path, records[0], "a.csv"), _csv(tmp_path, records[1], "b.csv")
     out, fig = tmp_path / "c.json", tmp_path / "c.png"
-    rc = main(["compare", str(a), "--validate", str(b), "--models", "bouc-wen,bingham", "--starts", "1",
-               "--out", str(out), "--plot", str(fig), "--json", "--quiet"])
+    rc = main(
+        [
+            "compare",
+            str(a),
+            "--validate",
+            str(b),
+            "--models",
+            "bouc-wen,bingham",
+            "--starts",
+            "1",
+            "--out",
+            str(out),
+            "--plot",
+            str(fig),
+            "--json",
+            "--quiet",
+        ]
+    )
     assert rc == 0
     printed = json.loads(capsys.readouterr().out)
     saved = json.loads(out.read_text())

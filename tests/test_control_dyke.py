@@ -4,16 +4,17 @@ random displacement and random 0 / 2.25 V command) is inverted on a slice of the
 reference: the recovered command must follow its switching, and the model driven by the recovered command must
 track the measured force at least as well as the model driven by the measured voltage. Skipped when the
 external data is absent; decimated to 500 Hz and short slices to stay fast."""
+
 from __future__ import annotations
 
 import numpy as np
-from _external import DYKE_CSV, external_file
 
+from _external import DYKE_CSV, external_file
 from duffsym.data import read_csv
 
 COLUMNS = {"time": "t", "input": "D", "output": "F", "velocity": "V", "voltage": "Y"}
 UNITS = {"time": "s", "input": "cm", "output": "N", "velocity": "cm/s", "voltage": "V"}
-Q = 6            # 3004.8 Hz / 6 = 500.8 Hz (anti-alias filtered at 100 Hz)
+Q = 6  # 3004.8 Hz / 6 = 500.8 Hz (anti-alias filtered at 100 Hz)
 LIMITS = (0.0, 2.25)  # the command's two levels
 
 

@@ -2,6 +2,7 @@
 independent generator (tests/independent_current_sim.py, numpy RK4 of the written-out equations), the
 command that made a force is recovered from the force; forces out of reach are reported with the right
 reason; limits and rate hold; the model-based command tracks better than the clipped on/off law."""
+
 from __future__ import annotations
 
 import json
@@ -19,8 +20,22 @@ from duffsym.model.library import mr_damper
 DT = 0.005
 #: A damper whose force grows with the command (c1 up, c3 down with the field), like Table 2 across voltage;
 #: the generator's TRUTH is not monotone in the command, so "beyond the upper limit" needs this one.
-MONOTONE = dict(c1=4.0, c2=20.0, c3=400.0, k1=20.0, k2=300.0, k3=0.0, A_f=1.0, c1_u=40.0, c2_u=-10.0, c3_u=-300.0,
-                k1_u=30.0, k2_u=100.0, A_f_u=0.0, eta=100.0)
+MONOTONE = dict(
+    c1=4.0,
+    c2=20.0,
+    c3=400.0,
+    k1=20.0,
+    k2=300.0,
+    k3=0.0,
+    A_f=1.0,
+    c1_u=40.0,
+    c2_u=-10.0,
+    c3_u=-300.0,
+    k1_u=30.0,
+    k2_u=100.0,
+    A_f_u=0.0,
+    eta=100.0,
+)
 DISP = gen.Sines((0.6, 0.25), (1.0, 2.3), (0.0, 1.0))
 CMD = gen.Switching(0.1, 0.9, gen.Sines((1.0, 0.7), (0.6, 1.3), (0.3, 2.0)), sharp=3.0)
 
@@ -102,14 +117,25 @@ def cli_files(tmp_path_factory, damper):
     model, g, U = damper
     tmp = tmp_path_factory.mktemp("invert")
     train = gen.generate(gen.TRUTH, DISP, CMD, dt=DT, duration=4.0, noise=0.01, seed=3, substeps=20)
-    rec = Record(t=train["t"], d=train["d"], y=train["y"], d_dot=train["d_dot"], command=train["command"],
-                 command_name="current", name="train")
+    rec = Record(
+        t=train["t"],
+        d=train["d"],
+        y=train["y"],
+        d_dot=train["d_dot"],
+        command=train["command"],
+        command_name="current",
+        name="train",
+    )
     res = fit(Problem(model, rec, fixed={"A_f": gen.TRUTH["A_f"]}))
     assert res.success
     res.save(tmp / "fit.json")
-    (tmp / "d.csv").write_text("time,displacement,velocity\n" + "".join(
-        f"{float(a)!r},{float(b)!r},{float(c)!r}\n" for a, b, c in zip(g["t"], g["d"], g["d_dot"])))
-    (tmp / "f.csv").write_text("time,force\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(g["t"], g["y_clean"])))
+    (tmp / "d.csv").write_text(
+        "time,displacement,velocity\n"
+        + "".join(f"{float(a)!r},{float(b)!r},{float(c)!r}\n" for a, b, c in zip(g["t"], g["d"], g["d_dot"]))
+    )
+    (tmp / "f.csv").write_text(
+        "time,force\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(g["t"], g["y_clean"]))
+    )
     return tmp
 
 
@@ -117,8 +143,22 @@ def test_cli_invert_writes_the_command(cli_files, damper, capsys):
     _, g, _ = damper
     tmp = cli_files
     out = tmp / "cmd.csv"
-    code = main(["invert", str(tmp / "fit.json"), "--displacement", str(tmp / "d.csv"), "--force",
-                 str(tmp / "f.csv"), "--limits", "0,1", "--out", str(out), "--json", "--quiet"])
+    code = main(
+        [
+            "invert",
+            str(tmp / "fit.json"),
+            "--displacement",
+            str(tmp / "d.csv"),
+            "--force",
+            str(tmp / "f.csv"),
+            "--limits",
+            "0,1",
+            "--out",
+            str(out),
+            "--json",
+            "--quiet",
+        ]
+    )
     cap = capsys.readouterr()
     assert code == 0, cap.err
     d = json.loads(cap.out)
@@ -129,14 +169,28 @@ def test_cli_invert_writes_the_command(cli_files, damper, capsys):
     assert np.sqrt(np.mean((data["current"][late] - g["command"][late]) ** 2)) < 0.08  # a fitted model
 
 
-@pytest.mark.parametrize("args,needle", [
-    (["--limits", "1,0"], "LO < HI"),
-    (["--rate", "-1"], "--rate"),
-])
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["--limits", "1,0"], "LO < HI"),
+        (["--rate", "-1"], "--rate"),
+    ],
+)
 def test_cli_invert_bad_options_are_one_line(cli_files, capsys, args, needle):
     tmp = cli_files
-    code = main(["invert", str(tmp / "fit.json"), "--displacement", str(tmp / "d.csv"), "--force",
-                 str(tmp / "f.csv"), "--out", str(tmp / "x.csv"), *args])
+    code = main(
+        [
+            "invert",
+            str(tmp / "fit.json"),
+            "--displacement",
+            str(tmp / "d.csv"),
+            "--force",
+            str(tmp / "f.csv"),
+            "--out",
+            str(tmp / "x.csv"),
+            *args,
+        ]
+    )
     err = capsys.readouterr().err
     assert code != 0 and needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp / "x.csv").exists()
@@ -145,7 +199,17 @@ def test_cli_invert_bad_options_are_one_line(cli_files, capsys, args, needle):
 def test_cli_invert_missing_force_column_is_one_line(cli_files, tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("time,thrust\n0,1\n0.005,2\n0.01,3\n")
-    code = main(["invert", str(cli_files / "fit.json"), "--displacement", str(cli_files / "d.csv"), "--force", str(bad),
-                 "--out", str(tmp_path / "x.csv")])
+    code = main(
+        [
+            "invert",
+            str(cli_files / "fit.json"),
+            "--displacement",
+            str(cli_files / "d.csv"),
+            "--force",
+            str(bad),
+            "--out",
+            str(tmp_path / "x.csv"),
+        ]
+    )
     err = capsys.readouterr().err
     assert code != 0 and "missing column 'force'" in err and len(err.strip().splitlines()) == 1

@@ -1,5 +1,6 @@
 """``duffsym convert``: the files labs have (text, CSV with other names, .mat) to a record, checked
 against the package's own loaders and numpy's reader of the same files."""
+
 from __future__ import annotations
 
 import json
@@ -42,8 +43,19 @@ def plain_txt(tmp_path):
 
 def test_utfsm_text_file_converts_to_the_values_numpy_reads(tmp_path, capsys, utfsm_txt):
     out = tmp_path / "real.csv"
-    code = main(["convert", str(utfsm_txt), "--columns", "time=1,displacement=2,velocity=3,force=4",
-                 "--current", "1", "--out", str(out), "--json"])
+    code = main(
+        [
+            "convert",
+            str(utfsm_txt),
+            "--columns",
+            "time=1,displacement=2,velocity=3,force=4",
+            "--current",
+            "1",
+            "--out",
+            str(out),
+            "--json",
+        ]
+    )
     doc = json.loads(capsys.readouterr().out)
     assert code == 0 and doc["n_samples"] == 450 and doc["velocity"]
     raw = np.loadtxt(utfsm_txt)
@@ -63,8 +75,21 @@ def test_utfsm_text_file_converts_to_the_values_numpy_reads(tmp_path, capsys, ut
 
 def test_mat_matrix_without_time_equals_the_csv_record(tmp_path, capsys):
     out = tmp_path / "m.csv"
-    code = main(["convert", str(DATA / "synthetic_sine.mat"), "--variable", "data", "--columns",
-                 "displacement=1,force=2", "--dt", "0.005", "--out", str(out), "--quiet"])
+    code = main(
+        [
+            "convert",
+            str(DATA / "synthetic_sine.mat"),
+            "--variable",
+            "data",
+            "--columns",
+            "displacement=1,force=2",
+            "--dt",
+            "0.005",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
     assert code == 0 and capsys.readouterr().err == ""
     a, b = read_csv(out), read_csv(DATA / "synthetic_sine.csv")
     np.testing.assert_allclose(a.t, b.t, rtol=0, atol=1e-12)
@@ -74,20 +99,27 @@ def test_mat_matrix_without_time_equals_the_csv_record(tmp_path, capsys):
 
 def test_columns_by_header_name_and_comment_lines(tmp_path):
     f = tmp_path / "lab.txt"
-    f.write_text("% exported by a DAQ\nT  X_mm  F_kN\n" + "\n".join(
-        f"{k * 0.01:.2f} {np.sin(2 * np.pi * k / 25):.6f} {2 * np.cos(2 * np.pi * k / 25):.6f}" for k in range(100)))
+    f.write_text(
+        "% exported by a DAQ\nT  X_mm  F_kN\n"
+        + "\n".join(
+            f"{k * 0.01:.2f} {np.sin(2 * np.pi * k / 25):.6f} {2 * np.cos(2 * np.pi * k / 25):.6f}" for k in range(100)
+        )
+    )
     rec = read_table(f, columns={"time": "t", "displacement": "X_mm", "force": "3"})
     assert rec.n_times == 100 and rec.dt == pytest.approx(0.01) and rec.y[0] == 2.0
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--columns", "time=1,displacement=9,force=4"], "column 9 for input is out of range; the file has 4 columns"),
-    (["--columns", "displacement=2,force=4"], "no time column; give --dt"),
-    (["--columns", "time=1,force=4"], "must name the displacement column"),
-    (["--columns", "time=1,displacement=2,force=4,temperature=3"], "unknown role 'temperature'"),
-    (["--columns", "time=1,displacement=x,force=4"], "no column 'x' for input; it has no header row"),
-    (["--columns", "time=1,displacement=2,force=4", "--format", "mat"], "not a readable MATLAB"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--columns", "time=1,displacement=9,force=4"], "column 9 for input is out of range; the file has 4 columns"),
+        (["--columns", "displacement=2,force=4"], "no time column; give --dt"),
+        (["--columns", "time=1,force=4"], "must name the displacement column"),
+        (["--columns", "time=1,displacement=2,force=4,temperature=3"], "unknown role 'temperature'"),
+        (["--columns", "time=1,displacement=x,force=4"], "no column 'x' for input; it has no header row"),
+        (["--columns", "time=1,displacement=2,force=4", "--format", "mat"], "not a readable MATLAB"),
+    ],
+)
 def test_bad_input_one_line_exit_2_and_no_file(tmp_path, capsys, argv, message, plain_txt):
     out = tmp_path / "x.csv"
     code = main(["convert", str(plain_txt), *argv, "--out", str(out)])

@@ -2,6 +2,7 @@
 made by an independent generator (tests/independent_current_sim.py, numpy only) with a time-varying
 command and with several constant currents, the CLI fit/validate with a command column, and one-line
 errors for bad command columns."""
+
 from __future__ import annotations
 
 import json
@@ -53,8 +54,9 @@ def test_at_constant_command_the_model_is_eq12_with_the_coefficients_at_that_cur
 
 def test_field_forms_nest_the_linear_one():
     """Saturating: theta + theta_u u_sat tanh(u/u_sat) -> linear as u_sat -> oo; quadratic adds theta_uu u^2."""
-    lin, sat, quad = (get_model(n) for n in ("mr-damper-current", "mr-damper-current-saturating",
-                                             "mr-damper-current-quadratic"))
+    lin, sat, quad = (
+        get_model(n) for n in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic")
+    )
     us = sat.param("u_sat").symbol
     assert sp.expand(sp.limit(sat.rhs[1], us, sp.oo) - lin.rhs[1]) == 0
     zero = {quad.param(k + "_uu").symbol: 0 for k in (*gen.FIELD, "A_f")}
@@ -80,9 +82,16 @@ def test_recovers_the_parameters_from_a_record_with_a_time_varying_command():
 def test_recovers_the_parameters_from_tests_at_three_constant_currents_fitted_together():
     """A campaign: three records at 0.2, 0.5, 0.8 A (different displacement phases), one parameter set.
     Without a command change inside a record the lag eta is not identifiable: it is held (fixed)."""
-    recs = [_record(gen.constant(c), seed=k, duration=4.0, name=f"{c}A",
-                    disp=gen.Sines((0.5, 0.2), (1.0, 2.3), (0.3 * k, 1.0 + k)))
-            for k, c in enumerate((0.2, 0.5, 0.8))]
+    recs = [
+        _record(
+            gen.constant(c),
+            seed=k,
+            duration=4.0,
+            name=f"{c}A",
+            disp=gen.Sines((0.5, 0.2), (1.0, 2.3), (0.3 * k, 1.0 + k)),
+        )
+        for k, c in enumerate((0.2, 0.5, 0.8))
+    ]
     model = get_model("mr-damper-current")
     res = fit(Problem(model, recs, fixed={"A_f": gen.TRUTH["A_f"], "eta": gen.TRUTH["eta"]}))
     assert res.success, res.message
@@ -93,8 +102,22 @@ def test_recovers_the_parameters_from_tests_at_three_constant_currents_fitted_to
 
 #: A damper whose force grows with the current (s12's), a 3 s record sampled at 200 Hz: from the paper's
 #: tuning procedure (constant coefficients) the fit ran 306 s and stopped at NRMSE 0.21, eta 689 SE off.
-GROWING = dict(c1=4.0, c2=20.0, c3=400.0, k1=20.0, k2=300.0, k3=0.0, A_f=1.0, c1_u=40.0, c2_u=-10.0,
-               c3_u=-300.0, k1_u=30.0, k2_u=100.0, A_f_u=0.0, eta=100.0)
+GROWING = dict(
+    c1=4.0,
+    c2=20.0,
+    c3=400.0,
+    k1=20.0,
+    k2=300.0,
+    k3=0.0,
+    A_f=1.0,
+    c1_u=40.0,
+    c2_u=-10.0,
+    c3_u=-300.0,
+    k1_u=30.0,
+    k2_u=100.0,
+    A_f_u=0.0,
+    eta=100.0,
+)
 
 
 def test_default_start_on_a_short_switching_record_reaches_the_truth():
@@ -135,8 +158,10 @@ def test_linear_parameters_of_the_command_models():
 def _csv(path, rec: Record, command: str | None = "current", values=None):
     c = rec.command_signal() if values is None else values
     cols = ["time", "displacement", "velocity", "force"] + ([command] if command else [])
-    rows = [f"{float(a)!r},{float(b)!r},{float(v)!r},{float(y)!r}" + (f",{ci}" if command else "")
-            for a, b, v, y, ci in zip(rec.t, rec.d, rec.d_dot, rec.y, c)]
+    rows = [
+        f"{float(a)!r},{float(b)!r},{float(v)!r},{float(y)!r}" + (f",{ci}" if command else "")
+        for a, b, v, y, ci in zip(rec.t, rec.d, rec.d_dot, rec.y, c)
+    ]
     path.write_text(",".join(cols) + "\n" + "\n".join(rows) + "\n")
     return path
 
@@ -146,8 +171,22 @@ def fitted(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("current")
     train = _csv(tmp / "train.csv", _record(SWITCH))
     out = tmp / "fit.json"
-    assert main(["fit", str(train), "--model", "mr-damper-current", "--af", str(gen.TRUTH["A_f"]), "--out",
-                 str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(train),
+                "--model",
+                "mr-damper-current",
+                "--af",
+                str(gen.TRUTH["A_f"]),
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return tmp, out
 
 
@@ -219,8 +258,12 @@ def test_derive_gives_the_stability_conditions_as_functions_of_the_current():
     c3 = P["c3"] + P["c3_u"] * i
     expected = sp.And(c12 >= 0, c3 >= 0)
     got = sc.named()["dV/dt negative semi-definite"]
-    vals = [{P["c1"]: 1, P["c2"]: 1, P["c3"]: 1, P["c1_u"]: a, P["c2_u"]: 0, P["c3_u"]: b, i: c}
-            for a in (-5, 0, 5) for b in (-5, 0, 5) for c in (0, 0.5, 1)]
+    vals = [
+        {P["c1"]: 1, P["c2"]: 1, P["c3"]: 1, P["c1_u"]: a, P["c2_u"]: 0, P["c3_u"]: b, i: c}
+        for a in (-5, 0, 5)
+        for b in (-5, 0, 5)
+        for c in (0, 0.5, 1)
+    ]
     assert all(bool(got.subs(v)) == bool(expected.subs(v)) for v in vals)
     assert at_constant_command(get_model("mr-damper")) is None
 

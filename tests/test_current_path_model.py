@@ -1,18 +1,17 @@
 """The command-driven MR damper whose element runs in the path of the drive (``mr-damper-current-path-viscous``,
 issue 17 item 2): its limits are the existing models (symbolic), and identification recovers known parameters
 from records of an independent numpy simulator (tests/independent_path_current_sim.py)."""
+
 from __future__ import annotations
 
 import numpy as np
-import pytest
 import sympy as sp
 
 import independent_path_current_sim as gen
 from duffsym.data.record import Record
 from duffsym.identify import Problem, fit
 from duffsym.model import get_model
-from duffsym.model.library import (at_constant_command, mr_damper, mr_damper_current, mr_damper_current_path,
-                                   path_time)
+from duffsym.model.library import at_constant_command, mr_damper, mr_damper_current, mr_damper_current_path, path_time
 
 NAME = "mr-damper-current-path-viscous"
 
@@ -93,15 +92,23 @@ def test_recovers_the_parameters_from_tests_at_three_constant_currents_at_differ
     truth, with standard errors under 5 % of the value (20 % for the field slopes), so the check can fail. The start is every parameter
     0.6-1.6x off the truth: from the model's defaults the fit does not converge (as on the UTFSM campaign, where
     ``path_start`` from a clock-time fit is the start that works)."""
-    recs = [_record(gen.constant(c), seed=k, duration=3.0, name=f"{c}A",
-                    disp=gen.Sines((0.5, 0.2), (1.0 * f, 2.3 * f), (0.3 * k, 1.0 + k)))
-            for k, (c, f) in enumerate(((0.2, 1.0), (0.5, 2.5), (0.8, 0.4)))]
+    recs = [
+        _record(
+            gen.constant(c),
+            seed=k,
+            duration=3.0,
+            name=f"{c}A",
+            disp=gen.Sines((0.5, 0.2), (1.0 * f, 2.3 * f), (0.3 * k, 1.0 + k)),
+        )
+        for k, (c, f) in enumerate(((0.2, 1.0), (0.5, 2.5), (0.8, 0.4)))
+    ]
     model = get_model(NAME)
     free = [k for k in model.param_names if k not in ("A_f", "eta", "k3")]
     factors = np.exp(np.random.default_rng(1).uniform(np.log(0.6), np.log(1.6), len(free)))
     x0 = {k: gen.TRUTH[k] * f for k, f in zip(free, factors)}  # every parameter 0.6-1.6x off the truth
-    res = fit(Problem(model, recs, free=free, fixed={"A_f": gen.TRUTH["A_f"], "eta": gen.TRUTH["eta"], "k3": 0.0}),
-              x0=x0)
+    res = fit(
+        Problem(model, recs, free=free, fixed={"A_f": gen.TRUTH["A_f"], "eta": gen.TRUTH["eta"], "k3": 0.0}), x0=x0
+    )
     assert res.success, res.message
     z = {n: (res.params[n] - gen.TRUTH[n]) / res.stderr[n] for n in res.free}
     assert max(abs(v) for v in z.values()) < 3.0, z

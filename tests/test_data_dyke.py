@@ -1,14 +1,15 @@
 """The real Dyke MR-damper record (NEES 1996): its time column is rounded to 0.1 ms past 10 s (3004.8 Hz
 printed as steps of 0.0003/0.0004 s). Read as printed it must give the fit of the exact time base.
 Skipped when the external data is absent."""
+
 from __future__ import annotations
 
 import csv
 
 import numpy as np
 import pytest
-from _external import DYKE_CSV, external_file
 
+from _external import DYKE_CSV, external_file
 from duffsym.data import external_data_dir, read_csv
 from duffsym.errors import DataError
 
@@ -39,8 +40,7 @@ def _slice(tmp_path, a, b):
 
 def _same_fit(a, b, se) -> list[str]:
     """Parameters of fit ``a`` neither within 2 % nor within 0.1 standard error of fit ``b``."""
-    return [n for n in b.free
-            if abs(a.params[n] - b.params[n]) > max(0.02 * abs(b.params[n]), 0.1 * se[n])]
+    return [n for n in b.free if abs(a.params[n] - b.params[n]) > max(0.02 * abs(b.params[n]), 0.1 * se[n])]
 
 
 @pytest.mark.slow

@@ -1,4 +1,5 @@
 """CSV reader (format of docs/contract.md), its one-line errors, and the loaders of the real data."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -43,7 +44,9 @@ def test_column_mapping_and_synonyms(tmp_path):
     lines = ["t;V1;V2;junk"] + [f"{a};{b};{c};x" for a, b, c in zip(t, d, y)]
     rec = read_csv(_write(tmp_path, "\n".join(lines)), columns={"time": "t", "input": "V1", "output": "V2"})
     assert np.allclose(rec.d, d) and np.allclose(rec.y, y) and rec.d_dot is None
-    rec2 = read_csv(_write(tmp_path, "\n".join(lines), "b.csv"), columns={"t": "t", "displacement": "V1", "force": "v2"})
+    rec2 = read_csv(
+        _write(tmp_path, "\n".join(lines), "b.csv"), columns={"t": "t", "displacement": "V1", "force": "v2"}
+    )
     assert np.allclose(rec2.y, y)
     # canonical role names as file columns
     lines = ["Time,Input,Output"] + [f"{a},{b},{c}" for a, b, c in zip(t, d, y)]
@@ -131,7 +134,8 @@ def test_varying_current_is_the_command_history(tmp_path):
 
     t, d, v, y = _rows()
     text = "time,displacement,force,current\n" + "\n".join(
-        f"{a},{b},{c},{0.5 if i < 50 else 1.0}" for i, (a, b, c) in enumerate(zip(t, d, y)))
+        f"{a},{b},{c},{0.5 if i < 50 else 1.0}" for i, (a, b, c) in enumerate(zip(t, d, y))
+    )
     rec = read_csv(_write(tmp_path, text))
     assert rec.current is None and rec.command_name == "current" and rec.command_varies
     np.testing.assert_array_equal(rec.command_signal(), np.where(np.arange(rec.n_times) < 50, 0.5, 1.0))

@@ -1,4 +1,5 @@
 """Record validation (every DataError branch), the velocity differentiator, synthetic records."""
+
 from __future__ import annotations
 
 import math
@@ -101,7 +102,9 @@ def test_non_uniform_time_checked_where_needed():
     raw["t"] = raw["t"] + np.where(np.arange(400) > 250, 0.001, 0.0)
     rec = Record(**raw)  # fine as a record
     assert not rec.is_uniform()
-    with pytest.raises(DataError, match=r"deriving the velocity from d needs uniform sampling.*first between index 250"):
+    with pytest.raises(
+        DataError, match=r"deriving the velocity from d needs uniform sampling.*first between index 250"
+    ):
         rec.velocity()
     # a given velocity needs no derivation
     assert Record(**raw, d_dot=np.ones(400)).velocity()[0] == 1.0

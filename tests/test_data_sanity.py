@@ -1,16 +1,16 @@
 """Data sanity (duffsym.data.sanity): clipped and frozen stretches found on independently generated records
 (tests/independent_sim.py, no duffsym import; quantised like an ADC, noise added) and on the real Dyke and
 UTFSM records, with exact expectations for where they are; the training-range note."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from _external import DYKE_CSV, external_file
-from independent_sim import scenario
-
 from duffsym.data import Record, read_csv
 from duffsym.data.sanity import check_record, range_notes, training_ranges, valid_part
+from independent_sim import scenario
 
 DYKE_COLUMNS = dict(time="t", input="D", output="F", velocity="V", voltage="Y")
 
@@ -73,8 +73,8 @@ def test_device_at_rest_is_valid():
     t, d, y = _independent("sine", seed=2)
     a = 300 + int(np.argmin(np.abs(d[300:400] - np.mean(d))))  # mid-stroke: not at either channel's extreme
     d2, y2 = d.copy(), y.copy()
-    d2[a:a + 200] = d2[a]
-    y2[a:a + 200] = y2[a]
+    d2[a : a + 200] = d2[a]
+    y2[a : a + 200] = y2[a]
     assert y2[a] not in (y2.max(), y2.min()) and d2[a] not in (d2.max(), d2.min())
     assert check_record(Record(t=t, d=d2, y=y2)).ok
     # the same stretch with the force still moving: the displacement is frozen
@@ -121,8 +121,13 @@ def test_range_notes():
     t = np.arange(0, 8, 0.002)  # sin(t) spans -1..1
 
     def rec(amp, f, cmd):
-        return Record(t=t, d=amp * np.sin(2 * np.pi * f * t), y=np.cos(2 * np.pi * f * t) + 0.1 * np.sin(t),
-                      command=cmd(t), command_name="voltage")
+        return Record(
+            t=t,
+            d=amp * np.sin(2 * np.pi * f * t),
+            y=np.cos(2 * np.pi * f * t) + 0.1 * np.sin(t),
+            command=cmd(t),
+            command_name="voltage",
+        )
 
     train = [rec(1.0, 2.0, lambda s: 1.0 + np.sin(s)), rec(2.0, 4.0, lambda s: 1.0 + 1.5 * np.sin(s))]
     r = training_ranges(train)

@@ -1,4 +1,5 @@
 """Strict CSV reading and time stamps printed with rounding (issue 15, defects 2 and 4)."""
+
 from __future__ import annotations
 
 import math
@@ -73,7 +74,9 @@ def test_decimal_comma_in_a_comma_file_is_named(tmp_path):
 def test_decimal_comma_in_a_semicolon_file_is_named(tmp_path):
     rows = [r.replace(",", ";") for r in _body()]
     rows[5] = rows[5].split(";")[0] + ";0,5;" + rows[5].split(";")[2]
-    with pytest.raises(DataError, match=r"row 7, column 'displacement': cannot read '0,5' as a number; a decimal comma"):
+    with pytest.raises(
+        DataError, match=r"row 7, column 'displacement': cannot read '0,5' as a number; a decimal comma"
+    ):
         read_csv(_csv(tmp_path, HEADER.replace(",", ";") + "\n" + "\n".join(rows)))
 
 
@@ -100,7 +103,7 @@ def test_huge_single_line_is_not_echoed(tmp_path):
 
 
 def test_huge_field_is_a_data_error(tmp_path):
-    p = _csv(tmp_path, HEADER + "\n0,1,\"" + "9" * 300_000 + "\n")
+    p = _csv(tmp_path, HEADER + '\n0,1,"' + "9" * 300_000 + "\n")
     with pytest.raises(DataError, match="row 2") as info:
         read_csv(p)
     assert len(str(info.value)) < 600
@@ -116,7 +119,9 @@ def test_huge_value_is_not_echoed(tmp_path):
 
 # ------------------------------------------------------------------------------------------- time stamps
 def test_printed_quantum():
-    assert np.allclose(_record.printed_quantum(np.array([24.6496, 0.0003328, 3.0, 0.5, 1e-3])), [1e-4, 1e-7, 1.0, 0.1, 1e-3])
+    assert np.allclose(
+        _record.printed_quantum(np.array([24.6496, 0.0003328, 3.0, 0.5, 1e-3])), [1e-4, 1e-7, 1.0, 0.1, 1e-3]
+    )
 
 
 def _dyke_like_times(n=20_000, fs=3004.8):

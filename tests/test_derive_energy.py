@@ -1,5 +1,6 @@
 """Energy per cycle and loop area: derived identities against the paper's model typed here, and
 against simulated steady cycles."""
+
 import numpy as np
 import pytest
 import sympy as sp

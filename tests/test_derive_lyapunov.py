@@ -1,5 +1,6 @@
 """Lyapunov functions (Eq. 6, 8) and their derivatives (Eq. 7, 9), derived from the models and
 compared with the paper's results typed here independently."""
+
 import sympy as sp
 
 from duffsym.derive import energy_lyapunov, lyapunov_analysis, state_based_lyapunov, time_derivative
@@ -75,8 +76,11 @@ def test_extra_friction_term_adds_a_nonpositive_contribution():
     base = mr_damper(5)
     mu = ParamSpec("t_mu", r"\mu", 1.0, 0.0, 10.0)
     eps = ParamSpec("t_eps", r"\varepsilon", 0.01, 1e-6, 1.0)
-    model = base.extend(effect="test-friction", params=(mu, eps),
-                        rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)})
+    model = base.extend(
+        effect="test-friction",
+        params=(mu, eps),
+        rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)},
+    )
     lya = lyapunov_analysis(model)
     expected = -(c1 + c2) * x2**2 - c3 * x2**6 - mu.symbol * x2 * sp.tanh(x2 / eps.symbol)
     assert same(lya.v_dot, expected)

@@ -1,4 +1,5 @@
 """Eq. 11 -> Eq. 12 by coefficient matching, against the paper's braces under Eq. 12."""
+
 import numpy as np
 import sympy as sp
 

@@ -1,5 +1,6 @@
 """The derivation report: order, content (compared with the paper's results typed here), and the
 three output forms."""
+
 import json
 
 import sympy as sp
@@ -7,8 +8,19 @@ import sympy as sp
 from duffsym.derive import derivation_report
 from duffsym.model import ParamSpec, duffing, duffing_like, get_model, mr_damper
 
-ORDER_MR = ["equation", "state_space", "normalization", "lyapunov_state", "lyapunov_energy",
-            "lyapunov_derivative", "invariant_set", "stability_conditions", "scaling_symmetry", "energy", "certificate_defaults"]
+ORDER_MR = [
+    "equation",
+    "state_space",
+    "normalization",
+    "lyapunov_state",
+    "lyapunov_energy",
+    "lyapunov_derivative",
+    "invariant_set",
+    "stability_conditions",
+    "scaling_symmetry",
+    "energy",
+    "certificate_defaults",
+]
 
 x1, x2 = sp.symbols("x1 x2", real=True)
 c1, c2, c3, k1, k2, k3, A_f = sp.symbols("c1 c2 c3 k1 k2 k3 A_f", real=True)
@@ -73,8 +85,11 @@ def test_extended_model_is_derived_on_the_mechanical_pair():
     eps = ParamSpec("t_eps", r"\varepsilon", 0.01, 1e-6, 1.0)
     z = sp.Symbol("z_t", real=True)
     tau = ParamSpec("t_tau", r"\tau", 0.01, 1e-6, 1.0)
-    model = base.extend(effect="test-friction", params=(mu, eps),
-                        rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)})
+    model = base.extend(
+        effect="test-friction",
+        params=(mu, eps),
+        rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)},
+    )
     model = model.extend(effect="test-lag", params=(tau,), states=((z, (model.output - z) / tau.symbol),), output=z)
     rep = derivation_report(model)
     deriv = rep.item("lyapunov_derivative")
@@ -82,8 +97,10 @@ def test_extended_model_is_derived_on_the_mechanical_pair():
     assert "z_t do not act on the mechanics" in deriv.note
     terms = deriv.data["terms"]
     assert any(t["nonpositive_if"] == "t_mu >= 0" for t in terms)
-    assert sp.simplify(parse(rep.item("lyapunov_energy").data["V"])
-                       - ((k1 + k2) / 2 * x1**2 + x2**2 / 2 + k3 / 6 * x1**6)) == 0
+    assert (
+        sp.simplify(parse(rep.item("lyapunov_energy").data["V"]) - ((k1 + k2) / 2 * x1**2 + x2**2 / 2 + k3 / 6 * x1**6))
+        == 0
+    )
     assert rep.item("equation").text.count("\n") == 3  # three state equations and the output
     json.dumps(rep.to_dict())
 
@@ -91,8 +108,10 @@ def test_extended_model_is_derived_on_the_mechanical_pair():
 def test_latex_text_is_escaped_once_and_verbatim_lines_fit():
     from duffsym.derive.report import _tex_escape, _wrap_verbatim
 
-    assert _tex_escape("A_c^T P, |y| -> {x}") == (r"A\_c\textasciicircum{}T P, \textbar{}y\textbar{} -"
-                                                  r"\textgreater{} \{x\}")
+    assert _tex_escape("A_c^T P, |y| -> {x}") == (
+        r"A\_c\textasciicircum{}T P, \textbar{}y\textbar{} -"
+        r"\textgreater{} \{x\}"
+    )
     assert _tex_escape("a\\b") == r"a\textbackslash{}b"
     long = "[ok] dV/dt negative semi-definite: " + "x " * 60
     assert all(len(line) <= 80 for line in _wrap_verbatim(long).splitlines())

@@ -1,5 +1,6 @@
 """Stability conditions derived from the Lyapunov function, against conditions typed from the
 paper's argument (Eq. 6-10), and the numeric certificate on Tables 1 and 2."""
+
 import itertools
 
 import numpy as np

@@ -1,5 +1,6 @@
 """The scaling symmetry x -> s x, found from the model, against the hand-derived transform and
 against simulation."""
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -19,8 +20,15 @@ gamma, alpha, beta, delta = sp.symbols("gamma alpha beta delta", real=True)
 def mr_hand(n):
     """Hand-derived: x -> s x needs c1, k1 -> s c1, s k1 (input terms scale with x), c1 + c2 and k1 + k2
     unchanged (linear terms), n-th power terms times s^(1-n), and A_f -> A_f / s (y = A_f x')."""
-    return {"c1": s * c1, "c2": c1 + c2 - s * c1, "k1": s * k1, "k2": k1 + k2 - s * k1,
-            "c3": c3 * s ** (1 - n), "k3": k3 * s ** (1 - n), "A_f": A_f / s}
+    return {
+        "c1": s * c1,
+        "c2": c1 + c2 - s * c1,
+        "k1": s * k1,
+        "k2": k1 + k2 - s * k1,
+        "c3": c3 * s ** (1 - n),
+        "k3": k3 * s ** (1 - n),
+        "A_f": A_f / s,
+    }
 
 
 @pytest.mark.parametrize("n", [5, 3, N_SYMBOL])
@@ -37,8 +45,15 @@ def test_mr_damper_symmetry_matches_hand_derivation(n):
 
 def test_duffing_like_symmetry():
     sym = find_scaling_symmetry(duffing_like(3))
-    hand = {"gamma": gamma, "alpha": alpha, "beta": beta / s**2, "delta": delta / s**2,
-            "k1": s * k1, "c1": s * c1, "A_f": A_f / s}
+    hand = {
+        "gamma": gamma,
+        "alpha": alpha,
+        "beta": beta / s**2,
+        "delta": delta / s**2,
+        "k1": s * k1,
+        "c1": s * c1,
+        "A_f": A_f / s,
+    }
     for name, expr in hand.items():
         assert sp.simplify(sym.mapping[name] - expr) == 0, name
     assert sym.tangent["gamma"] == 0 and sp.simplify(sym.tangent["beta"] + 2 * beta) == 0
@@ -48,16 +63,18 @@ def test_no_symmetry_when_the_output_or_a_term_fixes_the_scale():
     assert not find_scaling_symmetry(duffing()).exists  # output is x itself, and F enters with gain 1
     base = mr_damper(5)
     mu = ParamSpec("t_mu", r"\mu", 1.0, 0.0, 10.0)
-    fric = base.extend(effect="friction", params=(mu,),
-                       rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / sp.Float(0.01))})
+    fric = base.extend(
+        effect="friction", params=(mu,), rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / sp.Float(0.01))}
+    )
     sym = find_scaling_symmetry(fric)
     assert not sym.exists
     with pytest.raises(ModelError, match="no scaling symmetry"):
         sym.apply(TABLE2[0.4] | {"t_mu": 1.0}, 2.0)
     # with eps a parameter the friction scales too: eps -> s eps, mu -> s mu
     eps = ParamSpec("t_eps", r"\varepsilon", 0.01, 1e-6, 1.0)
-    fric2 = base.extend(effect="friction", params=(mu, eps),
-                        rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)})
+    fric2 = base.extend(
+        effect="friction", params=(mu, eps), rhs_add={base.velocity: -mu.symbol * sp.tanh(base.velocity / eps.symbol)}
+    )
     sym2 = find_scaling_symmetry(fric2)
     assert sym2.exists
     assert sp.simplify(sym2.mapping["t_eps"] - s * eps.symbol) == 0

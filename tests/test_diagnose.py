@@ -6,6 +6,7 @@ The default run restricts the candidates to a few effects to stay fast; the slow
 catalogue on every effect (``pytest -m slow``), and ``benchmarks/bench_diagnose.py`` gives the
 confusion matrix over ten seeds per effect.
 """
+
 from __future__ import annotations
 
 import json
@@ -146,8 +147,18 @@ def _true_offset() -> float:
 
 
 def test_cli_diagnose_json_follows_the_contract(offset_csv, capsys, tmp_path):
-    code = main(["diagnose", str(offset_csv), "--candidates", "force-offset,output-lag", "--json", "--quiet",
-                 "--report", str(tmp_path / "rep")])
+    code = main(
+        [
+            "diagnose",
+            str(offset_csv),
+            "--candidates",
+            "force-offset,output-lag",
+            "--json",
+            "--quiet",
+            "--report",
+            str(tmp_path / "rep"),
+        ]
+    )
     out = capsys.readouterr()
     assert code == 0
     doc = json.loads(out.out)
@@ -163,8 +174,18 @@ def test_cli_diagnose_json_follows_the_contract(offset_csv, capsys, tmp_path):
 
 def test_cli_ladder_saves_a_fit_that_validate_reads(offset_csv, capsys, tmp_path):
     fit_path = tmp_path / "fit.json"
-    code = main(["ladder", str(offset_csv), "--candidates", "force-offset,output-lag", "--json", "--quiet",
-                 "--out", str(fit_path)])
+    code = main(
+        [
+            "ladder",
+            str(offset_csv),
+            "--candidates",
+            "force-offset,output-lag",
+            "--json",
+            "--quiet",
+            "--out",
+            str(fit_path),
+        ]
+    )
     out = capsys.readouterr()
     assert code == 0
     doc = json.loads(out.out)
@@ -176,12 +197,15 @@ def test_cli_ladder_saves_a_fit_that_validate_reads(offset_csv, capsys, tmp_path
     assert code == 0 and val["nrmse"] < 0.02
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--candidates", "viscous-heating"], "unknown effect"),
-    (["--holdout", "0.95"], "holdout must be between"),
-    (["--mask", "/nonexistent/mask.txt"], "no such file"),
-    (["--decimate", "0"], "--decimate must be"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--candidates", "viscous-heating"], "unknown effect"),
+        (["--holdout", "0.95"], "holdout must be between"),
+        (["--mask", "/nonexistent/mask.txt"], "no such file"),
+        (["--decimate", "0"], "--decimate must be"),
+    ],
+)
 def test_cli_diagnose_bad_options_exit_2_with_one_line(offset_csv, capsys, argv, message):
     code = main(["diagnose", str(offset_csv), "--quiet", *argv])
     err = capsys.readouterr().err.strip().splitlines()
@@ -194,8 +218,10 @@ def test_cli_diagnose_bad_options_exit_2_with_one_line(offset_csv, capsys, argv,
 #: first, parameter within 15 %, held-out error halved and within 2x of the noise"
 ABSORBED = {("input-shift", 0)}  # sine: the base parameters absorb a 4 ms shift; base already at the noise
 NOT_HALVED = {("input-delay", 0)}  # sine: base 0.0176 -> 0.0098 (noise 0.0100): at the noise, not halved
-WEAK = {("backlash", 1): "multisine: backlash is called first but h = 0.036 for 0.05 and the held-out NRMSE "
-                         "falls only 0.119 -> 0.066 (noise 0.010): the smooth play fit stops short"}
+WEAK = {
+    ("backlash", 1): "multisine: backlash is called first but h = 0.036 for 0.05 and the held-out NRMSE "
+    "falls only 0.119 -> 0.066 (noise 0.010): the smooth play fit stops short"
+}
 
 
 @pytest.mark.slow

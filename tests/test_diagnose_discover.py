@@ -7,6 +7,7 @@ catalogue's ``coulomb-friction`` (on the internal velocity x') does not have —
 The friction-like catalogue entries are withheld, as for an effect the catalogue lacks. The last
 default test repeats it on the project's independent generator (``tests/independent_sim.py``).
 """
+
 from __future__ import annotations
 
 import json
@@ -18,8 +19,15 @@ import sympy as sp
 P04 = dict(c1=10.0, c2=10.0, c3=320.0, k1=34.0, k2=480.0, A_f=1.6)
 
 
-def seal_friction_record(f_c: float = 0.3, eps: float = 0.3, n: int = 1600, dt: float = 0.005, noise: float = 0.01,
-                         seed: int = 0, substeps: int = 20):
+def seal_friction_record(
+    f_c: float = 0.3,
+    eps: float = 0.3,
+    n: int = 1600,
+    dt: float = 0.005,
+    noise: float = 0.01,
+    seed: int = 0,
+    substeps: int = 20,
+):
     """(t, d, d', y, sigma): RK4 at ``substeps`` per sample of x'' = k1(d-x) + c1(d'-x') - c2 x' - k2 x - c3 x'^5,
     y = A_f x' + f_c tanh(d'/eps) + noise; d = sin(2π·2t)."""
     w = 2 * np.pi * 2.0
@@ -102,8 +110,22 @@ def test_seal_friction_is_discovered_when_the_catalogue_lacks_it(tmp_path, capsy
     rec, sigma = _record()
     path = tmp_path / "seal.csv"
     write_csv(rec, path)
-    code = main(["ladder", str(path), "--candidates", "force-offset,inertia", "--discover", "--json", "--quiet",
-                 "--no-sindy", "--report", str(tmp_path / "rep"), "--out", str(tmp_path / "fit.json")])
+    code = main(
+        [
+            "ladder",
+            str(path),
+            "--candidates",
+            "force-offset,inertia",
+            "--discover",
+            "--json",
+            "--quiet",
+            "--no-sindy",
+            "--report",
+            str(tmp_path / "rep"),
+            "--out",
+            str(tmp_path / "fit.json"),
+        ]
+    )
     doc = json.loads(capsys.readouterr().out)
     assert code == 0
     first, last = doc["steps"][0], doc["steps"][-1]
@@ -170,7 +192,6 @@ def test_seal_friction_from_the_independent_generator_is_discovered():
     samples), seal-friction and coulomb-friction withheld: a discovered tanh(d'/ε) term, F_c within 10 %,
     the held-out error within 2x the noise (measured: 0.0218 -> 0.0101, F_c 0.0715 for 0.0745)."""
     import independent_sim as gen
-
     from duffsym.data import Record
     from duffsym.diagnose import ladder
     from duffsym.diagnose.search import split_record
@@ -178,7 +199,7 @@ def test_seal_friction_from_the_independent_generator_is_discovered():
     g = gen.scenario("seal-friction", 0)
     rec = Record(t=g.t, d=g.d, y=g.y, name="seal-friction-0", source="independent_sim")
     lad = ladder(rec, candidates=["force-offset", "inertia"], discover=True, sindy=False)
-    floor = g.truth["noise_std_raw"] / float(np.std(rec.y[split_record(rec, 0.3):]))
+    floor = g.truth["noise_std_raw"] / float(np.std(rec.y[split_record(rec, 0.3) :]))
     last = lad.steps[-1]
     assert last.discovered and "tanh(d'/" in last.effects[-1], lad.summary()
     assert last.nrmse_heldout <= 2 * floor < lad.steps[0].nrmse_heldout, (lad.summary(), floor)

@@ -1,5 +1,6 @@
 """The diagnosis on records made by the independent generator (tests/independent_sim.py, no duffsym
 code): effects placed where the physics acts, pre-filtered and noise-free variants (issue 16)."""
+
 import numpy as np
 import pytest
 
@@ -30,7 +31,7 @@ def test_piston_seal_friction_is_found_as_seal_friction_not_as_internal_friction
     dg = diagnose(rec, candidates=["coulomb-friction", "seal-friction", "backlash"], sindy=False)
     assert dg.needed == ("seal-friction",)
     c = dg.best
-    noise = g.noise_std / np.std(rec.y[dg.split["n_fit"]:])
+    noise = g.noise_std / np.std(rec.y[dg.split["n_fit"] :])
     assert c.nrmse_after < 1.3 * noise and dg.nrmse_heldout > 2 * noise  # measured 0.0101, noise 0.0102, base 0.0218
     assert c.params["seal_F"] == pytest.approx(g.truth["physics"]["seal_friction"], rel=0.15)
 
@@ -85,8 +86,11 @@ def test_candidate_outside_the_stability_certificate_is_marked_and_not_needed():
 
 @pytest.mark.slow
 @pytest.mark.claim
-@pytest.mark.xfail(strict=True, reason="fails on main d580dd2 (2 of 2 runs, 2026-11-26): force-offset is ranked "
-                   "first, not gas-accumulator; a claim the README makes, left visible until the diagnosis is fixed")
+@pytest.mark.xfail(
+    strict=True,
+    reason="fails on main d580dd2 (2 of 2 runs, 2026-11-26): force-offset is ranked "
+    "first, not gas-accumulator; a claim the README makes, left visible until the diagnosis is fixed",
+)
 def test_second_start_recovers_a_true_effect_lost_to_a_diverged_fit():
     # measured: from the base optimum + data guess, the gas-accumulator fit converged to a set whose free run
     # diverged, so the true effect ranked below force-offset; the second start (base solution) finds it
@@ -107,9 +111,12 @@ def test_nested_simpler_effects_come_from_the_parameters():
 
 @pytest.mark.slow
 @pytest.mark.claim
-@pytest.mark.xfail(strict=True, reason="fails on main d580dd2 (3 of 3 runs, 2026-11-26): nothing is needed "
-                   "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis "
-                   "is fixed")
+@pytest.mark.xfail(
+    strict=True,
+    reason="fails on main d580dd2 (3 of 3 runs, 2026-11-26): nothing is needed "
+    "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis "
+    "is fixed",
+)
 def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
     # measured before: on the offset + lag record, with the offset taken (as gas-accumulator), output-lag was
     # still being fitted after the 30 screening iterations, ranked 10 of 11 behind converged candidates and was

@@ -1,6 +1,7 @@
 """The noise floor of a diagnosis on pre-filtered and quantised records (issue 16): checked on records of
 the independent generator (tests/independent_sim.py, no duffsym code), on signals quantised and averaged
 by construction, and on the real UTFSM records when they are present."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,8 +10,14 @@ import pytest
 import independent_sim as gen
 from duffsym.data.record import Record
 from duffsym.diagnose import diagnose
-from duffsym.diagnose.noisefloor import (detect_moving_average, estimate_noise, moving_average, restore,
-                                         smoothed_noise_level, stepped_share)
+from duffsym.diagnose.noisefloor import (
+    detect_moving_average,
+    estimate_noise,
+    moving_average,
+    restore,
+    smoothed_noise_level,
+    stepped_share,
+)
 from duffsym.diagnose.residuals import noise_level
 
 
@@ -67,7 +74,7 @@ def test_clean_averaged_record_is_not_given_an_effect():
     # the average rounds the yield corners by 5x the noise and a lag partly imitates that
     rec, g = record("clean", 0, filter_kind="movavg", filter_width=5)
     dg = diagnose(rec, candidates=["output-lag", "input-delay", "seal-friction"], sindy=False)
-    noise = g.noise_std / np.std(rec.y[dg.split["n_fit"]:])
+    noise = g.noise_std / np.std(rec.y[dg.split["n_fit"] :])
     assert dg.needed == ()
     assert dg.nrmse_heldout < 1.5 * noise  # measured 0.0052 against 0.0044
     assert dg.noise_estimate.smoothing == 5 and "5-sample moving average" in dg.verdict

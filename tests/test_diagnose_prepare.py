@@ -1,4 +1,5 @@
 """Decimation of a diagnosis's fitting data (duffsym.diagnose.prepare): analytic signals, exact expectations."""
+
 from __future__ import annotations
 
 import math
@@ -120,8 +121,9 @@ def _fine_offset_record():
 def _diagnose(rec, truth, decimate):
     from duffsym.diagnose import diagnose
 
-    return diagnose(rec, candidates=["force-offset", "output-lag"], fixed={"A_f": truth["A_f"]}, sindy=False,
-                    decimate=decimate)
+    return diagnose(
+        rec, candidates=["force-offset", "output-lag"], fixed={"A_f": truth["A_f"]}, sindy=False, decimate=decimate
+    )
 
 
 def test_diagnose_fits_a_1_khz_record_decimated_and_still_finds_the_offset():
@@ -163,7 +165,7 @@ def test_fit_rule_floors_and_cap():
     """prepare_for_fit: 25 samples per period and 200 samples at least; a cap of 1 switches it off."""
     from duffsym.data.decimate import prepare_for_fit
 
-    rec = _record(fs=1000.0, duration=6.0, harmonics=(1, 3))   # 1 Hz: 25 samples/period allow q = 40
+    rec = _record(fs=1000.0, duration=6.0, harmonics=(1, 3))  # 1 Hz: 25 samples/period allow q = 40
     prep, out = prepare_for_fit(rec)
-    assert prep.factor == 30 and out.n_times == 200           # 6000 samples / 200 = 30 < 40: the sample floor
+    assert prep.factor == 30 and out.n_times == 200  # 6000 samples / 200 = 30 < 40: the sample floor
     assert prepare_for_fit(rec, False)[0].factor == 1

@@ -1,4 +1,5 @@
 """Residual analysis of the diagnosis, checked on residuals whose structure is known by construction."""
+
 from __future__ import annotations
 
 import math

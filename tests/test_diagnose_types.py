@@ -1,6 +1,7 @@
 """The typed pieces of a diagnosis and the options objects: each reproduces the JSON it replaced, screening
 marks a candidate with a status instead of a string in its prediction slot, and every options-taking function
 rejects an unknown setting by name while keyword calls keep working."""
+
 from __future__ import annotations
 
 import json
@@ -60,27 +61,61 @@ def test_split_and_base_check_give_the_dicts_they_replaced_and_read_like_them():
     s = Split(n_fit=841, n_heldout=360, t_split=4.2)
     assert json.dumps(s.to_dict()) == '{"n_fit": 841, "n_heldout": 360, "t_split": 4.2}'
     assert s["n_fit"] == 841 and dict(s) == s.to_dict()
-    c = BaseCheck(reference="the given fit", nrmse_fit_part=0.1, reference_nrmse_fit_part=0.09, start="given start",
-                  as_good=False, budget=("base fit",), stable=True, stability="")
-    assert list(c.to_dict()) == ["reference", "nrmse_fit_part", "reference_nrmse_fit_part", "start", "as_good",
-                                 "budget", "stable", "stability"]
+    c = BaseCheck(
+        reference="the given fit",
+        nrmse_fit_part=0.1,
+        reference_nrmse_fit_part=0.09,
+        start="given start",
+        as_good=False,
+        budget=("base fit",),
+        stable=True,
+        stability="",
+    )
+    assert list(c.to_dict()) == [
+        "reference",
+        "nrmse_fit_part",
+        "reference_nrmse_fit_part",
+        "start",
+        "as_good",
+        "budget",
+        "stable",
+        "stability",
+    ]
     assert c.to_dict()["budget"] == ["base fit"] and c.get("as_good") is False
 
 
-@pytest.mark.parametrize("evidence", [
-    {"verdict": "consistent", "conclusive": True, "missing_terms": [], "absent_model_terms": ["x"],
-     "reasons": ["r"], "message": "m"},
-    {"verdict": "not applicable", "conclusive": False, "missing_terms": [], "message": "could not run"},
-    {"verdict": "missing-terms", "conclusive": True,
-     "missing_terms": [{"term": "tanh(x'/eps)", "effect": "coulomb-friction", "supported": True},
-                       {"term": "x^3", "effect": None, "supported": False}],
-     "absent_model_terms": [], "reasons": [], "message": "m", "later_key": 1.5},
-])
+@pytest.mark.parametrize(
+    "evidence",
+    [
+        {
+            "verdict": "consistent",
+            "conclusive": True,
+            "missing_terms": [],
+            "absent_model_terms": ["x"],
+            "reasons": ["r"],
+            "message": "m",
+        },
+        {"verdict": "not applicable", "conclusive": False, "missing_terms": [], "message": "could not run"},
+        {
+            "verdict": "missing-terms",
+            "conclusive": True,
+            "missing_terms": [
+                {"term": "tanh(x'/eps)", "effect": "coulomb-friction", "supported": True},
+                {"term": "x^3", "effect": None, "supported": False},
+            ],
+            "absent_model_terms": [],
+            "reasons": [],
+            "message": "m",
+            "later_key": 1.5,
+        },
+    ],
+)
 def test_sindy_check_round_trips_the_evidence_byte_for_byte(evidence):
     check = SindyCheck.from_evidence(evidence)
     assert json.dumps(check.to_dict()) == json.dumps(evidence)
-    assert [m["term"] for m in check.supported_terms] == [m["term"] for m in evidence["missing_terms"]
-                                                         if m["supported"]]
+    assert [m["term"] for m in check.supported_terms] == [
+        m["term"] for m in evidence["missing_terms"] if m["supported"]
+    ]
 
 
 # ------------------------------------------------------------------------------------------ candidate runs
@@ -91,12 +126,16 @@ def _fake_fit(status: str, success: bool = False):
 def test_screening_continues_the_best_and_marks_the_others_screened_out_without_a_fit():
     from duffsym.diagnose.search import _screen_and_continue
 
-    runs = [CandidateRun(name=n, effect=None, model=None, ss=ss, fit=_fake_fit(st, ok), seconds=1.0)
-            for n, ss, st, ok in [("slow", 3.0, "Maximum_Iterations_Exceeded", False),
-                                  ("done", 0.5, "Solve_Succeeded", True),
-                                  ("best", 1.0, "Maximum_Iterations_Exceeded", False),
-                                  ("broke", 0.1, "Infeasible_Problem_Detected", False),
-                                  ("worst", 9.0, "Maximum_CpuTime_Exceeded", False)]]
+    runs = [
+        CandidateRun(name=n, effect=None, model=None, ss=ss, fit=_fake_fit(st, ok), seconds=1.0)
+        for n, ss, st, ok in [
+            ("slow", 3.0, "Maximum_Iterations_Exceeded", False),
+            ("done", 0.5, "Solve_Succeeded", True),
+            ("best", 1.0, "Maximum_Iterations_Exceeded", False),
+            ("broke", 0.1, "Infeasible_Problem_Detected", False),
+            ("worst", 9.0, "Maximum_CpuTime_Exceeded", False),
+        ]
+    ]
     continued = []
 
     def job(task):
@@ -119,13 +158,21 @@ def test_screening_continues_the_best_and_marks_the_others_screened_out_without_
 def test_a_continuation_that_raises_or_runs_out_of_time_leaves_no_fit_and_says_why():
     from duffsym.diagnose.search import NOT_TRIED, _screen_and_continue
 
-    runs = [CandidateRun(name="a", effect=None, model=None, ss=1.0, fit=_fake_fit("Maximum_Iterations_Exceeded")),
-            CandidateRun(name="b", effect=None, model=None, ss=2.0, fit=_fake_fit("Maximum_Iterations_Exceeded"))]
-    outcomes = iter([FitOutcome(error="bad bounds", status=Status.UNKNOWN, seconds=0.5),
-                     FitOutcome(error=NOT_TRIED, status=Status.TIME_LIMIT)])
+    runs = [
+        CandidateRun(name="a", effect=None, model=None, ss=1.0, fit=_fake_fit("Maximum_Iterations_Exceeded")),
+        CandidateRun(name="b", effect=None, model=None, ss=2.0, fit=_fake_fit("Maximum_Iterations_Exceeded")),
+    ]
+    outcomes = iter(
+        [
+            FitOutcome(error="bad bounds", status=Status.UNKNOWN, seconds=0.5),
+            FitOutcome(error=NOT_TRIED, status=Status.TIME_LIMIT),
+        ]
+    )
     _screen_and_continue(runs, 4, 30, 100, lambda task: next(outcomes), None, lambda *a, **k: None)
-    assert [(r.fit, r.status, r.message) for r in runs] == [(None, Status.UNKNOWN, "bad bounds"),
-                                                          (None, Status.TIME_LIMIT, NOT_TRIED)]
+    assert [(r.fit, r.status, r.message) for r in runs] == [
+        (None, Status.UNKNOWN, "bad bounds"),
+        (None, Status.TIME_LIMIT, NOT_TRIED),
+    ]
 
 
 def test_a_run_without_a_usable_fit_becomes_a_failed_candidate_with_its_reason():
@@ -136,10 +183,19 @@ def test_a_run_without_a_usable_fit_becomes_a_failed_candidate_with_its_reason()
     run = CandidateRun(name="backlash", effect=eff, model=None, seconds=4.0)
     run.drop(Status.SCREENED_OUT, "screened out: ranks 5 of 5")
     c = _not_judged(run)
-    assert (c.effect, c.success, c.message, c.seconds, c.diverged) == ("backlash", False, "screened out: ranks 5 of 5",
-                                                                       4.0, False)
+    assert (c.effect, c.success, c.message, c.seconds, c.diverged) == (
+        "backlash",
+        False,
+        "screened out: ranks 5 of 5",
+        4.0,
+        False,
+    )
     assert math.isnan(c.nrmse_after) and c.physics == eff.physics
     diverged = CandidateRun(name="backlash", effect=eff, model=None, fit=_fake_fit("Solve_Succeeded", True), y=None)
     assert _not_judged(diverged).diverged
-    assert _not_judged(CandidateRun(name="backlash", effect=eff, model=None, fit=_fake_fit("Solve_Succeeded", True),
-                                    y=np.zeros(3))) is None
+    assert (
+        _not_judged(
+            CandidateRun(name="backlash", effect=eff, model=None, fit=_fake_fit("Solve_Succeeded", True), y=np.zeros(3))
+        )
+        is None
+    )

@@ -3,6 +3,7 @@ equations against a hand statement; with the element's springs and c3 at zero it
 of exponent 1 (checked against the independent numpy simulator of the benchmark's oscillator,
 tests/independent_bw.py); identification recovers known parameters, the directional one included, from a
 record of the independent simulator of a mass carrying the element."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -43,9 +44,19 @@ def _benchmark_as_path_model(eps=0.05):
     model = structure(DirectionalDamping().apply(path_time(mr_damper(3), eps)), equation=eq, params=params)
     bw = B.BOUC_WEN
     A_f = 50.0
-    p = dict(m=bw["m"] * 1e-3, c=bw["c"] * 1e-3, k=bw["k"] * 1e-3, A_f=A_f, c1=bw["alpha"] * 1e-3 / A_f,
-             c2=(bw["beta"] * bw["gamma"] - bw["alpha"] / A_f) * 1e-3, dir_c=bw["beta"] * bw["delta"] * 1e-3,
-             c3=0.0, k1=0.0, k2=0.0, k3=0.0)
+    p = dict(
+        m=bw["m"] * 1e-3,
+        c=bw["c"] * 1e-3,
+        k=bw["k"] * 1e-3,
+        A_f=A_f,
+        c1=bw["alpha"] * 1e-3 / A_f,
+        c2=(bw["beta"] * bw["gamma"] - bw["alpha"] / A_f) * 1e-3,
+        dir_c=bw["beta"] * bw["delta"] * 1e-3,
+        c3=0.0,
+        k1=0.0,
+        k2=0.0,
+        k3=0.0,
+    )
     return model, p
 
 
@@ -83,8 +94,17 @@ def test_fit_recovers_the_directional_damping_from_an_independent_record():
     rng = np.random.default_rng(seed)
     rec = Record(t=np.arange(n) / 750.0, d=u, y=S[:, 0] + 0.01 * S[:, 0].std() * rng.standard_normal(n))
     model = structure(DirectionalDamping().apply(path_time(mr_damper(3), EPS)))
-    base = {**model.defaults(), "c1": 1.0, "c2": 1.0, "c3": 1.0, "k1": 1.0, "k2": 1.0, "k3": 0.0, "dir_c": 0.0,
-            "A_f": TRUTH["A_f"]}
+    base = {
+        **model.defaults(),
+        "c1": 1.0,
+        "c2": 1.0,
+        "c3": 1.0,
+        "k1": 1.0,
+        "k2": 1.0,
+        "k3": 0.0,
+        "dir_c": 0.0,
+        "A_f": TRUTH["A_f"],
+    }
     model = scaled_to(model, base)
     fixed = {"A_f": TRUTH["A_f"], "k3": 0.0}
     start = equation_error_start(rec, model, n_random=4, fixed=fixed, starts=[base])
@@ -106,11 +126,12 @@ def test_coupled_argument_names_the_directional_remainder():
     model = structure(DirectionalDamping().apply(path_time(mr_damper(3), 0.5)))
     an = coupled_analysis(model)
     q1, q2, x1, x2 = (_sym(s) for s in ("q1", "q2", "x1", "x2"))
-    m, c, k, c1, c2, c3, k1, k2, k3, Af, cd = (_sym(s) for s in ("m", "c", "k", "c1", "c2", "c3", "k1", "k2", "k3",
-                                                                 "A_f", "dir_c"))
+    m, c, k, c1, c2, c3, k1, k2, k3, Af, cd = (
+        _sym(s) for s in ("m", "c", "k", "c1", "c2", "c3", "k1", "k2", "k3", "A_f", "dir_c")
+    )
     V = c1 / Af * (m * q2**2 / 2 + k * q1**2 / 2) + x2**2 / 2 + (k1 + k2) * x1**2 / 2 + k3 * x1**4 / 4
     absx2 = sp.sqrt(x2**2 + sp.Rational(1, 10**6)) - sp.Rational(1, 1000)
-    Vdot = (-c * c1 / Af * q2**2 + RHO * (-(c1 + c2) * x2**2 - c3 * x2**4 + k1 * q1 * x2) - cd * q2 * x2 * absx2)
+    Vdot = -c * c1 / Af * q2**2 + RHO * (-(c1 + c2) * x2**2 - c3 * x2**4 + k1 * q1 * x2) - cd * q2 * x2 * absx2
     assert sp.simplify(an.V - V) == 0
     assert sp.simplify(sp.nsimplify(an.V_dot - Vdot)) == 0
     assert cd in an.remainder.free_symbols and "does not close" in an.conclusion

@@ -2,6 +2,7 @@
 numpy only): the generator's new effects act where they are placed; discovery names a Stribeck friction
 and a stroke-dependent friction; a heating record is seen to drift, and the parameter that drifts follows
 the dissipated energy; the verdict sentences that propose discovery and that name the drift."""
+
 import numpy as np
 import pytest
 import sympy as sp
@@ -11,7 +12,7 @@ from duffsym.data.record import Record
 from duffsym.diagnose import diagnose
 from duffsym.diagnose.discover import discover_term, library_matrix
 from duffsym.effects import CATALOGUE, apply_effects
-from duffsym.effects.discovered import DiscoveredEffect, resembles
+from duffsym.effects.discovered import resembles
 from duffsym.effects.drift import ParameterDrift, from_name
 from duffsym.model.library import mr_damper
 from duffsym.model.symbols import state_symbol
@@ -23,7 +24,7 @@ def _record(effect, seed, **kw):
 
 
 def _floor(rec, g, dg):
-    return g.noise_std / float(np.std(np.asarray(rec.y)[dg.split["n_fit"]:]))
+    return g.noise_std / float(np.std(np.asarray(rec.y)[dg.split["n_fit"] :]))
 
 
 # ---------------------------------------------------------------------------------------------- generator
@@ -32,14 +33,23 @@ def test_outside_forces_add_to_the_measured_force_exactly_as_written():
     with Stribeck friction + orifice + gas spring and one without is the written formula of the piston motion."""
     p, inp = gen.table2(0.4), gen.SumOfSines((1.0,), (2.0,), (0.0,))
     t = 0.005 * np.arange(201)
-    ph = gen.Physics(stribeck_coulomb=0.05, stribeck_static=0.15, stribeck_velocity=0.5, orifice=0.002,
-                     gas_spring=0.1, gas_spring_length=1.5)
+    ph = gen.Physics(
+        stribeck_coulomb=0.05,
+        stribeck_static=0.15,
+        stribeck_velocity=0.5,
+        orifice=0.002,
+        gas_spring=0.1,
+        gas_spring_length=1.5,
+    )
     y1, ex = gen.simulate_device(p, ph, inp, t)
     y0, _ = gen.simulate_device(p, gen.Physics(), inp, t)
     v, d = inp(t, 1), inp(t)
     eps = 0.01 * float(np.max(np.abs(inp(0.005 * 0.5 * np.arange(401 * 20), 1))))
-    want = ((0.05 + 0.10 * np.exp(-(v / 0.5) ** 2)) * np.tanh(v / eps) + 0.002 * v * np.abs(v)
-            + 0.1 * ((1.5 / (1.5 - d)) ** 1.4 - 1))
+    want = (
+        (0.05 + 0.10 * np.exp(-((v / 0.5) ** 2))) * np.tanh(v / eps)
+        + 0.002 * v * np.abs(v)
+        + 0.1 * ((1.5 / (1.5 - d)) ** 1.4 - 1)
+    )
     assert np.max(np.abs((y1 - y0) - want)) < 1e-3 * np.max(np.abs(y0))
 
 

@@ -6,6 +6,7 @@ itself (every CLI command and option is on the CLI page; the theory page carries
 warnings, the gallery executed on the shipped data) runs under ``-m slow`` when the ``docs`` extra
 is installed; CI runs the same build in ``.ci/run``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -74,11 +75,24 @@ def test_docs_build_without_warnings(tmp_path):
     for mod in ("sphinx", "numpydoc", "sphinx_gallery", "pydata_sphinx_theme", "myst_parser"):
         pytest.importorskip(mod, reason="the docs extra is not installed (pip install -e '.[docs]')")
     out = tmp_path / "html"
-    proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", str(DOCS), str(out)],
-                          capture_output=True, text=True, timeout=900, cwd=ROOT)
+    proc = subprocess.run(
+        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", str(DOCS), str(out)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        cwd=ROOT,
+    )
     assert proc.returncode == 0, proc.stderr[-4000:]
-    for page in ("index", "getting_started", "guides/fit_a_record", "theory/index", "api/identify", "reference/cli",
-                 "_generated/derivations_mr_damper", "auto_examples/plot_fit_and_validate"):
+    for page in (
+        "index",
+        "getting_started",
+        "guides/fit_a_record",
+        "theory/index",
+        "api/identify",
+        "reference/cli",
+        "_generated/derivations_mr_damper",
+        "auto_examples/plot_fit_and_validate",
+    ):
         assert (out / f"{page}.html").is_file(), page
     # the gallery ran: the fit example printed its validation and drew its figure
     html = (out / "auto_examples" / "plot_fit_and_validate.html").read_text()

@@ -1,6 +1,7 @@
 """Effects catalogue: the equations each effect adds (against hand-written forms), composition,
 the data-based initial states and guesses, the input helpers (d_ddot, smooth play, Pade delay)
 and ``duffsym effects``. Parameter recovery by fitting is in test_effects_recovery.py."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -50,8 +51,18 @@ def same(a, b) -> bool:
 
 
 #: The effects issue 4 asks for (the catalogue may hold more).
-ISSUE_EFFECTS = ("force-offset", "gas-accumulator", "inertia", "coulomb-friction", "asymmetry", "output-lag",
-                 "input-delay", "input-shift", "backlash", "seal-friction")
+ISSUE_EFFECTS = (
+    "force-offset",
+    "gas-accumulator",
+    "inertia",
+    "coulomb-friction",
+    "asymmetry",
+    "output-lag",
+    "input-delay",
+    "input-shift",
+    "backlash",
+    "seal-friction",
+)
 
 
 def test_catalogue_has_every_effect_of_the_issue_with_prefixed_parameters():
@@ -121,8 +132,9 @@ def base_report():
 DERIVE_DEFAULT = ("coulomb-friction", "force-offset", "output-lag", "backlash")
 
 
-@pytest.mark.parametrize("name", [n if n in DERIVE_DEFAULT else pytest.param(n, marks=pytest.mark.slow)
-                                  for n in CATALOGUE])
+@pytest.mark.parametrize(
+    "name", [n if n in DERIVE_DEFAULT else pytest.param(n, marks=pytest.mark.slow) for n in CATALOGUE]
+)
 def test_derivation_report_runs_on_each_extended_model(name, base_report):
     rep = derivation_report(CATALOGUE[name].apply(M))
     text = rep.item("lyapunov_derivative").text
@@ -133,15 +145,33 @@ def test_derivation_report_runs_on_each_extended_model(name, base_report):
 
 
 def test_all_effects_compose_and_simulate():
-    order = ["coulomb-friction", "asymmetry", "gas-accumulator", "inertia", "output-lag", "input-shift",
-             "input-delay", "backlash"]
+    order = [
+        "coulomb-friction",
+        "asymmetry",
+        "gas-accumulator",
+        "inertia",
+        "output-lag",
+        "input-shift",
+        "input-delay",
+        "backlash",
+    ]
     E = apply_effects(M, [CATALOGUE[n] for n in order])
     assert E.effects == tuple(order) and E.n_states == 5
     assert [c.name for c in E.inputs] == ["d", "d_dot", "d_ddot"]
     # the backlash and the delay replace d'' as well: no bare d_ddot left in the output outside the chain
     t = np.arange(0, 1.0, 0.005)
-    p = {**TRUTH, "fric_mu": 2.0, "asym_a": 0.1, "off_y0": 0.1, "gas_k": 0.1, "inertia_m": 0.001,
-         "lag_tau": 0.01, "delay_tau": 0.005, "shift_tau": 0.002, "bl_h": 0.05}
+    p = {
+        **TRUTH,
+        "fric_mu": 2.0,
+        "asym_a": 0.1,
+        "off_y0": 0.1,
+        "gas_k": 0.1,
+        "inertia_m": 0.001,
+        "lag_tau": 0.01,
+        "delay_tau": 0.005,
+        "shift_tau": 0.002,
+        "bl_h": 0.05,
+    }
     tr = simulate(E, p, t, Sine(1.0, 2.0))
     assert tr.success and np.all(np.isfinite(tr.y))
 
@@ -154,8 +184,9 @@ def test_not_applicable_or_duplicate_effects_raise_clear_errors():
         apply_effects(M, [CATALOGUE["gas-accumulator"], CATALOGUE["force-offset"]])
     E = apply_effects(M, [CATALOGUE["force-offset"], CATALOGUE["gas-accumulator"]])
     assert E.param_names.count("off_y0") == 1 and "gas_k" in E.param_names
-    plain = SymbolicModel(name="plain", states=(sym("s"),), inputs=M.inputs[:1], params=(), rhs=(d - sym("s"),),
-                          output=sym("s"))
+    plain = SymbolicModel(
+        name="plain", states=(sym("s"),), inputs=M.inputs[:1], params=(), rhs=(d - sym("s"),), output=sym("s")
+    )
     for name in ("coulomb-friction", "asymmetry"):
         with pytest.raises(ModelError, match="needs a mechanical model"):
             CATALOGUE[name].apply(plain)

@@ -11,6 +11,7 @@ Lag, delay and shift are tested under a multisine up to 10 Hz: under one 2 Hz si
 the base parameters absorb most of a 10 ms lag or delay (measured for the lag: base NRMSE 0.0125,
 extended 0.0096, noise 0.010), which is a fact about the data, not a failure of the fit.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -70,8 +71,16 @@ def test_hidden_effect_is_recovered_and_the_error_halves(name):
     effect = CATALOGUE[name]
     truth = {**table2_params(volt), **values}
     fixed = {"A_f": truth["A_f"]}
-    record = synthetic_record(apply_effects(M, [effect]), truth, exc, dt=0.005, duration=1.5 if exc is SINE else 2.0, noise=NOISE, rng=11,
-                              settle=1.0)
+    record = synthetic_record(
+        apply_effects(M, [effect]),
+        truth,
+        exc,
+        dt=0.005,
+        duration=1.5 if exc is SINE else 2.0,
+        noise=NOISE,
+        rng=11,
+        settle=1.0,
+    )
     base, ext, guess = base_then_extended(record, effect, fixed)
     assert ext.success, ext.message
     for k, true in values.items():
@@ -139,8 +148,16 @@ def test_fit_with_effects_recovers_where_the_base_fit_failed():
     fixed = {"A_f": truth["A_f"]}
     effect = CATALOGUE["inertia"]
     model = apply_effects(M, [effect])
-    record = synthetic_record(model, truth, BandLimitedRandom(rms=0.5, f_max=5.0, seed=3), dt=0.005, duration=2.0,
-                              noise=NOISE, rng=1, settle=1.0)
+    record = synthetic_record(
+        model,
+        truth,
+        BandLimitedRandom(rms=0.5, f_max=5.0, seed=3),
+        dt=0.005,
+        duration=2.0,
+        noise=NOISE,
+        rng=1,
+        settle=1.0,
+    )
     base = fit(Problem(M, record, fixed=fixed))
     assert base.nrmse > 0.2  # the failure this test is about
     ext = fit_with_effects(Problem(model, record, fixed=fixed), [effect], base.params, base.y_sim[0])
@@ -157,8 +174,16 @@ def test_a_ladder_of_two_hidden_effects(order):
     off_y0 0.2009 +- 0.0006, lag_tau 0.01001 +- 0.00004)."""
     truth = {**table2_params(0.6), "off_y0": 0.2, "lag_tau": 0.01}
     fixed = {"A_f": truth["A_f"]}
-    record = synthetic_record(apply_effects(M, [CATALOGUE[n] for n in order]), truth, FAST, dt=0.005, duration=2.0,
-                              noise=NOISE, rng=4, settle=1.0)
+    record = synthetic_record(
+        apply_effects(M, [CATALOGUE[n] for n in order]),
+        truth,
+        FAST,
+        dt=0.005,
+        duration=2.0,
+        noise=NOISE,
+        rng=4,
+        settle=1.0,
+    )
     model, prev = M, fit(Problem(M, record, fixed=fixed))
     errors = [prev.nrmse]
     for name in order:

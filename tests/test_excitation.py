@@ -1,4 +1,5 @@
 """Excitations: exact derivatives, input matrices for a model, and bad arguments."""
+
 from __future__ import annotations
 
 import math
@@ -19,12 +20,15 @@ def _spectral_derivative_check(exc, order, t):
     return np.abs(exc.derivative(t, order) - fd).max() / np.abs(fd).max()
 
 
-@pytest.mark.parametrize("exc", [
-    Sine(1.3, 2.0, 0.4),
-    Multisine((1.0, 0.5, 0.2), (0.5, 1.7, 3.1), (0.0, 1.0, 2.0)),
-    Multisine.random_phase(rms=0.8, f_min=0.2, f_max=4.0, n_lines=7, rng=3),
-    BandLimitedRandom(rms=1.0, f_max=3.0, duration=4.0, seed=5),
-])
+@pytest.mark.parametrize(
+    "exc",
+    [
+        Sine(1.3, 2.0, 0.4),
+        Multisine((1.0, 0.5, 0.2), (0.5, 1.7, 3.1), (0.0, 1.0, 2.0)),
+        Multisine.random_phase(rms=0.8, f_min=0.2, f_max=4.0, n_lines=7, rng=3),
+        BandLimitedRandom(rms=1.0, f_max=3.0, duration=4.0, seed=5),
+    ],
+)
 @pytest.mark.parametrize("order", [1, 2])
 def test_derivatives_are_exact(exc, order):
     t = np.linspace(0.0, 4.0, 301)
@@ -41,8 +45,9 @@ def test_sine_channels_match_closed_form():
     np.testing.assert_allclose(U[:, 1], a * w * np.cos(w * t + ph), rtol=1e-14, atol=1e-14)
     # every order through the shared sine/cosine equals the one-order formula
     for k in range(5):
-        np.testing.assert_allclose(Sine(a, f, ph)._derivatives(t, [k])[:, 0], Sine(a, f, ph).derivative(t, k),
-                                   rtol=1e-13, atol=1e-12 * w**k)
+        np.testing.assert_allclose(
+            Sine(a, f, ph)._derivatives(t, [k])[:, 0], Sine(a, f, ph).derivative(t, k), rtol=1e-13, atol=1e-12 * w**k
+        )
 
 
 def test_rms_of_random_excitations():

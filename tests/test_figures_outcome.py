@@ -1,5 +1,6 @@
 """Figures say what the numbers say: the steady cycle drawn, every candidate listed, diverged ones
 off the scale, ladder titles from the outcome (issue 11)."""
+
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -22,8 +23,15 @@ def test_steady_window_skips_the_start_up_and_the_ramp_down():
 
 
 def _cand(effect, nrmse, success=True, needed=False, supported=False, message="ok"):
-    return SimpleNamespace(effect=effect, nrmse_after=nrmse, delta_bic=-10.0 if success else np.nan, success=success,
-                           needed=needed, supported=supported, message=message)
+    return SimpleNamespace(
+        effect=effect,
+        nrmse_after=nrmse,
+        delta_bic=-10.0 if success else np.nan,
+        success=success,
+        needed=needed,
+        supported=supported,
+        message=message,
+    )
 
 
 def _texts(fig):
@@ -34,11 +42,16 @@ def _texts(fig):
 def test_candidates_chart_lists_every_candidate_and_keeps_a_diverged_one_off_the_scale():
     from duffsym.diagnose.figures import plot_candidates
 
-    cands = [_cand("force-offset", 0.04, needed=True, supported=True), _cand("asymmetry", 0.05, needed=True),
-             _cand("inertia", 0.11), _cand("backlash", 0.92),
-             _cand("input-delay", np.nan, success=False, message="screened out: not converged in 30 IPOPT iterations")]
-    diag = SimpleNamespace(candidates=cands, needed=("force-offset",), nrmse_heldout=0.114, noise=0.01,
-                           split={"n_fit": 10})
+    cands = [
+        _cand("force-offset", 0.04, needed=True, supported=True),
+        _cand("asymmetry", 0.05, needed=True),
+        _cand("inertia", 0.11),
+        _cand("backlash", 0.92),
+        _cand("input-delay", np.nan, success=False, message="screened out: not converged in 30 IPOPT iterations"),
+    ]
+    diag = SimpleNamespace(
+        candidates=cands, needed=("force-offset",), nrmse_heldout=0.114, noise=0.01, split={"n_fit": 10}
+    )
     fig = plot_candidates(diag)
     texts, ticks, ax = _texts(fig)
     assert len(ticks) == 5 and any("input-delay" in t for t in ticks)  # all five listed

@@ -6,6 +6,7 @@ currents (1 % noise). The campaign fit must predict a fourth current it never sa
 better than a fit at one current can; the manifest route (currents as manifest labels, files without
 a current column) must give the same fit; misuse gets one line and a non-zero exit.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,7 +22,9 @@ DISP = Sines(amps=(1.0, 0.3), freqs=(1.0, 2.3), phases=(0.0, 0.7))
 
 
 def _write(path, rec, current=None):
-    cols = [rec["t"], rec["d"], rec["d_dot"], rec["y"]] + ([np.full(rec["t"].size, current)] if current is not None else [])
+    cols = [rec["t"], rec["d"], rec["d_dot"], rec["y"]] + (
+        [np.full(rec["t"].size, current)] if current is not None else []
+    )
     header = "time,displacement,velocity,force" + (",current" if current is not None else "")
     np.savetxt(path, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.10g")
 
@@ -44,13 +47,31 @@ def _run(argv, capsys):
 
 def test_campaign_fit_predicts_an_unseen_current(campaign, capsys):
     f = campaign
-    code, out, err = _run(["fit", str(f / "i0.csv"), str(f / "i1.csv"), str(f / "i2.csv"), "--model", "mr-damper-current",
-                           "--out", str(f / "camp.json"), "--plot", str(f / "camp.png"), "--json", "--quiet"], capsys)
+    code, out, err = _run(
+        [
+            "fit",
+            str(f / "i0.csv"),
+            str(f / "i1.csv"),
+            str(f / "i2.csv"),
+            "--model",
+            "mr-damper-current",
+            "--out",
+            str(f / "camp.json"),
+            "--plot",
+            str(f / "camp.png"),
+            "--json",
+            "--quiet",
+        ],
+        capsys,
+    )
     assert code == 0, err
     (f / "camp_stdout.json").write_text(out)  # the manifest test compares its fit with this one
     fit = json.loads(out)
-    assert fit["success"] and len(fit["records"]) == 3 and fit["params"]["eta"] == pytest.approx(
-        json.loads((f / "camp.json").read_text())["params"]["eta"])
+    assert (
+        fit["success"]
+        and len(fit["records"]) == 3
+        and fit["params"]["eta"] == pytest.approx(json.loads((f / "camp.json").read_text())["params"]["eta"])
+    )
     assert fit["nrmse"] < 0.03  # in sample, 1 % noise
     assert (f / "camp.png").stat().st_size > 10_000
     code, out, err = _run(["validate", str(f / "camp.json"), str(f / "i3.csv"), "--json"], capsys)
@@ -67,10 +88,16 @@ def test_campaign_fit_predicts_an_unseen_current(campaign, capsys):
 
 def test_manifest_labels_give_the_same_fit(campaign, capsys):
     f = campaign
-    (f / "m.csv").write_text("file,current,amplitude\n" + "".join(f"nolabel{k},{c},1\n".replace("nolabel" + str(k),
-                             f"nolabel{k}.csv") for k, c in ((0, 0.0), (1, 0.5), (2, 1.0))))
-    code, out, err = _run(["fit", "--manifest", str(f / "m.csv"), "--model", "mr-damper-current", "--json", "--quiet"],
-                          capsys)
+    (f / "m.csv").write_text(
+        "file,current,amplitude\n"
+        + "".join(
+            f"nolabel{k},{c},1\n".replace("nolabel" + str(k), f"nolabel{k}.csv")
+            for k, c in ((0, 0.0), (1, 0.5), (2, 1.0))
+        )
+    )
+    code, out, err = _run(
+        ["fit", "--manifest", str(f / "m.csv"), "--model", "mr-damper-current", "--json", "--quiet"], capsys
+    )
     assert code == 0, err
     by_manifest = json.loads(out)
     assert by_manifest["records"] == ["nolabel0.csv", "nolabel1.csv", "nolabel2.csv"]
@@ -80,11 +107,14 @@ def test_manifest_labels_give_the_same_fit(campaign, capsys):
         assert math.isclose(by_manifest[name], value, rel_tol=1e-6, abs_tol=1e-8), name
 
 
-@pytest.mark.parametrize("manifest, expect", [
-    ("file,model\ni0.csv,mr-damper\n", "per record"),
-    ("file,current\ni0.csv,0.3\n", "the file's current is 0 but the manifest says 0.3"),
-    ("file\nmissing.csv\n", "missing.csv"),
-])
+@pytest.mark.parametrize(
+    "manifest, expect",
+    [
+        ("file,model\ni0.csv,mr-damper\n", "per record"),
+        ("file,current\ni0.csv,0.3\n", "the file's current is 0 but the manifest says 0.3"),
+        ("file\nmissing.csv\n", "missing.csv"),
+    ],
+)
 def test_campaign_misuse_is_one_line(campaign, capsys, manifest, expect):
     (campaign / "bad.csv").write_text(manifest)
     code, _, err = _run(["fit", "--manifest", str(campaign / "bad.csv")], capsys)

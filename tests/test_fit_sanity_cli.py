@@ -2,6 +2,7 @@
 reported in one line, left out of the fit and the score (kept with --keep-invalid), FIT.json stores the
 training ranges and the decimation, and validate notes a command and a frequency band the fit never saw.
 Records from the independent generator (tests/independent_current_sim.py, numpy only)."""
+
 from __future__ import annotations
 
 import json
@@ -10,7 +11,6 @@ import numpy as np
 import pytest
 
 import independent_current_sim as gen
-
 from duffsym.cli import main
 
 DISP = gen.Sines((0.45, 0.25, 0.12), (0.7, 1.6, 2.7), (0.0, 1.0, 2.0))
@@ -33,7 +33,7 @@ def fitted(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("sanity")
     g = gen.generate(gen.TRUTH, DISP, SWITCH, dt=0.005, duration=3.0, seed=3)
     y, d = g["y"].copy(), g["d"].copy()
-    y[-N_BAD:] = np.max(y[:-N_BAD]) * 1.02   # the load cell's limit: above every valid sample
+    y[-N_BAD:] = np.max(y[:-N_BAD]) * 1.02  # the load cell's limit: above every valid sample
     d[-N_BAD:] = d[-N_BAD - 1]
     data = _write(tmp / "clipped.csv", g, d, y)
     out = tmp / "fit.json"
@@ -85,15 +85,15 @@ def test_validate_notes_command_and_band_outside_the_fit(fitted, capsys):
 def test_fit_decimates_a_long_record_and_reports_the_rate(tmp_path, capsys):
     """A 5001-sample record (independent generator, 1 kHz) is fitted at the rate the variance rule picks; the
     rate is on stderr and in FIT.json, with the free-run error on the full-rate record beside the fitted one."""
-    from independent_sim import scenario
-
     from duffsym.data import Record
     from duffsym.data.decimate import prepare_for_fit
+    from independent_sim import scenario
 
     g = scenario("clean", 1, kind="sine", dt=0.001, duration=5.0)
     path = tmp_path / "long.csv"
-    path.write_text("time,displacement,force\n" + "\n".join(f"{a:.10g},{b:.10g},{c:.10g}"
-                                                           for a, b, c in zip(g.t, g.d, g.y)) + "\n")
+    path.write_text(
+        "time,displacement,force\n" + "\n".join(f"{a:.10g},{b:.10g},{c:.10g}" for a, b, c in zip(g.t, g.d, g.y)) + "\n"
+    )
     expect = prepare_for_fit(Record(t=g.t, d=g.d, y=g.y))[0].factor
     out = tmp_path / "fit.json"
     assert main(["fit", str(path), "--out", str(out)]) == 0

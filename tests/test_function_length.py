@@ -1,5 +1,6 @@
 """Functions in ``src/duffsym`` stay short enough to read: at most ``MAX_LINES`` lines of code (the
 docstring not counted), unless their docstring gives the reason in one line starting with ``Long:``."""
+
 from __future__ import annotations
 
 import ast
@@ -34,14 +35,18 @@ def long_functions(root: Path = SRC, limit: int = MAX_LINES) -> list[str]:
 
 def test_no_function_is_longer_than_the_limit_without_a_reason():
     too_long = long_functions()
-    assert not too_long, (f"functions over {MAX_LINES} lines of code; split them into named pieces or give the "
-                          "reason in a docstring line starting with 'Long:':\n" + "\n".join(too_long))
+    assert not too_long, (
+        f"functions over {MAX_LINES} lines of code; split them into named pieces or give the "
+        "reason in a docstring line starting with 'Long:':\n" + "\n".join(too_long)
+    )
 
 
 def test_the_check_counts_code_and_honours_a_reason(tmp_path):
     body = "\n".join(f"    x{i} = {i}" for i in range(5))
-    (tmp_path / "m.py").write_text(f'def f():\n    """Doc.\n\n    More.\n    """\n{body}\n\n\n'
-                                   f'def g():\n    """Doc.\n\n    Long: a reason.\n    """\n{body}\n')
+    (tmp_path / "m.py").write_text(
+        f'def f():\n    """Doc.\n\n    More.\n    """\n{body}\n\n\n'
+        f'def g():\n    """Doc.\n\n    Long: a reason.\n    """\n{body}\n'
+    )
     assert long_functions(tmp_path, limit=4) == [f"{tmp_path.name}/m.py:1 f: 5 lines"]
     assert long_functions(tmp_path, limit=5) == []
 
@@ -72,13 +77,18 @@ def _n_parameters(node) -> int:
 
 
 def test_the_strict_packages_keep_functions_within_80_lines():
-    too_long = [f"{path.relative_to(SRC.parent)}:{node.lineno} {node.name}: {code_lines(node)} lines"
-                for path, node in _strict_functions() if code_lines(node) > STRICT_LINES]
+    too_long = [
+        f"{path.relative_to(SRC.parent)}:{node.lineno} {node.name}: {code_lines(node)} lines"
+        for path, node in _strict_functions()
+        if code_lines(node) > STRICT_LINES
+    ]
     assert not too_long, f"functions over {STRICT_LINES} lines of code:\n" + "\n".join(too_long)
 
 
 def test_public_functions_of_the_strict_packages_take_at_most_12_parameters():
-    many = [f"{path.relative_to(SRC.parent)}:{node.lineno} {node.name}: {_n_parameters(node)} parameters"
-            for path, node in _strict_functions() if not node.name.startswith("_")
-            and _n_parameters(node) > MAX_PARAMETERS]
+    many = [
+        f"{path.relative_to(SRC.parent)}:{node.lineno} {node.name}: {_n_parameters(node)} parameters"
+        for path, node in _strict_functions()
+        if not node.name.startswith("_") and _n_parameters(node) > MAX_PARAMETERS
+    ]
     assert not many, "public functions with more than 12 parameters (use an options object):\n" + "\n".join(many)

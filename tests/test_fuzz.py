@@ -7,6 +7,7 @@ a file changed only in layout (BOM, CRLF, quoting, column order, ...) reads the 
 The default run is bounded (about a minute on a busy machine); ``pytest -m fuzz`` runs the long
 versions (``slow`` too, so the default run skips them).
 """
+
 from __future__ import annotations
 
 import json
@@ -21,16 +22,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).parent))
-from _fuzz_mutations import base_rows, mutate_csv, tamper_fit  # noqa: E402
+from _fuzz_mutations import base_rows, mutate_csv, tamper_fit
+from duffsym.cli import main
+from duffsym.data import read_csv
+from duffsym.errors import DataError
 
-from duffsym.cli import main  # noqa: E402
-from duffsym.data import read_csv  # noqa: E402
-from duffsym.errors import DataError  # noqa: E402
-
-QUICK = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                                                          HealthCheck.too_slow])
-LONG = settings(max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                                                          HealthCheck.too_slow])
+QUICK = settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+)
+LONG = settings(
+    max_examples=2000, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+)
 
 
 class Hang(BaseException):
@@ -151,17 +153,63 @@ def record_csv(tmp_path_factory):
     return path
 
 
-NUMBERS = st.sampled_from(["0", "-1", "1", "0.5", "1e-9", "1e9", "nan", "inf", "-inf", "1e400", "x", "", "3",
-                           "2", "0.005", "5", "99999", "-0"])
+NUMBERS = st.sampled_from(
+    [
+        "0",
+        "-1",
+        "1",
+        "0.5",
+        "1e-9",
+        "1e9",
+        "nan",
+        "inf",
+        "-inf",
+        "1e400",
+        "x",
+        "",
+        "3",
+        "2",
+        "0.005",
+        "5",
+        "99999",
+        "-0",
+    ]
+)
 
 
 @QUICK
-@given(dt=NUMBERS, duration=NUMBERS, freq=NUMBERS, amp=NUMBERS, lines=NUMBERS, fmax=NUMBERS,
-       exc=st.sampled_from(["sine", "multisine", "random"]), substeps=NUMBERS)
+@given(
+    dt=NUMBERS,
+    duration=NUMBERS,
+    freq=NUMBERS,
+    amp=NUMBERS,
+    lines=NUMBERS,
+    fmax=NUMBERS,
+    exc=st.sampled_from(["sine", "multisine", "random"]),
+    substeps=NUMBERS,
+)
 def test_simulate_options(dt, duration, freq, amp, lines, fmax, exc, substeps, tmp_path, capsys):
-    argv = ["simulate", "--dt", dt, "--duration", duration, "--frequency", freq, "--amplitude", amp,
-            "--lines", lines, "--f-max", fmax, "--excitation", exc, "--substeps", substeps,
-            "--out", str(tmp_path / "s.csv")]
+    argv = [
+        "simulate",
+        "--dt",
+        dt,
+        "--duration",
+        duration,
+        "--frequency",
+        freq,
+        "--amplitude",
+        amp,
+        "--lines",
+        lines,
+        "--f-max",
+        fmax,
+        "--excitation",
+        exc,
+        "--substeps",
+        substeps,
+        "--out",
+        str(tmp_path / "s.csv"),
+    ]
     code, _, err = cli(argv, capsys)
     # a valid combination that is merely large is refused by the sample cap, not simulated for minutes
     assert_clean_exit(code, err)
@@ -173,8 +221,16 @@ def _stub_fit(monkeypatch):
     from duffsym.identify.result import IdentificationResult
     from duffsym.model.presets import TABLE2
 
-    canned = IdentificationResult.from_dict({"model": "mr-damper", "params": dict(TABLE2[0.4]), "stderr": {},
-                                             "nrmse": 0.01, "status": "Solve_Succeeded", "success": True})
+    canned = IdentificationResult.from_dict(
+        {
+            "model": "mr-damper",
+            "params": dict(TABLE2[0.4]),
+            "stderr": {},
+            "nrmse": 0.01,
+            "status": "Solve_Succeeded",
+            "success": True,
+        }
+    )
 
     def fake_fit(problem, **kw):
         assert problem.free  # the Problem was built and checked
@@ -184,15 +240,23 @@ def _stub_fit(monkeypatch):
 
 
 @QUICK
-@given(fix=st.lists(st.tuples(st.sampled_from(["c1", "c2", "c3", "k1", "k2", "k3", "A_f", "bogus", ""]), NUMBERS),
-                    max_size=3),
-       af=NUMBERS, n=NUMBERS, mask=st.sampled_from(["none", "auto", "file01", "file2", "fileshort", "missing"]),
-       add=st.sampled_from([None, "backlash", "nope", "backlash,backlash", ""]))
+@given(
+    fix=st.lists(
+        st.tuples(st.sampled_from(["c1", "c2", "c3", "k1", "k2", "k3", "A_f", "bogus", ""]), NUMBERS), max_size=3
+    ),
+    af=NUMBERS,
+    n=NUMBERS,
+    mask=st.sampled_from(["none", "auto", "file01", "file2", "fileshort", "missing"]),
+    add=st.sampled_from([None, "backlash", "nope", "backlash,backlash", ""]),
+)
 def test_fit_options(fix, af, n, mask, add, record_csv, tmp_path, capsys, monkeypatch):
     _stub_fit(monkeypatch)
     n_rows = 401
-    masks = {"file01": "\n".join(str(i % 2) for i in range(n_rows)), "file2": "\n".join("2" for _ in range(n_rows)),
-             "fileshort": "1\n0\n"}
+    masks = {
+        "file01": "\n".join(str(i % 2) for i in range(n_rows)),
+        "file2": "\n".join("2" for _ in range(n_rows)),
+        "fileshort": "1\n0\n",
+    }
     argv = ["fit", str(record_csv), "--quiet", "--af", af, "--n", n]
     for name, value in fix:
         argv += ["--fix", f"{name}={value}"]
@@ -236,8 +300,9 @@ def test_tampered_fit_json(seed, good_fit, record_csv, tmp_path, capsys):
 
 @pytest.mark.slow
 @pytest.mark.fuzz
-@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                                                   HealthCheck.too_slow])
+@settings(
+    max_examples=500, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow]
+)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_tampered_fit_json_long(seed, good_fit, record_csv, tmp_path, capsys):
     _fit_case(seed, good_fit, record_csv, tmp_path, capsys)

@@ -1,4 +1,5 @@
 """Collocation + IPOPT identification on synthetic Table 2 data with known truth."""
+
 from __future__ import annotations
 
 import json
@@ -28,8 +29,15 @@ FREE = ("c1", "c2", "c3", "k1", "k2")
 
 def symmetric(p, s, n=5):
     """Parameters after the scaling x -> s x (design.md), which leaves the output unchanged."""
-    return dict(c1=p["c1"] / s, c2=p["c1"] + p["c2"] - p["c1"] / s, k1=p["k1"] / s, k2=p["k1"] + p["k2"] - p["k1"] / s,
-                c3=p["c3"] * s ** (n - 1), k3=p["k3"] * s ** (n - 1), A_f=p["A_f"] * s)
+    return dict(
+        c1=p["c1"] / s,
+        c2=p["c1"] + p["c2"] - p["c1"] / s,
+        k1=p["k1"] / s,
+        k2=p["k1"] + p["k2"] - p["k1"] / s,
+        c3=p["c3"] * s ** (n - 1),
+        k3=p["k3"] * s ** (n - 1),
+        A_f=p["A_f"] * s,
+    )
 
 
 def rel_errors(params, truth, names=FREE):
@@ -136,8 +144,13 @@ def test_a_run_pushed_onto_a_bound_is_restarted(clean_record):
     start reaches the truth, and the result says so."""
     problem = Problem(MODEL, clean_record)
     mapped = symmetric(TRUTH, problem.fixed["A_f"] / TRUTH["A_f"])
-    start = {"c1": 21.434361463294696, "c2": 1.6147314253460154, "c3": 1102.3402507463006,
-             "k1": 4.655682916414523, "k2": 186.03103090768062}
+    start = {
+        "c1": 21.434361463294696,
+        "c2": 1.6147314253460154,
+        "c3": 1102.3402507463006,
+        "k1": 4.655682916414523,
+        "k2": 186.03103090768062,
+    }
     trapped = fit(problem, start, degree=5, bound_restart=False)
     # the path is a knife edge (the start rounded to 2 digits misses it): when this start stops reaching the trap,
     # the restart below is no longer tested, so the test fails and asks for a new start (a skip would hide that)
@@ -174,8 +187,7 @@ def test_standard_errors_are_calibrated_over_fifty_seeds():
 
 def test_multi_record_shares_parameters_and_frees_k3():
     """Two amplitudes make k3 identifiable; both records share one parameter set."""
-    recs = [synthetic_record(MODEL, TRUTH, Sine(a, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0)
-            for a in (0.4, 1.0)]
+    recs = [synthetic_record(MODEL, TRUTH, Sine(a, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0) for a in (0.4, 1.0)]
     problem = Problem(MODEL, recs, free=[*FREE, "k3"], fixed={"A_f": TRUTH["A_f"]})
     res = fit(problem, {**{k: 2 * TRUTH[k] for k in FREE}, "k3": 50.0}, degree=5)
     assert res.success and len(res.x0) == 2 and len(res.nrmse_records) == 2
@@ -183,8 +195,10 @@ def test_multi_record_shares_parameters_and_frees_k3():
     # k3 = 0 recovered to where its force k3 x^5 is < 1e-4 of the linear term k2 x over the fitted range
     from duffsym import simulate
 
-    x1max = max(np.max(np.abs(simulate(MODEL, res.params, r.t, r.inputs_for(MODEL), x0=x0).x[:, 0]))
-                for r, x0 in zip(recs, res.x0))
+    x1max = max(
+        np.max(np.abs(simulate(MODEL, res.params, r.t, r.inputs_for(MODEL), x0=x0).x[:, 0]))
+        for r, x0 in zip(recs, res.x0)
+    )
     assert abs(res.params["k3"]) * x1max**4 < 1e-4 * TRUTH["k2"]
 
 
@@ -289,8 +303,12 @@ def test_per_voltage_parameters_in_one_fit(tmp_path):
     from duffsym.identify import validate
 
     volts = (0.2, 0.4, 0.8)
-    recs = [synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0)
-            .replace(voltage=v) for v in volts]
+    recs = [
+        synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.0, rng=0).replace(
+            voltage=v
+        )
+        for v in volts
+    ]
     problem = Problem(MODEL, recs, groups="voltage", per_group=FREE)
     assert problem.slot_names[:3] == ("c1[0.2V]", "c1[0.4V]", "c1[0.8V]") and len(problem.slots) == 15
     res = fit(problem, degree=5)
@@ -313,12 +331,18 @@ def test_structured_derivatives_follow_casadi_autodiff():
     """The block-assembled Jacobian and Hessian (the default) take IPOPT along the same iterates as
     CasADi's automatic differentiation of the whole NLP: two records, a mask, per-group and shared
     parameters, a group-fixed A_f."""
-    recs = [synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.02, rng=3)
-            .replace(voltage=v) for v in (0.2, 0.8)]
+    recs = [
+        synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.02, rng=3).replace(
+            voltage=v
+        )
+        for v in (0.2, 0.8)
+    ]
     mask = [np.arange(r.n_times) % 7 == 0 for r in recs]
     problem = Problem(MODEL, recs, groups="voltage", per_group=("c1", "k2"), mask=mask)
-    runs = [fit(problem, degree=2, derivatives=d, compute_stderr=False, param_stride=s)
-            for d, s in (("structured", 8), ("casadi", 8), ("structured", 1))]
+    runs = [
+        fit(problem, degree=2, derivatives=d, compute_stderr=False, param_stride=s)
+        for d, s in (("structured", 8), ("casadi", 8), ("structured", 1))
+    ]
     assert all(r.success for r in runs)
     assert runs[0].n_iter == runs[1].n_iter
     for r in runs[1:]:  # the parameter copies per 8 samples or per sample: the same NLP solution
@@ -332,8 +356,12 @@ def test_linear_parameter_constraints_hold_per_group():
     """k2 - 2 k1 <= 100 binds in the 0.2 V group (its truth is 680 - 2*54); both derivative paths agree."""
     import math
 
-    recs = [synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.02, rng=3)
-            .replace(voltage=v) for v in (0.2, 0.8)]
+    recs = [
+        synthetic_record(MODEL, table2_params(v), Sine(1.0, 2.0), dt=0.005, duration=1.0, noise=0.02, rng=3).replace(
+            voltage=v
+        )
+        for v in (0.2, 0.8)
+    ]
     cons = [({"k1": -2.0, "k2": 1.0}, -math.inf, 100.0), ({"c1": 1, "c2": 1}, 0, math.inf)]
     problem = Problem(MODEL, recs, groups="voltage", per_group=("c1", "k2"), constraints=cons)
     free_fit = fit(Problem(MODEL, recs, groups="voltage", per_group=("c1", "k2")), compute_stderr=False)

@@ -6,6 +6,7 @@ Checked over the source with :mod:`ast` (imports inside functions included, so a
 circle or a private name). The command-line modules that still sit in the package (``command.py``,
 ``*_command.py``) belong to the ``cli`` layer (``tests/test_layers.py``) and are left to its checks.
 """
+
 from __future__ import annotations
 
 import ast
@@ -33,13 +34,21 @@ def private_imports(path: Path) -> list[str]:
     aliases, out = set(), []
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").split(".")[0] == "duffsym":
-            out += [f"{path.name}:{node.lineno} {node.module}.{a.name}" for a in node.names
-                    if a.name.startswith("_") and not a.name.startswith("__")]
+            out += [
+                f"{path.name}:{node.lineno} {node.module}.{a.name}"
+                for a in node.names
+                if a.name.startswith("_") and not a.name.startswith("__")
+            ]
         elif isinstance(node, ast.Import):
             aliases |= {a.asname for a in node.names if a.asname and a.name.startswith("duffsym.")}
     for node in ast.walk(tree):
-        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in aliases
-                and node.attr.startswith("_") and not node.attr.startswith("__")):
+        if (
+            isinstance(node, ast.Attribute)
+            and isinstance(node.value, ast.Name)
+            and node.value.id in aliases
+            and node.attr.startswith("_")
+            and not node.attr.startswith("__")
+        ):
             out.append(f"{path.name}:{node.lineno} {node.value.id}.{node.attr}")
     return out
 
@@ -73,7 +82,7 @@ def find_circle(graph: dict[str, set[str]]) -> list[str] | None:
         path.append(node)
         for nxt in sorted(graph.get(node, ())):
             if state.get(nxt) == 1:
-                return path[path.index(nxt):] + [nxt]
+                return path[path.index(nxt) :] + [nxt]
             if nxt not in state and (cycle := visit(nxt)):
                 return cycle
         path.pop()
@@ -88,8 +97,10 @@ def find_circle(graph: dict[str, set[str]]) -> list[str] | None:
 
 def test_no_private_name_crosses_a_module_boundary_in_identify():
     found = [hit for p in modules().values() for hit in private_imports(p)]
-    assert not found, ("private names imported from another module (make the name public and documented, or move "
-                       "it to where it is used):\n" + "\n".join(found))
+    assert not found, (
+        "private names imported from another module (make the name public and documented, or move "
+        "it to where it is used):\n" + "\n".join(found)
+    )
 
 
 def test_identify_modules_import_each_other_without_a_circle():

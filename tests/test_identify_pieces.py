@@ -1,6 +1,7 @@
 """The named pieces of the fit, each on its own (issue 14): the start, the NLP built once and solved from
 several starts, the choice of the best run, the bound-restart policy. Noise-free Table 2 data (0.4 V,
 2 Hz), whose optimum is the truth."""
+
 import numpy as np
 import pytest
 
@@ -84,8 +85,9 @@ class _StallingNLP:
             self.seen.append(k + 1)
             reason = guard(log) if guard else ""
             if reason:
-                return Run("User_Requested_Stop", False, k + 1, np.array([5.0, 0.5]), 9.0, "stopped",
-                           log.summary(), reason)
+                return Run(
+                    "User_Requested_Stop", False, k + 1, np.array([5.0, 0.5]), 9.0, "stopped", log.summary(), reason
+                )
         return Run("Solve_Succeeded", True, len(self.times), np.array([5.0, 0.5]), 0.5, "ok", log.summary(), "")
 
 
@@ -98,11 +100,14 @@ def _first_on_bound():
     return Run("Solve_Succeeded", True, 24, np.array([0.0, 0.2]), 1.0, "IPOPT converged", log.summary(), "")
 
 
-@pytest.mark.parametrize("times, regs, why", [
-    ([0.3, 0.3, 35.0, 130.0], [0.0, 0.0, 1e11, 1e13], "took 35.0 s"),                 # a slow iteration
-    ([0.3] * 10, [0.0, 1e11, 1e12, 1e13, 1e12, 0.0, 0.0, 0.0, 0.0, 0.0], "regularisation"),  # ill-conditioned
-    ([0.3] * 500, [0.0] * 500, "72 iterations without converging"),                  # 3 x the first run's 24
-])
+@pytest.mark.parametrize(
+    "times, regs, why",
+    [
+        ([0.3, 0.3, 35.0, 130.0], [0.0, 0.0, 1e11, 1e13], "took 35.0 s"),  # a slow iteration
+        ([0.3] * 10, [0.0, 1e11, 1e12, 1e13, 1e12, 0.0, 0.0, 0.0, 0.0, 0.0], "regularisation"),  # ill-conditioned
+        ([0.3] * 500, [0.0] * 500, "72 iterations without converging"),  # 3 x the first run's 24
+    ],
+)
 def test_a_stalling_bound_restart_stops_early_and_keeps_the_converged_run(times, regs, why):
     first = _first_on_bound()
     nlp = _StallingNLP(times, regs)
@@ -113,8 +118,9 @@ def test_a_stalling_bound_restart_stops_early_and_keeps_the_converged_run(times,
 
 
 def test_an_improving_restart_is_still_kept():
-    kept, note = bound_restart_policy(_StallingNLP([0.3] * 20, [0.0] * 20), _first_on_bound(), np.array([3.0, 0.2]),
-                                      max_iter=500)
+    kept, note = bound_restart_policy(
+        _StallingNLP([0.3] * 20, [0.0] * 20), _first_on_bound(), np.array([3.0, 0.2]), max_iter=500
+    )
     assert note["kept"] == "restart" and kept.cost == 0.5 and note["stopped"] is None
 
 

@@ -1,4 +1,5 @@
 """Problem validation: every bad configuration raises a clear error at construction."""
+
 from __future__ import annotations
 
 import math
@@ -69,7 +70,7 @@ def test_fixed_values_finite(rec):
 
 def test_nothing_free(rec):
     with pytest.raises(ModelError, match="no free parameter left"):
-        Problem(MODEL, rec, fixed={k: 1.0 for k in MODEL.param_names})
+        Problem(MODEL, rec, fixed=dict.fromkeys(MODEL.param_names, 1.0))
 
 
 def test_records_checked(rec):

@@ -5,6 +5,7 @@ The records here are written with NumPy from closed forms (a unit sine of the di
 derivative), not by the simulator under test, except where a record of the model itself is the
 point (multistart, progress, the interrupt: any record with a long enough solve will do).
 """
+
 import json
 import os
 import select
@@ -34,8 +35,14 @@ def _sine_columns():
 
 
 def _write(path, t, d, v, force):
-    np.savetxt(path, np.column_stack([t, d, v, force]), delimiter=",", header="time,displacement,velocity,force",
-               comments="", fmt="%.10g")
+    np.savetxt(
+        path,
+        np.column_stack([t, d, v, force]),
+        delimiter=",",
+        header="time,displacement,velocity,force",
+        comments="",
+        fmt="%.10g",
+    )
     return path
 
 
@@ -119,18 +126,24 @@ def test_a_bound_that_holds_the_optimum_is_flagged(tmp_path):
     _, d, v = _sine_columns()
     rec = read_csv(_write(tmp_path / "g.csv", t, d, v, tr.y))
     lo = m.param("k2").lower
-    res = fit(Problem(m, rec, fixed={"A_f": table2_params(0.4)["A_f"]}, bounds={"k2": (lo, 100.0)}),
-              x0={"k2": 50.0}, compute_stderr=False)
+    res = fit(
+        Problem(m, rec, fixed={"A_f": table2_params(0.4)["A_f"]}, bounds={"k2": (lo, 100.0)}),
+        x0={"k2": 50.0},
+        compute_stderr=False,
+    )
     flags = {f["flag"]: f for f in res.flags}
     assert res.params["k2"] == pytest.approx(100.0, rel=1e-6)
     assert flags["on-bound"]["parameters"] == ["k2"]
     assert "k2 on its upper bound 100" in flags["on-bound"]["message"]
 
 
-@pytest.mark.parametrize("change, failed", [
-    ({"k2": -4825.0}, {"V positive definite", "V radially unbounded"}),   # k1 + k2 < 0: a saddle
-    ({"c2": -40.0}, {"dV/dt negative semi-definite"}),                    # c1 + c2 < 0 (c1 = 20 at 0.4 V)
-])
+@pytest.mark.parametrize(
+    "change, failed",
+    [
+        ({"k2": -4825.0}, {"V positive definite", "V radially unbounded"}),  # k1 + k2 < 0: a saddle
+        ({"c2": -40.0}, {"dV/dt negative semi-definite"}),  # c1 + c2 < 0 (c1 = 20 at 0.4 V)
+    ],
+)
 def test_sets_outside_the_stability_certificate_are_flagged(change, failed):
     from duffsym.identify.quality import _outside_certificate
 
@@ -169,8 +182,9 @@ def test_multistart_never_crashes(model_record, capsys, n, seed):
     """(3, 1), (3, 2), (4, 1) crashed with "truth value of an array is ambiguous" (runs.index(best)
     compared tuples holding arrays when two runs had the same status and iteration count)."""
     capsys.readouterr()
-    code, out, err = run(["fit", str(model_record), "--starts", str(n), "--seed", str(seed), "--json", "--quiet"],
-                         capsys)
+    code, out, err = run(
+        ["fit", str(model_record), "--starts", str(n), "--seed", str(seed), "--json", "--quiet"], capsys
+    )
     assert code == 0, err
     res = json.loads(out)
     assert res["success"] and res["nrmse"] < 1e-3
@@ -205,12 +219,19 @@ def test_ctrl_c_stops_the_solve_with_exit_130_and_writes_nothing(tmp_path):
     """SIGINT once the solve has started: IPOPT stops at its next iteration (intermediate callback),
     the CLI exits 130 and the --out file is not written (it used to finish with exit 0 and write it)."""
     rec = tmp_path / "long.csv"
-    assert main(["simulate", "--periods", "60", "--excitation", "multisine", "--f-max", "8", "--out", str(rec),
-                 "--json"]) == 0
+    assert (
+        main(["simulate", "--periods", "60", "--excitation", "multisine", "--f-max", "8", "--out", str(rec), "--json"])
+        == 0
+    )
     out = tmp_path / "fit.json"
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "duffsym.cli", "fit", str(rec), "--starts", "6", "--out", str(out)],
-                            stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "duffsym.cli", "fit", str(rec), "--starts", "6", "--out", str(out)],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     # after "built in" (or, on a CLI that says nothing, 4 s after "fitting ..."), interrupt
     seen, deadline, sent, t_fit = [], time.monotonic() + 120, False, time.monotonic()
     while time.monotonic() < deadline and not sent:

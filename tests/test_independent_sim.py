@@ -1,5 +1,6 @@
 """The independent generator (tests/independent_sim.py) checked against duffsym's simulator on the
 base model, against itself at a finer step, and for its independence (it must not import duffsym)."""
+
 import ast
 from pathlib import Path
 
@@ -39,8 +40,18 @@ def test_generator_converged_in_its_step_with_every_effect(lag, tol):
     # internal friction (eps = 0.005) costs 3e-4
     p = gen.table2(0.4)
     inp = gen.make_input("multisine", np.random.default_rng(1))
-    phys = gen.Physics(backlash=0.03, internal_friction=15, seal_friction=0.1, inertia=0.002, gas_preload=0.05,
-                       gas_stiffness=0.2, asymmetry=0.1, lag=lag, delay=0.01, offset=0.1)
+    phys = gen.Physics(
+        backlash=0.03,
+        internal_friction=15,
+        seal_friction=0.1,
+        inertia=0.002,
+        gas_preload=0.05,
+        gas_stiffness=0.2,
+        asymmetry=0.1,
+        lag=lag,
+        delay=0.01,
+        offset=0.1,
+    )
     t = 0.005 * np.arange(401)
     y20, _ = gen.simulate_device(p, phys, inp, t, substeps=20)
     y80, _ = gen.simulate_device(p, phys, inp, t, substeps=80)

@@ -4,24 +4,32 @@ Each statement is defined once, in ``studies/s04_paper_claims.py``, as a number 
 ``duffsym.plot.loops`` and a threshold. A statement the simulation contradicts is a strict xfail whose
 reason gives the measured numbers (the study prints and tabulates the same), not a bent test.
 """
-import pytest
 
+import pytest
 import s04_paper_claims as claims
 
 #: Statements the simulation does not support, with what it shows instead (measured by s04).
 CONTRADICTED = {
     "claim_stiffness_controls_width": (
         "beta barely changes the width: doubling beta moves the d'-y loop width by -13.9 % at 0.5 Hz, -2.0 % at 1 Hz "
-        "and -0.3 % at 2 Hz (k1: +92/+63/+36 %, alpha: -70/-25/-8 %); only k1 and alpha control it"),
+        "and -0.3 % at 2 Hz (k1: +92/+63/+36 %, alpha: -70/-25/-8 %); only k1 and alpha control it"
+    ),
 }
 
 
-@pytest.mark.parametrize("text, source, fn", [
-    pytest.param(*c, id=c[2].__name__,
-                 marks=[pytest.mark.xfail(strict=True, reason=CONTRADICTED[c[2].__name__])]
-                 if c[2].__name__ in CONTRADICTED else [])
-    for c in claims.CLAIMS
-])
+@pytest.mark.parametrize(
+    "text, source, fn",
+    [
+        pytest.param(
+            *c,
+            id=c[2].__name__,
+            marks=[pytest.mark.xfail(strict=True, reason=CONTRADICTED[c[2].__name__])]
+            if c[2].__name__ in CONTRADICTED
+            else [],
+        )
+        for c in claims.CLAIMS
+    ],
+)
 def test_paper_statement(text, source, fn):
     holds, measured = fn()
     assert holds, f"{text} ({source}): {measured}"

@@ -1,6 +1,7 @@
 """Ctrl-C of ``duffsym batch --workers 2`` at any moment (imports, the local cluster starting, fits
 running) prints one line and exits 130 (issue 24: 4 of 6 tries printed a 20-line traceback from the
 cluster's shutdown, or from the interrupted imports)."""
+
 from __future__ import annotations
 
 import shutil
@@ -18,8 +19,10 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 #: at 0.8 s a worker process may still be starting its own interpreter; 1 run in 6 it then prints its own
 #: KeyboardInterrupt traceback from multiprocessing's spawn_main (seen after the merge of issue 24's fix;
 #: the parent's atexit shutdown is quiet since). A known, open defect, not a passing claim.
-SPAWNING = pytest.mark.xfail(reason="a worker interrupted inside multiprocessing's spawn_main prints its own "
-                             "traceback (about 1 run in 6)", strict=False)
+SPAWNING = pytest.mark.xfail(
+    reason="a worker interrupted inside multiprocessing's spawn_main prints its own traceback (about 1 run in 6)",
+    strict=False,
+)
 
 
 @pytest.mark.parametrize("delay", [pytest.param(0.8, marks=SPAWNING), 1.5, 2.5, 3.5])  # after the interpreter started
@@ -28,10 +31,27 @@ def test_ctrl_c_of_a_batch_is_one_line(tmp_path, delay):
     recs.mkdir()
     for name in ("synthetic_sine.csv", "synthetic_random.csv"):
         shutil.copy(DATA / name, recs / name)
-    cmd = [sys.executable, "-m", "duffsym.cli", "batch", str(recs), "--command", "fit", "--out", str(tmp_path / "out"),
-           "--workers", "2", "--quiet"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    cmd = [
+        sys.executable,
+        "-m",
+        "duffsym.cli",
+        "batch",
+        str(recs),
+        "--command",
+        "fit",
+        "--out",
+        str(tmp_path / "out"),
+        "--workers",
+        "2",
+        "--quiet",
+    ]
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     time.sleep(delay)
     # the batch must still be running, or the test interrupts nothing (a skip here would leave Ctrl-C untested)
     assert proc.poll() is None, "the batch finished before the interrupt: give it longer records"

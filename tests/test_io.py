@@ -1,4 +1,5 @@
 """The atomic-write and bounded-read helpers of duffsym._io."""
+
 import os
 
 import pytest

@@ -2,6 +2,7 @@
 end product never a failed fit, inactive effects flagged, the joint refit of several effects, the play of a real
 friction damper. Records come from the independent generator (tests/independent_sim.py, no duffsym code) and
 from the real friction damper in ../shared/data/external (skipped when absent)."""
+
 import json
 import math
 
@@ -81,8 +82,10 @@ def test_seal_friction_is_not_flagged_where_it_acts_and_is_where_it_only_absorbs
     assert dg.base_fit.params["seal_F"] == pytest.approx(g.truth["physics"]["seal_friction"], rel=0.25)
     rec, _ = record("force-offset", 3)  # measured: seal_F = 0.037 +- 0.055 (the model lacks the offset)
     dg = diagnose(rec, model, candidates=[], sindy=False)
-    assert "not distinguishable from zero" in inactive_effects(model, rec, dg.base_fit.params,
-                                                               dg.base_fit.stderr)["seal-friction"]
+    assert (
+        "not distinguishable from zero"
+        in inactive_effects(model, rec, dg.base_fit.params, dg.base_fit.stderr)["seal-friction"]
+    )
 
 
 # ------------------------------------------------------------------------------------------- budget
@@ -94,8 +97,23 @@ def test_a_tiny_budget_stops_the_ladder_with_its_finished_steps_written(tmp_path
     csv = tmp_path / "rec.csv"
     write_csv(rec, csv)
     out, rep = tmp_path / "fit.json", tmp_path / "report"
-    code = main(["ladder", str(csv), "--budget", "4", "--no-sindy", "--candidates", "force-offset,output-lag",
-                 "--report", str(rep), "--out", str(out), "--quiet", "--json"])
+    code = main(
+        [
+            "ladder",
+            str(csv),
+            "--budget",
+            "4",
+            "--no-sindy",
+            "--candidates",
+            "force-offset,output-lag",
+            "--report",
+            str(rep),
+            "--out",
+            str(out),
+            "--quiet",
+            "--json",
+        ]
+    )
     doc = json.loads((rep / "ladder.json").read_text())
     assert len(doc["steps"]) >= 1 and (rep / "step0" / "diagnosis.md").is_file()
     assert doc["budget"] == 4.0
@@ -126,8 +144,15 @@ def test_play_and_seal_friction_together_end_within_twice_the_noise():
 
 
 # ------------------------------------------------------------------------------------------- real play
-@pytest.mark.parametrize("name", ["0.5Hz30lbtension1amplitude", "0.5Hz36lbtension1amplitude",
-                                  "0.5Hz30lbtension0.5amplitude", "0.25Hz30lbtension1amplitude"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "0.5Hz30lbtension1amplitude",
+        "0.5Hz36lbtension1amplitude",
+        "0.5Hz30lbtension0.5amplitude",
+        "0.25Hz30lbtension1amplitude",
+    ],
+)
 def test_plateau_half_width_of_the_real_friction_damper_matches_its_deadzone_mask(name):
     from duffsym.data.loaders import load_friction_damper_json
     from duffsym.effects import CATALOGUE
@@ -145,9 +170,12 @@ def test_plateau_half_width_of_the_real_friction_damper_matches_its_deadzone_mas
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured: the mr-damper base holds its hysteretic force while the piston "
-                   "crosses the gap, so base + play cannot make the zero-force plateau; h fixed at the plateau value "
-                   "0.10 in fits worse (held-out 0.50 vs 0.23), free h runs to its range limits (issue 22 report)")
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured: the mr-damper base holds its hysteretic force while the piston "
+    "crosses the gap, so base + play cannot make the zero-force plateau; h fixed at the plateau value "
+    "0.10 in fits worse (held-out 0.50 vs 0.23), free h runs to its range limits (issue 22 report)",
+)
 def test_play_of_the_real_friction_damper_matches_its_plateaus():
     from duffsym.data.loaders import load_friction_damper_json
     from duffsym.diagnose import diagnose

@@ -8,6 +8,7 @@ package ``duffsym.cli`` (the top layer ``cli``), and only it: a module named ``c
 to its own package's layer. ``duffsym/__init__.py`` is the public facade above everything (its lazy
 ``fit``/``read_csv`` re-exports) and ``from duffsym import __version__`` is not a dependency.
 """
+
 from __future__ import annotations
 
 import ast
@@ -19,7 +20,14 @@ SRC = Path(duffsym.__file__).parent
 
 #: Bottom to top. A module may import only from its own layer or the layers listed before it.
 LAYERS = (
-    "errors", "status", "options", "_typing", "_checks", "_json", "_io", "_progress",
+    "errors",
+    "status",
+    "options",
+    "_typing",
+    "_checks",
+    "_json",
+    "_io",
+    "_progress",
     "model",
     "codegen",
     "excitation",
@@ -34,7 +42,8 @@ LAYERS = (
     "diagnose",
     "benchmark",  # public benchmarks scored by their own protocol (identify, diagnose below)
     "control",  # the inverse for control (a fitted model's command for a desired force)
-    "engine", "campaign",  # run commands over many records (they drive everything below)
+    "engine",
+    "campaign",  # run commands over many records (they drive everything below)
     "cli",
 )
 RANK = {name: i for i, name in enumerate(LAYERS)}
@@ -62,14 +71,24 @@ def imports_of(path: Path) -> list[tuple[str, int]]:
     """Every ``duffsym`` module imported by the file, with the line."""
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module and node.module.split(".")[0] == "duffsym":
+        if (
+            isinstance(node, ast.ImportFrom)
+            and node.level == 0
+            and node.module
+            and node.module.split(".")[0] == "duffsym"
+        ):
             if node.module == "duffsym":  # from duffsym import X: X is a submodule or a facade name
-                out += [(f"duffsym.{a.name}", node.lineno) for a in node.names if (SRC / a.name).exists()
-                        or (SRC / f"{a.name}.py").exists()]
+                out += [
+                    (f"duffsym.{a.name}", node.lineno)
+                    for a in node.names
+                    if (SRC / a.name).exists() or (SRC / f"{a.name}.py").exists()
+                ]
             else:
                 out.append((node.module, node.lineno))
         elif isinstance(node, ast.Import):
-            out += [(a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "duffsym" and a.name != "duffsym"]
+            out += [
+                (a.name, node.lineno) for a in node.names if a.name.split(".")[0] == "duffsym" and a.name != "duffsym"
+            ]
     return out
 
 
@@ -110,8 +129,11 @@ def private_names_imported(path: Path) -> list[tuple[str, str, int]]:
     out = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
         if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").split(".")[0] == "duffsym":
-            out += [(node.module, a.name, node.lineno) for a in node.names
-                    if a.name.startswith("_") and not a.name.startswith("__")]
+            out += [
+                (node.module, a.name, node.lineno)
+                for a in node.names
+                if a.name.startswith("_") and not a.name.startswith("__")
+            ]
     return out
 
 
@@ -120,15 +142,21 @@ def test_the_command_line_takes_no_private_name_from_another_package():
     bad = []
     for path in sorted((SRC / "cli").rglob("*.py")):
         module = _module_name(path)
-        bad += [f"{module}:{line} imports {name} from {src}" for src, name, line in private_names_imported(path)
-                if layer(src) != "cli"]
+        bad += [
+            f"{module}:{line} imports {name} from {src}"
+            for src, name, line in private_names_imported(path)
+            if layer(src) != "cli"
+        ]
     assert not bad, bad
 
 
 def test_effects_never_import_the_fitting_code():
     """An effect is a model extension with its guesses; fitting it lives in ``duffsym.identify.extended``."""
-    bad = [f"{m}:{line} imports {d}" for s, d, m, line in edges()
-           if s == "effects" and d in ("identify", "diagnose", "uncertainty", "sindy", "simulate", "codegen")]
+    bad = [
+        f"{m}:{line} imports {d}"
+        for s, d, m, line in edges()
+        if s == "effects" and d in ("identify", "diagnose", "uncertainty", "sindy", "simulate", "codegen")
+    ]
     assert not bad, bad
 
 
@@ -144,7 +172,7 @@ def test_no_import_circle_between_packages():
         path.append(node)
         for nxt in sorted(graph.get(node, ())):
             if state.get(nxt) == 1:
-                return path[path.index(nxt):] + [nxt]
+                return path[path.index(nxt) :] + [nxt]
             if nxt not in state and (cycle := visit(nxt)):
                 return cycle
         path.pop()

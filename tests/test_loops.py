@@ -1,4 +1,5 @@
 """Loop metrics against closed forms of elliptic loops and straight lines."""
+
 import math
 
 import numpy as np
@@ -6,8 +7,8 @@ import pytest
 
 from duffsym import DataError, Sine, mr_damper, simulate
 from duffsym.derive import cycle_energy
-from duffsym.plot.loops import loop_metrics, signed_area, trajectory_loop_metrics
 from duffsym.model.presets import TABLE2
+from duffsym.plot.loops import loop_metrics, signed_area, trajectory_loop_metrics
 
 A, OMEGA, F0 = 0.7, 2 * math.pi * 1.5, 2.3
 

@@ -1,4 +1,5 @@
 """The symbolic model: state-space extraction against the paper's typed matrices, validation, composition."""
+
 import numpy as np
 import pytest
 import sympy as sp

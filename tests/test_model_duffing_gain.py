@@ -1,5 +1,6 @@
 """Eq. 1 with an input gain (``duffing-gain``), the input shift on a model driven by F alone, and the
 polynomial effects (quadratic stiffness, cubic damping): equations, identifiability, recovery."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -94,7 +95,7 @@ def test_input_curvature_equation_and_guess():
     both = apply_effects(m, [CATALOGUE["input-shift"], e])
     assert [c.name for c in both.inputs] == ["F", "F_dot", "F_ddot"]
     rec = _record(m, TRUE, n=200)
-    assert e.initial_guess(rec, rec.y) == {"curv_k": pytest.approx(-rec.dt**2 / 12)}
+    assert e.initial_guess(rec, rec.y) == {"curv_k": pytest.approx(-(rec.dt**2) / 12)}
 
 
 def test_linear_interpolation_flattening_is_what_curvature_restores():

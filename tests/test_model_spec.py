@@ -8,6 +8,7 @@ a fit result, saved as FIT.json, loaded, rebuilt from the file alone, and run ag
 must agree to 1e-12 (they are the same equations; the code cache is keyed by them). The rebuild is also
 checked against a model that lacks one piece (an effect, a setting), so the comparison can fail.
 """
+
 from __future__ import annotations
 
 import json
@@ -35,9 +36,29 @@ from duffsym.model.symbols import state_symbol
 from duffsym.simulate import simulate_record
 
 #: Values of parameters whose default is 0 (so that the term they scale acts on the record).
-ACTING = {"k3": 5.0, "off_y0": 0.3, "gas_k": 0.4, "inertia_m": 0.02, "pd_c": 0.3, "pd_c_u": 0.2, "fric_mu": 0.5,
-          "asym_a": 0.1, "fa_a": 0.3, "quad_k": 20.0, "cdamp_c": 5.0, "curv_k": 1e-4, "dir_c": 0.3, "drift_a": 0.2,
-          "delay_tau": 0.004, "shift_tau": 0.002, "mx_k": 2.0, "fy_F": 0.3, "fy_F_u": 0.2, "c0": 0.2, "c0_u": 0.1}
+ACTING = {
+    "k3": 5.0,
+    "off_y0": 0.3,
+    "gas_k": 0.4,
+    "inertia_m": 0.02,
+    "pd_c": 0.3,
+    "pd_c_u": 0.2,
+    "fric_mu": 0.5,
+    "asym_a": 0.1,
+    "fa_a": 0.3,
+    "quad_k": 20.0,
+    "cdamp_c": 5.0,
+    "curv_k": 1e-4,
+    "dir_c": 0.3,
+    "drift_a": 0.2,
+    "delay_tau": 0.004,
+    "shift_tau": 0.002,
+    "mx_k": 2.0,
+    "fy_F": 0.3,
+    "fy_F_u": 0.2,
+    "c0": 0.2,
+    "c0_u": 0.1,
+}
 
 
 def _record(n: int = 400, dt: float = 0.0025) -> Record:
@@ -72,11 +93,25 @@ def _run(model, params, x0=None) -> np.ndarray:
 def _result(model, params, x0) -> IdentificationResult:
     """An IdentificationResult as ``fit`` makes it (the model object, its parameters, one record's x0)."""
     return IdentificationResult(
-        model=model, params=params, free=tuple(params), fixed={}, stderr={k: 0.0 for k in params},
-        covariance=np.zeros((len(params), len(params))), cost=0.0, nrmse=0.0, r2=1.0, status="Solve_Succeeded",
-        success=True, message="IPOPT converged", n_iter=1, timings={}, effects=tuple(model.effects),
-        structural={k: v for k, v in model.structural if isinstance(v, int)}, x0=(tuple(x0),),
-        records=(REC.name,))
+        model=model,
+        params=params,
+        free=tuple(params),
+        fixed={},
+        stderr=dict.fromkeys(params, 0.0),
+        covariance=np.zeros((len(params), len(params))),
+        cost=0.0,
+        nrmse=0.0,
+        r2=1.0,
+        status="Solve_Succeeded",
+        success=True,
+        message="IPOPT converged",
+        n_iter=1,
+        timings={},
+        effects=tuple(model.effects),
+        structural={k: v for k, v in model.structural if isinstance(v, int)},
+        x0=(tuple(x0),),
+        records=(REC.name,),
+    )
 
 
 def _save_and_load(model, tmp_path) -> tuple:
@@ -105,8 +140,9 @@ def _check(model, tmp_path):
     rebuilt = loaded.model_obj
     assert rebuilt.key == model.key and rebuilt == model
     assert rebuilt.effects == model.effects and rebuilt.effect_objects == model.effect_objects
-    assert [(p.default, p.lower, p.upper, p.scale) for p in rebuilt.params] == \
-        [(p.default, p.lower, p.upper, p.scale) for p in model.params]
+    assert [(p.default, p.lower, p.upper, p.scale) for p in rebuilt.params] == [
+        (p.default, p.lower, p.upper, p.scale) for p in model.params
+    ]
     assert np.array_equal(_numeric(rebuilt), _numeric(model))
     return rebuilt, data, loaded
 
@@ -127,13 +163,21 @@ OUTSIDE = {
     "field-yield": FieldYield(),
     "directional-damping": DirectionalDamping(),
     "directional-damping position": DirectionalDamping(shape="position", epsilon=2e-3),
-    "discovered": DiscoveredEffect((sp.tanh(state_symbol("d_dot") / 0.27), state_symbol("d") ** 2,
-                                    state_symbol("x_dot") ** 3), (0.3019, -1.25, 0.5), 1),
+    "discovered": DiscoveredEffect(
+        (sp.tanh(state_symbol("d_dot") / 0.27), state_symbol("d") ** 2, state_symbol("x_dot") ** 3),
+        (0.3019, -1.25, 0.5),
+        1,
+    ),
     "drift energy": ParameterDrift("c3", "energy", 12.0, 0.1),
     "drift time": ParameterDrift("k1", "time", 0.8),
 }
-CHAIN = [CATALOGUE["force-offset"], CATALOGUE["input-delay"], CATALOGUE["coulomb-friction"], OUTSIDE["drift energy"],
-         CATALOGUE["output-lag"]]
+CHAIN = [
+    CATALOGUE["force-offset"],
+    CATALOGUE["input-delay"],
+    CATALOGUE["coulomb-friction"],
+    OUTSIDE["drift energy"],
+    CATALOGUE["output-lag"],
+]
 
 
 def _bouc_wen_benchmark_model():
@@ -147,11 +191,13 @@ BUILT = {
     "mr-damper-physical": lambda: mr_damper(3, physical=True),
     "path_time(mr-damper 3, 0.2)": lambda: path_time(mr_damper(3), 0.2),
     "mr-damper-current-path, epsilon 0.5, no viscous": lambda: mr_damper_current_path(3, epsilon=0.5, viscous=False),
-    "structure, element with directional damping": lambda: structure(DirectionalDamping().apply(
-        path_time(mr_damper(3), 0.2))),
+    "structure, element with directional damping": lambda: structure(
+        DirectionalDamping().apply(path_time(mr_damper(3), 0.2))
+    ),
     "bouc-wen benchmark (two elements, scaled start)": _bouc_wen_benchmark_model,
     "mr-damper with new defaults + seal-friction": lambda: CATALOGUE["seal-friction"].apply(
-        mr_damper(5).with_params(c3=250.0)),
+        mr_damper(5).with_params(c3=250.0)
+    ),
     "chain of five effects": lambda: apply_effects(get_model("mr-damper", 3), CHAIN),
     "extended without an Effect object (as diagnose/scenarios.py does)": lambda: _extended_by_hand(),
 }
@@ -167,20 +213,33 @@ def _extended_by_hand():
     out = m.extend(effect="hand-made", params=(cx,), output_add=cx.symbol * sp.sin(m.position))
     assert out.effects == ("hand-made",) and out.effect_objects is None
     return out
+
+
 #: Every case by name: each library model (default power, and other powers), each effect, each built model.
 CASES = {
     **{f"model {n}": (lambda n=n: get_model(n)) for n in sorted(MODELS)},
-    **{f"model {n} n={k}": (lambda n=n, k=k: get_model(n, k)) for n, k in (
-        ("mr-damper", 3), ("duffing-like", 7), ("mr-damper-current", 3), ("bouc-wen", 1), ("spencer", 3),
-        ("bouc-wen", 1.5))},  # a non-integer exponent: FIT.json's "structural" stores int(n) = 1, model_spec 1.5
+    **{
+        f"model {n} n={k}": (lambda n=n, k=k: get_model(n, k))
+        for n, k in (
+            ("mr-damper", 3),
+            ("duffing-like", 7),
+            ("mr-damper-current", 3),
+            ("bouc-wen", 1),
+            ("spencer", 3),
+            ("bouc-wen", 1.5),
+        )
+    },  # a non-integer exponent: FIT.json's "structural" stores int(n) = 1, model_spec 1.5
     "model duffing-like n_x=3 n_v=5": lambda: get_model("duffing-like", n_x=3, n_v=5),
     **{f"effect {n}": (lambda n=n: _on_a_model(CATALOGUE[n])) for n in sorted(CATALOGUE)},
     **{f"effect {n}": (lambda n=n: _on_a_model(OUTSIDE[n])) for n in sorted(OUTSIDE)},
     **{f"built {n}": f for n, f in BUILT.items()},
 }
 #: The cases whose free run the default suite compares (each compiles its model once; the rest are slow).
-RUN_BY_DEFAULT = ("built bouc-wen benchmark (two elements, scaled start)", "built chain of five effects",
-                  "effect discovered")
+RUN_BY_DEFAULT = (
+    "built bouc-wen benchmark (two elements, scaled start)",
+    "built chain of five effects",
+    "effect discovered",
+)
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
@@ -200,8 +259,9 @@ def test_every_model_and_effect_rebuilds_from_its_fit_file(case, tmp_path):
         assert back["element_model"].effect_objects == comp["element_model"].effect_objects
 
 
-@pytest.mark.parametrize("case", [c if c in RUN_BY_DEFAULT else pytest.param(c, marks=pytest.mark.slow)
-                                  for c in sorted(CASES)])
+@pytest.mark.parametrize(
+    "case", [c if c in RUN_BY_DEFAULT else pytest.param(c, marks=pytest.mark.slow) for c in sorted(CASES)]
+)
 def test_the_rebuilt_model_runs_as_the_original(case, tmp_path):
     """The free run (simulate_record) of the model rebuilt from FIT.json equals the original's to 1e-12; an
     effect acts on the record (a rebuild without it would differ)."""

@@ -5,14 +5,13 @@ Expected numerical conditions reach the user as the package's one-line notes (``
 from the API alike (a campaign fit through :func:`duffsym.identify.fit`). Runs each command in its own
 process on real UTFSM MR-damper tests (skipped when the external data are absent).
 """
+
 from __future__ import annotations
 
 import re
 import subprocess
 import sys
 from pathlib import Path
-
-import pytest
 
 from _external import external_file
 
@@ -26,9 +25,14 @@ def _utfsm(name: str) -> Path:
 
 def _run(args, cwd) -> subprocess.CompletedProcess:
     env_bin = str(Path(sys.executable).parent)
-    proc = subprocess.run([*args], cwd=cwd, capture_output=True, text=True, timeout=600,
-                          env={**__import__("os").environ, "PATH": env_bin + ":" + __import__("os").environ["PATH"],
-                               "MPLBACKEND": "Agg"})
+    proc = subprocess.run(
+        [*args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**__import__("os").environ, "PATH": env_bin + ":" + __import__("os").environ["PATH"], "MPLBACKEND": "Agg"},
+    )
     return proc
 
 
@@ -40,18 +44,35 @@ def test_raw_warning_pattern_catches_python_s_format():
 def test_commands_on_real_records_print_no_raw_warning(tmp_path):
     currents = {"2mm5Hz0A": 0.0, "2mm5Hz0x5A": 0.5, "2mm5Hz1A": 1.0, "2mm5Hz0x25A": 0.25}
     conv = "--columns time=1,displacement=2,velocity=3,force=4".split()
-    commands = [["duffsym", "convert", str(_utfsm(n)), *conv, "--current", str(c), "--out", f"{n}.csv"]
-                for n, c in currents.items()]
+    commands = [
+        ["duffsym", "convert", str(_utfsm(n)), *conv, "--current", str(c), "--out", f"{n}.csv"]
+        for n, c in currents.items()
+    ]
     commands += [
         ["duffsym", "fit", "2mm5Hz1A.csv", "--units", "input=mm,output=N", "--out", "one.json", "--plot", "one.png"],
         ["duffsym", "validate", "one.json", "2mm5Hz0x25A.csv", "--plot", "val.png"],
-        ["duffsym", "fit", "2mm5Hz0A.csv", "2mm5Hz0x5A.csv", "2mm5Hz1A.csv", "--model", "mr-damper-current",
-         "--out", "camp.json", "--plot", "camp.png"],
+        [
+            "duffsym",
+            "fit",
+            "2mm5Hz0A.csv",
+            "2mm5Hz0x5A.csv",
+            "2mm5Hz1A.csv",
+            "--model",
+            "mr-damper-current",
+            "--out",
+            "camp.json",
+            "--plot",
+            "camp.png",
+        ],
         ["duffsym", "validate", "camp.json", "2mm5Hz0x25A.csv"],
-        [sys.executable, "-c", "import duffsym\nfrom duffsym.identify import Problem, fit\n"
-         "from duffsym.model import get_model\n"
-         "recs = [duffsym.read_csv(f) for f in ('2mm5Hz0A.csv', '2mm5Hz0x5A.csv', '2mm5Hz1A.csv')]\n"
-         "print(fit(Problem(get_model('mr-damper-current'), recs)).summary())"],
+        [
+            sys.executable,
+            "-c",
+            "import duffsym\nfrom duffsym.identify import Problem, fit\n"
+            "from duffsym.model import get_model\n"
+            "recs = [duffsym.read_csv(f) for f in ('2mm5Hz0A.csv', '2mm5Hz0x5A.csv', '2mm5Hz1A.csv')]\n"
+            "print(fit(Problem(get_model('mr-damper-current'), recs)).summary())",
+        ],
     ]
     for cmd in commands:
         proc = _run(cmd, tmp_path)

@@ -2,6 +2,7 @@
 (checked against the element integrated in the drive's phase by tests/independent_bw.py, numpy only), the
 coupled derivations carry its path rate, and identification recovers known parameters from a record of
 the independent simulator of a mass carrying it."""
+
 from __future__ import annotations
 
 import math
@@ -109,8 +110,7 @@ def test_fit_recovers_the_independent_path_structure():
     model = scaled_to(model, base)
     start = equation_error_start(rec, model, n_random=4, fixed={"A_f": TRUTH["A_f"], "k3": 0.0})
     assert start.pop("_equation_nrmse") < 0.1
-    r = fit(Problem(scaled_to(model, start), rec, fixed={"A_f": TRUTH["A_f"], "k3": 0.0}), start,
-            compute_stderr=False)
+    r = fit(Problem(scaled_to(model, start), rec, fixed={"A_f": TRUTH["A_f"], "k3": 0.0}), start, compute_stderr=False)
     assert r.success, r.message
     assert r.nrmse < 0.015  # the 1 % noise
     for name in ("m", "k", "c1", "c2", "k1", "k2"):

@@ -4,6 +4,7 @@ Inputs are plain numpy signals (a sine test with a start-up and a ramp-down, a 1
 band-limited random signal); the validate figure is made on records of the independent generator
 (``tests/independent_current_sim.py``).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -54,16 +55,34 @@ def test_validate_plot_on_a_random_record(tmp_path):
     from independent_current_sim import TRUTH, Sines, constant, generate
 
     def write(path, rec):
-        np.savetxt(path, np.column_stack([rec["t"], rec["d"], rec["d_dot"], rec["y"]]), delimiter=",",
-                   header="time,displacement,velocity,force", comments="", fmt="%.10g")
+        np.savetxt(
+            path,
+            np.column_stack([rec["t"], rec["d"], rec["d_dot"], rec["y"]]),
+            delimiter=",",
+            header="time,displacement,velocity,force",
+            comments="",
+            fmt="%.10g",
+        )
 
     write(tmp_path / "sine.csv", generate(TRUTH, Sines((1.0,), (2.0,), (0.0,)), constant(0.5), dt=0.004, duration=3.0))
-    write(tmp_path / "rand.csv", generate(TRUTH, Sines((0.5, 0.4, 0.3), (0.7, 1.9, 3.1), (0.1, 1.0, 2.0)), constant(0.5),
-                                          dt=0.004, duration=5.0, seed=2))
+    write(
+        tmp_path / "rand.csv",
+        generate(
+            TRUTH,
+            Sines((0.5, 0.4, 0.3), (0.7, 1.9, 3.1), (0.1, 1.0, 2.0)),
+            constant(0.5),
+            dt=0.004,
+            duration=5.0,
+            seed=2,
+        ),
+    )
     assert main(["fit", str(tmp_path / "sine.csv"), "--out", str(tmp_path / "f.json"), "--quiet"]) == 0
     png = tmp_path / "val.png"
     assert main(["validate", str(tmp_path / "f.json"), str(tmp_path / "rand.csv"), "--plot", str(png), "--json"]) == 0
     assert png.stat().st_size > 30_000 and png.read_bytes()[:4] == b"\x89PNG"
     # --plot may not name an input
-    assert main(["validate", str(tmp_path / "f.json"), str(tmp_path / "rand.csv"), "--plot", str(tmp_path / "rand.csv")]) != 0
+    assert (
+        main(["validate", str(tmp_path / "f.json"), str(tmp_path / "rand.csv"), "--plot", str(tmp_path / "rand.csv")])
+        != 0
+    )
     assert json.loads((tmp_path / "f.json").read_text())["success"]

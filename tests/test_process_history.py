@@ -11,6 +11,7 @@ flipped s06's joint 1 A fit from Solved_To_Acceptable_Level to Restoration_Faile
 that fit's verdict depends on the last bits of its start, so the rounding was not kept. In the project's CI run
 of 2026-11-26 the full suite reproduced those last-bit differences (relative 1e-15 to 2e-15 on c1, c2, c3, k1),
 so the test compares to 1e-12 relative: a start that differs beyond rounding still fails it."""
+
 from __future__ import annotations
 
 import json
@@ -74,6 +75,10 @@ def test_command_start_after_the_sindy_path_equals_a_fresh_process():
     assert not differ, differ
     # the start is the equation-error one, not the tuning fallback (what a failed ranking returns)
     scope: dict = {}
-    exec(START.format(here=str(HERE)).replace("START = command_start", "TUNE = tuning_guess").replace(
-        "import command_start", "import tuning_guess"), scope)
+    exec(
+        START.format(here=str(HERE))
+        .replace("START = command_start", "TUNE = tuning_guess")
+        .replace("import command_start", "import tuning_guess"),
+        scope,
+    )
     assert any(abs(here[k] - scope["TUNE"][k]) > 1e-3 * (1 + abs(here[k])) for k in here)

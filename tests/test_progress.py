@@ -1,4 +1,5 @@
 """Progress of long work: on stderr with a count, elapsed time and time left; stdout stays pure JSON."""
+
 from __future__ import annotations
 
 import io
@@ -17,8 +18,9 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 
 def _cli(*argv, cwd):
     env = dict(os.environ, MPLBACKEND="Agg")
-    return subprocess.run([sys.executable, "-m", "duffsym.cli", *argv], cwd=cwd, env=env, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "duffsym.cli", *argv], cwd=cwd, env=env, capture_output=True, text=True, timeout=600
+    )
 
 
 def test_progress_counts_and_estimates_the_time_left(monkeypatch):
@@ -44,23 +46,48 @@ def test_reporter_adapts_plain_callables_and_none():
 
 
 def test_diagnose_json_stdout_stays_pure_with_progress_on(tmp_path):
-    proc = _cli("diagnose", str(DATA / "synthetic_hidden.csv"), "--candidates", "force-offset,inertia",
-                "--no-sindy", "--json", cwd=tmp_path)
+    proc = _cli(
+        "diagnose",
+        str(DATA / "synthetic_hidden.csv"),
+        "--candidates",
+        "force-offset,inertia",
+        "--no-sindy",
+        "--json",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)  # one JSON object and nothing else
     assert doc["candidates"][0]["effect"] == "force-offset"
     assert re.search(r"^\[\d+:\d\d\]   trying force-offset \(1 of 2\)$", proc.stderr, re.M)
     assert re.search(r"trying inertia \(2 of 2, about \d+:\d\d left\)", proc.stderr)
-    quiet = _cli("diagnose", str(DATA / "synthetic_hidden.csv"), "--candidates", "force-offset", "--no-sindy",
-                 "--json", "--quiet", cwd=tmp_path)
+    quiet = _cli(
+        "diagnose",
+        str(DATA / "synthetic_hidden.csv"),
+        "--candidates",
+        "force-offset",
+        "--no-sindy",
+        "--json",
+        "--quiet",
+        cwd=tmp_path,
+    )
     assert quiet.returncode == 0 and quiet.stderr == "" and json.loads(quiet.stdout)["needed"] == ["force-offset"]
 
 
 def test_sample_json_stdout_stays_pure_with_the_progress_bar(tmp_path):
     fit = _cli("fit", str(DATA / "synthetic_sine.csv"), "--out", "fit.json", "--quiet", cwd=tmp_path)
     assert fit.returncode == 0, fit.stderr
-    proc = _cli("sample", str(DATA / "synthetic_sine.csv"), "--fit", "fit.json", "--walkers", "16", "--steps", "60",
-                "--json", cwd=tmp_path)
+    proc = _cli(
+        "sample",
+        str(DATA / "synthetic_sine.csv"),
+        "--fit",
+        "fit.json",
+        "--walkers",
+        "16",
+        "--steps",
+        "60",
+        "--json",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     doc = json.loads(proc.stdout)
     assert set(doc) >= {"median", "q05", "q95", "tau"}
@@ -69,6 +96,7 @@ def test_sample_json_stdout_stays_pure_with_the_progress_bar(tmp_path):
 
 def test_run_all_estimate_weights_the_studies_by_their_typical_time():
     import run_all  # studies/ is on sys.path (conftest.py): a failing import is a failure, not a skip
+
     # s01 took 40 s where 20 s is typical: the run is 2x slower, so s06 (220 s typical) is 440 s away
     assert run_all._estimate(["s01_a"], ["s06_b"], 40.0, smoke=False) == ", about 7:20 left"
     assert run_all._estimate(["s01_a", "s02_b"], ["s03_c", "s04_d"], 10.0, smoke=True) == ", about 0:10 left"
@@ -76,7 +104,9 @@ def test_run_all_estimate_weights_the_studies_by_their_typical_time():
 
 
 def test_the_packages_warnings_print_as_one_line_notes(tmp_path):
-    code = ("import warnings\nfrom duffsym.errors import ConvergenceWarning, show_notes\nshow_notes()\n"
-            "warnings.warn('the Gauss-Newton Hessian is singular:\\n  some parameters', ConvergenceWarning)\n")
+    code = (
+        "import warnings\nfrom duffsym.errors import ConvergenceWarning, show_notes\nshow_notes()\n"
+        "warnings.warn('the Gauss-Newton Hessian is singular:\\n  some parameters', ConvergenceWarning)\n"
+    )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert proc.stderr == "note: the Gauss-Newton Hessian is singular: some parameters\n"

@@ -1,16 +1,16 @@
 """The rate candidates of issue 23 (duffsym.effects.rate) against an independent numpy RK4 of their written-out
 equations (no duffsym import in the reference): the Maxwell branch's force and the field-yield term on a
 command-driven model, with the field integrated from the command in numpy."""
+
 from __future__ import annotations
 
 import numpy as np
-
-from independent_current_sim import TRUTH, Sines, Switching
 
 from duffsym.effects import apply_effects
 from duffsym.effects.rate import FieldYield, MaxwellBranch
 from duffsym.model import get_model
 from duffsym.simulate import simulate
+from independent_current_sim import TRUTH, Sines, Switching
 
 DT, T_END = 0.001, 2.0
 DISP = Sines((0.5, 0.2), (1.3, 3.1), (0.0, 0.7))

@@ -8,6 +8,7 @@ package), ``duffsym reproduce`` (the studies have their own smoke tests,
 diagnosis lines (``diagnose``, ``ladder``: 25 s to 2 min on a busy 2-core machine) run only under
 ``-m slow``; no later line depends on their outputs.
 """
+
 from __future__ import annotations
 
 import os
@@ -21,9 +22,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-SKIP = {"pip install": "installs the package (the test runs inside the installed package)",
-        "duffsym reproduce": "runs the studies (tests/test_studies_*smoke.py cover them)",
-        "python -m pytest": "runs the test suite (this test is part of it)"}
+SKIP = {
+    "pip install": "installs the package (the test runs inside the installed package)",
+    "duffsym reproduce": "runs the studies (tests/test_studies_*smoke.py cover them)",
+    "python -m pytest": "runs the test suite (this test is part of it)",
+}
 SLOW = ("duffsym diagnose", "duffsym ladder")
 
 
@@ -78,8 +81,9 @@ def _run_readme(tmp_path: Path, include_slow: bool) -> list[str]:
         if lang == "python":
             script = tmp_path / f"block{i}.py"
             script.write_text(code)
-            proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True,
-                                  text=True, timeout=300)
+            proc = subprocess.run(
+                [sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+            )
             assert proc.returncode == 0, f"README python block {i} failed:\n{code}\n{proc.stderr[-3000:]}"
             ran += 1
             continue
@@ -92,8 +96,14 @@ def _run_readme(tmp_path: Path, include_slow: bool) -> list[str]:
             if why:
                 skipped.append(f"{line[:70]}: {why}")
                 continue
-            proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", line], cwd=tmp_path, env=env,
-                                  capture_output=True, text=True, timeout=600)
+            proc = subprocess.run(
+                ["bash", "-e", "-o", "pipefail", "-c", line],
+                cwd=tmp_path,
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=600,
+            )
             assert proc.returncode == 0, f"README line failed (exit {proc.returncode}):\n{line}\n{proc.stderr[-3000:]}"
             ran += 1
     print("README: ran", ran, "blocks/lines; skipped:\n  " + "\n  ".join(skipped))

@@ -1,4 +1,5 @@
 """``paper/build.sh`` builds the report from the full run only (skipped without pdflatex, as in CI)."""
+
 from __future__ import annotations
 
 import shutil

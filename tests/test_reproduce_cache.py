@@ -2,6 +2,7 @@
 
 Runs the fast studies s03 and s04 (seconds each, smoke settings) into a temporary output root.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -16,7 +17,9 @@ sys.path.insert(0, str(STUDIES))
 
 
 def _all_skipped(out: str) -> bool:
-    return "ok in" not in out and all(f"{n}: unchanged, skipped" in out for n in ("s03_table2_loops", "s04_paper_claims"))
+    return "ok in" not in out and all(
+        f"{n}: unchanged, skipped" in out for n in ("s03_table2_loops", "s04_paper_claims")
+    )
 
 
 @pytest.fixture()

@@ -1,14 +1,15 @@
 """``IdentificationResult.predict`` / ``.simulate`` (issue 27, item 2): the fitted model on a new record, as
 ``duffsym validate`` computes it. Records from the independent simulator (tests/independent_sim.py), with noise
 and a load-cell offset the fit models by ``force-offset``."""
+
 from __future__ import annotations
 
 import json
 
-import independent_sim as sim
 import numpy as np
 import pytest
 
+import independent_sim as sim
 from duffsym.cli import main
 from duffsym.data import read_csv
 from duffsym.data.record import Record
@@ -81,12 +82,12 @@ def test_simulate_takes_the_initial_state_and_options(fitted):
 def test_predict_uses_the_group_of_the_record():
     """A fit with groups (one parameter set per current): predict takes the record's group."""
     res = _grouped()
-    rec = Record(t=np.arange(400) * 0.005, d=np.sin(np.arange(400) * 0.05), y=np.cos(np.arange(400) * 0.05),
-                 current=0.5)
+    rec = Record(
+        t=np.arange(400) * 0.005, d=np.sin(np.arange(400) * 0.05), y=np.cos(np.arange(400) * 0.05), current=0.5
+    )
     assert res.group_for(rec) == "0.5A"
     p_half = res.model_obj.param_vector(res.params_for("0.5A"))
-    assert np.array_equal(res.simulate(rec, x0=np.zeros(2)).y,
-                          res.simulate(rec, x0=np.zeros(2), group="0.5A").y)
+    assert np.array_equal(res.simulate(rec, x0=np.zeros(2)).y, res.simulate(rec, x0=np.zeros(2), group="0.5A").y)
     other = res.simulate(rec, x0=np.zeros(2), group="1A").y
     assert not np.allclose(other, res.simulate(rec, x0=np.zeros(2)).y) and p_half[2] == 300.0
 
@@ -97,7 +98,21 @@ def _grouped():
     model = get_model("mr-damper", 5)
     base = model.defaults()
     groups = {"0.5A": {**base, "c3": 300.0}, "1A": {**base, "c3": 600.0}}
-    return IdentificationResult(model=model, params=groups["0.5A"], free=("c3",), fixed={}, stderr={"c3": 1.0},
-                                covariance=np.eye(1), cost=0.0, nrmse=0.1, r2=0.99, status="Solve_Succeeded",
-                                success=True, message="", n_iter=1, timings={}, group_params=groups,
-                                groups=("0.5A", "1A"))
+    return IdentificationResult(
+        model=model,
+        params=groups["0.5A"],
+        free=("c3",),
+        fixed={},
+        stderr={"c3": 1.0},
+        covariance=np.eye(1),
+        cost=0.0,
+        nrmse=0.1,
+        r2=0.99,
+        status="Solve_Succeeded",
+        success=True,
+        message="",
+        n_iter=1,
+        timings={},
+        group_params=groups,
+        groups=("0.5A", "1A"),
+    )

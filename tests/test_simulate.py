@@ -1,5 +1,6 @@
 """The simulator against independent references: scipy's Radau, closed forms of the linear
 oscillator, conservation laws and symmetries; and its failure reports and input checks."""
+
 from __future__ import annotations
 
 import math
@@ -193,8 +194,9 @@ def test_duffing_energy_conserved_without_damping_and_force(alpha, beta, x0, v0)
     if H0 < 1e-3:
         return
     for substeps, bound in (("auto", 1e-6), (4, 1e-8)):
-        traj = simulate(model, dict(gamma=0.0, alpha=alpha, beta=beta), t, np.zeros(t.size), x0=[x0, v0],
-                        substeps=substeps)
+        traj = simulate(
+            model, dict(gamma=0.0, alpha=alpha, beta=beta), t, np.zeros(t.size), x0=[x0, v0], substeps=substeps
+        )
         drift = np.abs(_duffing_energy(traj.x, alpha, beta) - H0).max() / H0
         assert drift < bound, (substeps, drift)
 
@@ -228,7 +230,7 @@ def test_batch_equals_single_simulations(table2_setup):
             assert res.total_substeps[i] == single.substeps.sum()
         failed = simulate(model, bad, t, exc, substeps=substeps, method="rk4", on_failure="return")
         assert res.failed_at[3] == failed.failed_at  # the batch's default is the explicit run's verdict
-        assert np.all(np.isnan(res.y[3, failed.failed_at:]))
+        assert np.all(np.isnan(res.y[3, failed.failed_at :]))
 
 
 def test_batch_with_initial_states_and_array_input():

@@ -1,5 +1,6 @@
 """The public free run on a record (duffsym.simulate.simulate_record): equal to simulate() on the record's
 channels, and the record's inputs are built once and reused."""
+
 import numpy as np
 
 from duffsym.data import synthetic_record

@@ -1,14 +1,15 @@
 """The compiled implicit integrator (ROS2) and the explicit path's reported fallback to it, against
 independent references: closed forms, scipy's Radau, and the real Dyke record (skipped without it).
 A truly unstable parameter set must still be reported as a divergence."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
-from _external import DYKE_CSV, external_file
 
+from _external import DYKE_CSV, external_file
 from duffsym.data import read_csv
 from duffsym.excitation import Sine
 from duffsym.model.library import duffing, mr_damper
@@ -53,8 +54,10 @@ def test_rosenbrock_fixed_steps_converge_at_second_order():
     t = np.arange(0.0, 5.0, 0.05)
     p = dict(gamma=0.6, alpha=40.0, beta=0.0)
     exact = _damped(t, 0.6, math.sqrt(40.0), 1.0)
-    errs = [max_rel(simulate(model, p, t, np.zeros(t.size), x0=[1.0, 0.0], method="rosenbrock", substeps=m).y,
-                    exact) for m in (4, 8, 16)]
+    errs = [
+        max_rel(simulate(model, p, t, np.zeros(t.size), x0=[1.0, 0.0], method="rosenbrock", substeps=m).y, exact)
+        for m in (4, 8, 16)
+    ]
     assert 3.0 < errs[0] / errs[1] < 5.5 and 3.0 < errs[1] / errs[2] < 5.5, errs
 
 
@@ -114,8 +117,15 @@ def test_rosenbrock_follows_exponential_growth_to_blow_up():
 # diverging" at sample 0 (its substep controller trusts the end state of an under-resolved trial
 # step, which asks for more than max_substeps); Radau completes it with |x| <= 0.64, and so does the
 # default method="auto" through its reported fallback to ROS2.
-DYKE_PARAMS = {"c1": 105.54754844447353, "c2": 516.0838990034977, "c3": 57301.30922766054,
-               "k1": 76.61471716713335, "k2": 46.642636473388485, "k3": 0.0, "A_f": 1863.1959}
+DYKE_PARAMS = {
+    "c1": 105.54754844447353,
+    "c2": 516.0838990034977,
+    "c3": 57301.30922766054,
+    "k1": 76.61471716713335,
+    "k2": 46.642636473388485,
+    "k3": 0.0,
+    "A_f": 1863.1959,
+}
 DYKE_X0 = [0.42873573695978767, -0.24877170783700148]
 FS = 3004.8
 
@@ -139,8 +149,10 @@ def _dyke_runs(tmp_path, n):
     t, y = np.asarray(rec.t)[:n], np.asarray(rec.y)[:n]
     ref = simulate(model, DYKE_PARAMS, t, U, x0=DYKE_X0, method="radau", rtol=1e-9, atol=1e-11)
     assert ref.success and np.abs(ref.x).max() < 1.0
-    runs = {m: simulate(model, DYKE_PARAMS, t, U, x0=DYKE_X0, method=m, on_failure="return")
-            for m in ("auto", "rk4", "rosenbrock")}
+    runs = {
+        m: simulate(model, DYKE_PARAMS, t, U, x0=DYKE_X0, method=m, on_failure="return")
+        for m in ("auto", "rk4", "rosenbrock")
+    }
     return y, ref, runs
 
 

@@ -4,6 +4,7 @@ Synthetic records have documented parameters (Table 2, 0.4 V row); the checks co
 selected term set with the true one and the coefficients with the values the SymPy right-hand
 side gives for the true parameters, so every assertion can fail.
 """
+
 from __future__ import annotations
 
 import json
@@ -55,8 +56,10 @@ def test_library_takes_the_catalogue_terms_that_reach_the_velocity_equation(mode
     fric = [t for t in lib.terms if t.effect == "coulomb-friction"]
     assert len(fric) == 1 and str(fric[0].coefficient) == "-fric_mu" and "tanh" in fric[0].name
     assert "force-offset" in lib.not_visible and "output-lag" in lib.not_visible
-    assert split_terms(model.rhs[1], model.states + model.input_symbols)[model.input_symbols[0]] == \
-        model.param("k1").symbol
+    assert (
+        split_terms(model.rhs[1], model.states + model.input_symbols)[model.input_symbols[0]]
+        == model.param("k1").symbol
+    )
 
 
 def test_noise_free_rich_excitation_recovers_terms_and_coefficients(model):
@@ -81,8 +84,9 @@ def test_hidden_friction_is_flagged_as_a_missing_sign_term(model):
     truth_model = apply_effects(model, [CATALOGUE["coulomb-friction"]])
     # 20 s: at 12 s this friction level is sometimes confused with x'|x'| (inclusion unstable -> inconclusive)
     exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=20.0, seed=3)
-    rec = synthetic_record(truth_model, {**TRUTH, "fric_mu": 5.0}, exc, dt=0.002, duration=20.0, noise=0.01,
-                           settle=2.0, rng=3)
+    rec = synthetic_record(
+        truth_model, {**TRUTH, "fric_mu": 5.0}, exc, dt=0.002, duration=20.0, noise=0.01, settle=2.0, rng=3
+    )
     ev = sindy_evidence(rec, model=model, params=TRUTH, n_models=10)
     assert ev["verdict"] == "missing-terms" and ev["conclusive"]
     top = ev["missing_terms"][0]
@@ -95,8 +99,9 @@ def test_an_effect_outside_the_library_gives_inconclusive_not_a_wrong_term(model
     # selection would blame tanh(x'/eps); the systematic residual and the poor fit must stop that
     lag_model = apply_effects(model, [CATALOGUE["output-lag"]])
     exc = BandLimitedRandom(rms=0.7, f_max=4.0, duration=12.0, seed=2)
-    rec = synthetic_record(lag_model, {**TRUTH, "lag_tau": 0.01}, exc, dt=0.002, duration=12.0, noise=0.01,
-                           settle=2.0, rng=2)
+    rec = synthetic_record(
+        lag_model, {**TRUTH, "lag_tau": 0.01}, exc, dt=0.002, duration=12.0, noise=0.01, settle=2.0, rng=2
+    )
     res = crosscheck(rec, model, params=TRUTH, n_models=10)
     assert res.verdict == "inconclusive", res.summary()
     assert not any(m["supported"] for m in res.missing_terms())
@@ -153,14 +158,16 @@ def test_options_object_and_keyword_settings_give_the_same_check(model):
     """crosscheck(rec, model, CrossCheckOptions(...)) and the keyword call are one check; a keyword replaces the
     option's field; a name that is no setting is a TypeError naming it."""
     rec = _rich(model, 0.0, duration=6.0)
+
     def text(check):  # NaN-aware comparison of the whole result
         return json.dumps(check.to_dict(), sort_keys=True)
 
     by_keywords = crosscheck(rec, model, params=TRUTH, n_models=4, selection="ssr", rng=3)
     opts = CrossCheckOptions(n_models=4, selection="ssr", rng=3)
     assert text(crosscheck(rec, model, opts, params=TRUTH)) == text(by_keywords)
-    assert text(crosscheck(rec, model, CrossCheckOptions(n_models=7, selection="ssr"), params=TRUTH, n_models=4,
-                           rng=3)) == text(by_keywords)
+    assert text(
+        crosscheck(rec, model, CrossCheckOptions(n_models=7, selection="ssr"), params=TRUTH, n_models=4, rng=3)
+    ) == text(by_keywords)
     assert set(by_keywords.selected) == TRUE_TERMS and by_keywords.diagnostics["n_models"] == 4
     with pytest.raises(TypeError, match="n_model"):
         crosscheck(rec, model, params=TRUTH, n_model=4)
@@ -188,8 +195,9 @@ def test_shared_sparse_path_recovers_a_known_support():
     np.testing.assert_allclose(sparse.stlsq(G, b, threshold=0.5)[[1, 4]], [2.0, -3.0], atol=2e-3)
     support, scores, _ = sparse.validated_support(G, b, 300, max_terms=3, parsimony=1.05)
     assert sorted(support) == [1, 4] and scores[2] < 1e-3 * scores[0]
-    stab = sparse.stability_selection(G, b, np.array_split(np.arange(400), 8), [f"g{j}" for j in range(8)],
-                                      resamples=10, max_terms=3, parsimony=1.05)
+    stab = sparse.stability_selection(
+        G, b, np.array_split(np.arange(400), 8), [f"g{j}" for j in range(8)], resamples=10, max_terms=3, parsimony=1.05
+    )
     assert stab["family"] == {"g1": 1.0, "g4": 1.0}
 
 

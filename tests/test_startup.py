@@ -1,6 +1,7 @@
 """Start-up (issue 24): ``duffsym --help`` and ``--version`` import none of the heavy packages, the
 listed commands and their help are the ones the command modules register, and the facade's names
 still resolve (``duffsym.simulate`` stays the function after its submodule is imported)."""
+
 from __future__ import annotations
 
 import argparse
@@ -21,8 +22,9 @@ def _imported_after(code: str) -> set[str]:
 
 def test_help_and_version_import_no_heavy_package():
     for argv in (["--help"], ["--version"]):
-        mods = _imported_after("import sys\nfrom duffsym.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n"
-                               "    pass" % (argv,))
+        mods = _imported_after(
+            "import sys\nfrom duffsym.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n    pass" % (argv,)
+        )
         assert not {m.split(".")[0] for m in mods} & set(HEAVY), argv
 
 
@@ -53,7 +55,7 @@ def test_a_command_gets_its_full_parser(capsys):
 
 def test_the_facade_names_resolve_lazily():
     import duffsym
-    import duffsym.simulate  # noqa: F401  the submodule loaded: the facade's name stays the function
+    import duffsym.simulate
     from duffsym import Sine, fit, get_model, read_csv, simulate
 
     assert callable(simulate) and simulate.__name__ == "simulate" and duffsym.simulate is simulate

@@ -1,8 +1,9 @@
 """The one status vocabulary (duffsym.status): values are the strings the JSON contract carries."""
+
 import json
 
-from duffsym.status import MESSAGES, Status
 from duffsym.simulate import STATUS_MESSAGES
+from duffsym.status import MESSAGES, Status
 
 
 def test_status_is_its_json_string():

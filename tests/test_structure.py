@@ -1,6 +1,7 @@
 """The structure model (a mass whose restoring force includes the Duffing-like element): composition,
 coupled derivations checked against statements typed here, and identification on records of the
 independent simulator (tests/independent_bw.py, numpy only)."""
+
 from __future__ import annotations
 
 import math
@@ -28,8 +29,12 @@ def test_composed_equations_match_an_independent_statement():
     model = get_model("structure", 3)
     q1, q2, x1, x2, F = (_sym(s) for s in ("q1", "q2", "x1", "x2", "F"))
     m, c, k, c1, c2, c3, k1, k2, k3, Af = (_sym(s) for s in ("m", "c", "k", "c1", "c2", "c3", "k1", "k2", "k3", "A_f"))
-    expected = [q2, (F - c * q2 - k * q1 - Af * x2) / m, x2,
-                k1 * (q1 - x1) + c1 * (q2 - x2) - c2 * x2 - k2 * x1 - k3 * x1**3 - c3 * x2**3]
+    expected = [
+        q2,
+        (F - c * q2 - k * q1 - Af * x2) / m,
+        x2,
+        k1 * (q1 - x1) + c1 * (q2 - x2) - c2 * x2 - k2 * x1 - k3 * x1**3 - c3 * x2**3,
+    ]
     assert [sp.simplify(a - b) for a, b in zip(model.rhs, expected)] == [0, 0, 0, 0]
     assert model.output == q1 and [c.name for c in model.inputs] == ["F"]
     assert model.param_names == ("m", "c", "k", "c1", "c2", "c3", "k1", "k2", "k3", "A_f")
@@ -195,6 +200,8 @@ def test_bouc_wen_mass_recovered_and_prediction_beats_linear():
         return float(np.sqrt(np.mean((tr.y[-2048:] - val.y) ** 2)))
 
     assert rmse(start) < 0.7 * rmse(lin)
+
+
 def test_structure_state_guess_from_data():
     from duffsym.identify.states import initial_states
 

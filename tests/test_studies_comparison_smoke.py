@@ -2,12 +2,13 @@
 output root: the UTFSM authors' published Spencer parameters, re-simulated by duffsym's ``spencer`` model, give
 their quoted NRMSEs; the compare table's held-out numbers are the ones recomputed from the saved predictions.
 Skips when the external data are absent."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from _smoke import run_smoke
 
+from _smoke import run_smoke
 from duffsym.data import external_data_dir
 from duffsym.errors import DataError
 

@@ -2,6 +2,7 @@
 against what is known without the study code: the saved forces are the true damper's response to the
 saved commands (recomputed here), the commands respect the limits, and the model-based command tracks
 the desired force better than the clipped on/off law and the best constant current."""
+
 from __future__ import annotations
 
 import importlib
@@ -47,8 +48,9 @@ def test_inverse_command_replayed_on_the_true_damper(s12):
     U = np.column_stack([a["d"], a["d_dot"], cmd])
     y = a[f"force_{k}"]
     # the initial state is the inverse's; re-simulate from the saved trajectory's own start
-    tr = simulate(get_model("mr-damper-current"), study.TRUTH, a["t"], U, method="radau", rtol=1e-8, atol=1e-10,
-                  x0=_x0(meta, cmd))
+    tr = simulate(
+        get_model("mr-damper-current"), study.TRUTH, a["t"], U, method="radau", rtol=1e-8, atol=1e-10, x0=_x0(meta, cmd)
+    )
     skip = a["t"] >= meta["config"]["skip_s"]
     assert np.max(np.abs(tr.y - y)[skip]) < 2e-3 * np.max(np.abs(y))
 

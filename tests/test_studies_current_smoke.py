@@ -2,12 +2,13 @@
 temporary output root. Skips when the external data are absent. Checks that the numbers it reports are
 the ones recomputed from the arrays it saved (NRMSE and RMSE of the Dyke validation), and that the one
 campaign model predicts its own four tests better than the mean (R2 > 0)."""
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from _smoke import run_smoke
 
+from _smoke import run_smoke
 from duffsym.data import external_data_dir
 from duffsym.errors import DataError
 
@@ -18,13 +19,17 @@ def _have_data() -> bool:
     except DataError:
         return False
     return (root / "mr_damper_dyke_nees1996" / "ranran_50_converted.csv").is_file() and (
-        root / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed").is_dir()
+        root / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed"
+    ).is_dir()
 
 
 # slow: 213 s of CPU (746 s wall at load 7-8 on 2 cores, 2026-11-26); claim: the README's campaign figures (one
 # parameter set for tests at several currents, held out) are checked in every CI run
-pytestmark = [pytest.mark.slow, pytest.mark.claim,
-              pytest.mark.skipif(not _have_data(), reason="external MR damper data absent (../shared/data/external)")]
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.claim,
+    pytest.mark.skipif(not _have_data(), reason="external MR damper data absent (../shared/data/external)"),
+]
 
 
 @pytest.fixture(scope="module")

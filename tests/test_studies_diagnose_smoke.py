@@ -3,6 +3,7 @@
 Runs ``main(["--smoke"])`` with ``DUFFSYM_OUTPUT_ROOT`` in a temporary folder (a 2.5 s record with
 friction and an offset hidden, three candidate effects) and checks the numbers it wrote.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -23,4 +24,6 @@ def test_s07_ladder_finds_both_hidden_effects_and_reaches_the_noise(tmp_path, mo
     final = case["final"]["params"]
     assert abs(final["fric_mu"] - 20.0) < 1.0 and abs(final["off_y0"] - 0.2) < 0.01
     for panel in ("where", "candidates", "ladder"):
-        assert (tmp_path / "paper" / "smoke" / "figures" / f"s07_hidden_effect_synthetic_{panel}.png").stat().st_size > 20_000
+        assert (
+            tmp_path / "paper" / "smoke" / "figures" / f"s07_hidden_effect_synthetic_{panel}.png"
+        ).stat().st_size > 20_000

@@ -3,6 +3,7 @@
 Each runs ``main(["--smoke"])`` with ``DUFFSYM_OUTPUT_ROOT`` in a temporary folder and checks the
 numbers it wrote, not only that files exist.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -10,7 +11,6 @@ import json
 
 import numpy as np
 import pytest
-
 
 
 def _study(name: str):
@@ -91,7 +91,9 @@ def test_s06_real_damper_smoke_fits(tmp_path, monkeypatch):
     for lab in ("0A", "1A"):
         j = meta["joint"][lab]
         assert j["success"] and j["nrmse"] < 0.2
-        assert j["params"]["A_f"] == pytest.approx(max(f["peak_force"] for f in fits.values() if f["current"] == j["current"]))
+        assert j["params"]["A_f"] == pytest.approx(
+            max(f["peak_force"] for f in fits.values() if f["current"] == j["current"])
+        )
 
 
 def test_s06_without_data_exits_cleanly(tmp_path, monkeypatch, capsys):

@@ -10,12 +10,13 @@ the estimation data, candidates force-offset and cubic-damping, one step, the fi
 - the offset removes most of the test error (base: the 5 mV DC mismatch; with it ~1 mV, the
   planning measurement of Eq. 1 with linear interpolation was 1.1 mV on the full arrow).
 """
+
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from _smoke import run_smoke
 
+from _smoke import run_smoke
 from duffsym.data import external_data_dir
 from duffsym.errors import DataError
 

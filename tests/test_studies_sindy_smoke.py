@@ -4,6 +4,7 @@ The numbers are checked against the truth the study's synthetic records carry (T
 row), not against the study's own code: noise-free rich excitation recovers the SymPy
 coefficients, the noisy single sine at the paper's 5 ms is inconclusive, not a wrong model.
 """
+
 from __future__ import annotations
 
 import importlib

@@ -6,6 +6,7 @@ what is known independently of the study code: A_f only scales the output (Fig. 
 Lyapunov certificate fails exactly where gamma, alpha or beta is negative (Table 1), and the loop
 area of the Table 2 model grows with the coil voltage.
 """
+
 from __future__ import annotations
 
 import importlib
@@ -52,14 +53,15 @@ def _files_exist(root: Path, study: str, tag: str, panels, numbers):
 
 def test_all_studies_exit_zero(smoke_root):
     _, codes = smoke_root
-    assert codes == {name: 0 for name in NAMES}
+    assert codes == dict.fromkeys(NAMES, 0)
 
 
 def test_s01_af_only_scales_the_output(smoke_root):
     root, _ = smoke_root
     study = "s01_fig3_duffing_like"
-    _files_exist(root, study, "s01", ("fig3a", "fig3b", "excitation"),
-                 ("frequency", "peak_benchmark", "peak_ratio_Af", "table"))
+    _files_exist(
+        root, study, "s01", ("fig3a", "fig3b", "excitation"), ("frequency", "peak_benchmark", "peak_ratio_Af", "table")
+    )
     meta = _meta(root, study)
     assert meta["config"]["periods"] < 16  # really the smoke config
     cv = meta["curves"]
@@ -68,9 +70,13 @@ def test_s01_af_only_scales_the_output(smoke_root):
     assert cv["A_f"]["loop_area"] == pytest.approx(2.0 * cv["benchmark"]["loop_area"], rel=1e-12)
     with np.load(root / "data" / "derived" / "smoke" / f"{study}.npz") as f:
         np.testing.assert_allclose(f["A_f_y"], 2.0 * f["benchmark_y"], rtol=1e-12, atol=0)
-        np.testing.assert_allclose(f["benchmark_d"], np.sin(2 * np.pi * meta["frequency"] * f["benchmark_t"]),
-                                   atol=1e-12)
-    assert float((root / "paper" / "smoke" / "output" / "s01_peak_ratio_Af.tex").read_text().splitlines()[0].rstrip("%")) == 2.0
+        np.testing.assert_allclose(
+            f["benchmark_d"], np.sin(2 * np.pi * meta["frequency"] * f["benchmark_t"]), atol=1e-12
+        )
+    assert (
+        float((root / "paper" / "smoke" / "output" / "s01_peak_ratio_Af.tex").read_text().splitlines()[0].rstrip("%"))
+        == 2.0
+    )
     # c1 = 25 raises the peak, delta = 400 lowers it (paper's Fig. 3 text; s01 table: x1.37, x0.80)
     assert cv["c1"]["peak_ratio"] > 1.2 and cv["delta"]["peak_ratio"] < 0.9
 
@@ -91,7 +97,9 @@ def test_s02_certificate_fails_exactly_where_gamma_alpha_or_beta_is_negative(smo
     got = [(r["param"], float(r["value"]), r["certified"]) for r in rows]
     assert got == expected
     assert sum(not c for *_, c in expected) == 5  # c1 = -20, c2 = -30, k2 = -5, k3 = -40, k3 = -5
-    assert (root / "paper" / "smoke" / "output" / "s02_n_uncertified.tex").read_text().splitlines()[0].rstrip("%") == "5"
+    assert (root / "paper" / "smoke" / "output" / "s02_n_uncertified.tex").read_text().splitlines()[0].rstrip(
+        "%"
+    ) == "5"
     # gamma = 0 (c1 = -10) and alpha = 0 (k1 = -5) are outside the paper's "all positive" but certified
     by = {(r["param"], float(r["value"])): r for r in rows}
     assert by[("c1", -10.0)]["certified"] and not by[("c1", -10.0)]["paper_condition"]
@@ -145,9 +153,11 @@ def test_smoke_after_a_full_run_leaves_the_full_files_untouched(monkeypatch, tmp
     run_all = importlib.import_module("run_all")
     # a real full run of s04 (same settings as its smoke run, seconds) and a faked full run of s03
     assert importlib.import_module("s04_paper_claims").main([]) == 0
-    fake = {tmp_path / "paper" / "figures" / "s03_table2_loops_loops.png": b"full-run figure",
-            tmp_path / "paper" / "output" / "s03_table.tex": b"full-run table\n",
-            tmp_path / "data" / "derived" / "s03_table2_loops.json": b'{"run_mode": "full"}'}
+    fake = {
+        tmp_path / "paper" / "figures" / "s03_table2_loops_loops.png": b"full-run figure",
+        tmp_path / "paper" / "output" / "s03_table.tex": b"full-run table\n",
+        tmp_path / "data" / "derived" / "s03_table2_loops.json": b'{"run_mode": "full"}',
+    }
     for path, content in fake.items():
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(content)

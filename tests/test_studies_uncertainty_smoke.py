@@ -1,4 +1,5 @@
 """Smoke run of study s08 (posterior, predictive bands, the k3 ridge) with numbers checked."""
+
 from __future__ import annotations
 
 import importlib

@@ -1,5 +1,6 @@
 """Time bases a real file can have (issue 24): stamps rounded twice, large offsets, milliseconds, a text
 (ISO date-time) column, each read as it should be; the grids are written here with numpy only."""
+
 from __future__ import annotations
 
 import json
@@ -42,8 +43,9 @@ def test_large_time_offsets_are_uniform(tmp_path, offset, capsys):
     t = offset + np.arange(n) * dt
     d, y = _signals(n, dt)
     path = tmp_path / "unix.csv"
-    np.savetxt(path, np.column_stack([t, d, y]), delimiter=",", header="time,displacement,force", comments="",
-               fmt="%.17g")
+    np.savetxt(
+        path, np.column_stack([t, d, y]), delimiter=",", header="time,displacement,force", comments="", fmt="%.17g"
+    )
     rec = read_csv(path)
     assert rec.metadata["sampling"]["uniform"] and rec.is_uniform()
     assert rec.require_uniform("the velocity") == pytest.approx(dt, rel=1e-4)  # steps quantised to 1.2e-7 s
@@ -55,11 +57,19 @@ def test_a_time_column_in_milliseconds_gets_a_note(tmp_path, capsys):
     n = 600
     d, y = _signals(n, 0.005)
     path = tmp_path / "ms.csv"
-    np.savetxt(path, np.column_stack([np.arange(n) * 5.0, d, y]), delimiter=",", header="time,displacement,force",
-               comments="", fmt="%.10g")
+    np.savetxt(
+        path,
+        np.column_stack([np.arange(n) * 5.0, d, y]),
+        delimiter=",",
+        header="time,displacement,force",
+        comments="",
+        fmt="%.10g",
+    )
     assert time_unit_note(np.arange(n) * 5.0) and time_unit_note(np.arange(n) * 0.005) is None
-    assert main(["convert", str(path), "--columns", "time=1,displacement=2,force=3", "--out",
-                 str(tmp_path / "o.csv")]) == 0
+    assert (
+        main(["convert", str(path), "--columns", "time=1,displacement=2,force=3", "--out", str(tmp_path / "o.csv")])
+        == 0
+    )
     err = capsys.readouterr().err
     assert "milliseconds" in err and "--dt 0.005" in err
     main(["fit", str(path), "--model", "mr-damper"])

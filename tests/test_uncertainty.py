@@ -1,4 +1,5 @@
 """duffsym.uncertainty: likelihood, priors, the fixed-schedule kernel, sampling, chains, identifiability, CLI."""
+
 from __future__ import annotations
 
 import json
@@ -14,7 +15,7 @@ from duffsym.excitation import Sine
 from duffsym.identify import Problem, fit
 from duffsym.model.library import mr_damper
 from duffsym.model.presets import table2_params
-from duffsym.simulate import input_matrix, simulate
+from duffsym.simulate import simulate
 from duffsym.uncertainty import ChainTooShort, identifiability_report, load_chains, make_prior, sample
 from duffsym.uncertainty._setup import build_posterior
 
@@ -173,19 +174,23 @@ def test_k3_ridge_detected_and_resolved_by_amplitudes():
     assert weak1, rep1.text
     assert {"k1", "k3"} <= set(weak1[0]["params"]) and "several amplitudes" in weak1[0]["resolve"]
     assert rep1.excitation["single_amplitude"]
-    recs = [synthetic_record(MODEL, TRUTH, Sine(a, 2.0), dt=0.005, duration=2.0, noise=0.02, rng=6 + i)
-            for i, a in enumerate((0.3, 0.6, 1.0))]
+    recs = [
+        synthetic_record(MODEL, TRUTH, Sine(a, 2.0), dt=0.005, duration=2.0, noise=0.02, rng=6 + i)
+        for i, a in enumerate((0.3, 0.6, 1.0))
+    ]
     res3 = fit(Problem(MODEL, recs, fixed={"A_f": TRUTH["A_f"]}, free=list(free)))
     rep3 = identifiability_report(res3, recs)
     assert not rep3.excitation["single_amplitude"]
     assert not [f for f in rep3.findings if f["kind"] == "unidentifiable"], rep3.text
     assert rep3.params["k3"]["vif"] < rep1.params["k3"]["vif"] / 10
+
     # the k3 coordinate's sd along its weakest direction, absolute units
     def k3_sd(rep, res):
         Finv = np.linalg.inv(rep.fisher)
         j = list(rep.free).index("k3")
         scale = max(abs(res.params["k3"]), 100.0)
         return math.sqrt(Finv[j, j]) * scale
+
     sd1, sd3 = k3_sd(rep1, res1), k3_sd(rep3, res3)
     assert sd3 < sd1 / 5, (sd1, sd3)
     assert abs(res3.params["k3"] - 0.0) < 3 * sd3  # the truth is k3 = 0
@@ -197,8 +202,13 @@ def test_symmetry_unbroken_when_af_free():
     # pretend A_f was free as well: the report must name the exact symmetry
     from dataclasses import replace
 
-    res_af = replace(res, free=tuple(res.free) + ("A_f",), fixed={"k3": 0.0},
-                     covariance=np.full((6, 6), np.nan), stderr=dict(res.stderr, A_f=math.nan))
+    res_af = replace(
+        res,
+        free=tuple(res.free) + ("A_f",),
+        fixed={"k3": 0.0},
+        covariance=np.full((6, 6), np.nan),
+        stderr=dict(res.stderr, A_f=math.nan),
+    )
     rep = identifiability_report(res_af, rec)
     sym = [f for f in rep.findings if f["kind"] == "symmetry"]
     assert sym and "A_f" in sym[0]["params"] and "no data can" in sym[0]["resolve"]
@@ -214,8 +224,24 @@ def test_cli_sample(sine_fit, tmp_path, capsys):
     fitp = tmp_path / "fit.json"
     res.save(fitp)
     corner = tmp_path / "corner.png"
-    rc = main(["sample", str(csv), "--fit", str(fitp), "--walkers", "16", "--steps", "60", "--json", "--quiet",
-               "--corner", str(corner), "--chains", str(tmp_path / "c.npz")])
+    rc = main(
+        [
+            "sample",
+            str(csv),
+            "--fit",
+            str(fitp),
+            "--walkers",
+            "16",
+            "--steps",
+            "60",
+            "--json",
+            "--quiet",
+            "--corner",
+            str(corner),
+            "--chains",
+            str(tmp_path / "c.npz"),
+        ]
+    )
     out = json.loads(capsys.readouterr().out)
     assert rc == 0
     for key in ("median", "q05", "q95", "tau", "ess", "acceptance", "converged", "laplace", "warnings"):
@@ -228,12 +254,15 @@ def test_cli_sample(sine_fit, tmp_path, capsys):
     assert "n_walkers" in capsys.readouterr().err
     # a fit made with a mask: FIT.json stores it and `sample` leaves the same samples out by default
     masked = tmp_path / "masked.json"
-    assert main(["fit", str(csv), "--af", str(TRUTH["A_f"]), "--mask", "auto", "--out", str(masked), "--json",
-                 "--quiet"]) == 0
+    assert (
+        main(["fit", str(csv), "--af", str(TRUTH["A_f"]), "--mask", "auto", "--out", str(masked), "--json", "--quiet"])
+        == 0
+    )
     n_masked = json.loads(capsys.readouterr().out)["n_masked"][0]
     assert n_masked > 0
-    assert main(["sample", str(csv), "--fit", str(masked), "--walkers", "16", "--steps", "20", "--json",
-                 "--quiet"]) == 0
+    assert (
+        main(["sample", str(csv), "--fit", str(masked), "--walkers", "16", "--steps", "20", "--json", "--quiet"]) == 0
+    )
     assert json.loads(capsys.readouterr().out)["records"][0]["n_masked"] == n_masked
     short = tmp_path / "short.csv"
     write_csv(rec.replace(t=rec.t[:300], d=rec.d[:300], y=rec.y[:300], d_dot=rec.d_dot[:300]), short)

@@ -1,6 +1,7 @@
 """``validate`` judges its answer as ``fit`` does (issue 24): a prediction worse than the record's mean is
 not a success; an initial state far outside the record's states is not used to absorb a level
 difference; the added effects are named. Records from the independent simulator (tests/independent_sim.py)."""
+
 from __future__ import annotations
 
 import json
@@ -65,15 +66,17 @@ def test_a_level_difference_is_not_absorbed_by_the_initial_state(fitted):
 def test_cli_validate_names_the_effects_and_fails_on_r2_below_0(tmp_path, capsys):
     rec = _record(sim.Physics(offset=0.2 * TRUTH["A_f"]), seed=4)
     path = tmp_path / "r.csv"
-    np.savetxt(path, np.column_stack([rec.t, rec.d, rec.y]), delimiter=",", header="time,displacement,force",
-               comments="")
+    np.savetxt(
+        path, np.column_stack([rec.t, rec.d, rec.y]), delimiter=",", header="time,displacement,force", comments=""
+    )
     assert main(["fit", str(path), "--add", "force-offset", "--out", str(tmp_path / "f.json"), "--quiet"]) == 0
     capsys.readouterr()
     assert main(["validate", str(tmp_path / "f.json"), str(path)]) == 0
     assert "mr-damper + force-offset" in capsys.readouterr().out
     flipped = tmp_path / "flipped.csv"
-    np.savetxt(flipped, np.column_stack([rec.t, rec.d, -rec.y]), delimiter=",", header="time,displacement,force",
-               comments="")
+    np.savetxt(
+        flipped, np.column_stack([rec.t, rec.d, -rec.y]), delimiter=",", header="time,displacement,force", comments=""
+    )
     assert main(["validate", str(tmp_path / "f.json"), str(flipped), "--json"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert out["success"] is False and out["effects"] == ["force-offset"] and out["r2"] < 0

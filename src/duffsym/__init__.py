@@ -7,6 +7,7 @@ Subpackages hold the rest: ``duffsym.model``, ``duffsym.derive``, ``duffsym.code
 ``duffsym.simulate``, ``duffsym.excitation``, ``duffsym.effects``, ``duffsym.data``,
 ``duffsym.identify``, ``duffsym.plot`` (hysteresis loops: :mod:`duffsym.plot.loops`).
 """
+
 import sys
 import types
 
@@ -16,10 +17,18 @@ from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError,
 #: it every ``duffsym`` command, ``duffsym --help`` included) does not pay for SymPy, NumPy or CasADi
 #: until they are needed (``python -X importtime``: 2.0 s of 2.0 s before, under load).
 _LAZY = {
-    "Sine": "duffsym.excitation", "SymbolicModel": "duffsym.model", "duffing": "duffsym.model",
-    "duffing_like": "duffsym.model", "get_model": "duffsym.model", "mr_damper": "duffsym.model",
-    "state_space": "duffsym.model", "Trajectory": "duffsym.simulate", "Problem": "duffsym.identify",
-    "fit": "duffsym.identify", "batch": "duffsym.cli.batch", "read_csv": "duffsym.data",
+    "Sine": "duffsym.excitation",
+    "SymbolicModel": "duffsym.model",
+    "duffing": "duffsym.model",
+    "duffing_like": "duffsym.model",
+    "get_model": "duffsym.model",
+    "mr_damper": "duffsym.model",
+    "state_space": "duffsym.model",
+    "Trajectory": "duffsym.simulate",
+    "Problem": "duffsym.identify",
+    "fit": "duffsym.identify",
+    "batch": "duffsym.cli.batch",
+    "read_csv": "duffsym.data",
     "compare": "duffsym.diagnose.compare",
 }
 
@@ -60,7 +69,22 @@ __version__ = "0.2.0"  # the one place the version lives (pyproject.toml reads i
 show_notes()
 
 __all__ = [
-    "SymbolicModel", "mr_damper", "duffing_like", "duffing", "get_model", "state_space",
-    "simulate", "Trajectory", "Sine", "read_csv", "Problem", "fit", "batch", "compare",
-    "DuffsymError", "ModelError", "DataError", "SimulationError",
+    "SymbolicModel",
+    "mr_damper",
+    "duffing_like",
+    "duffing",
+    "get_model",
+    "state_space",
+    "simulate",
+    "Trajectory",
+    "Sine",
+    "read_csv",
+    "Problem",
+    "fit",
+    "batch",
+    "compare",
+    "DuffsymError",
+    "ModelError",
+    "DataError",
+    "SimulationError",
 ]

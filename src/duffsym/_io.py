@@ -11,6 +11,7 @@ character device (``/dev/urandom``, ``/dev/zero``) or a file above the size limi
 one line instead of hanging or exhausting the memory. (``duffsym batch`` and the campaign writers
 use the same helpers.)
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -20,8 +21,9 @@ import math
 import os
 import stat
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import IO, Iterator
+from typing import IO
 
 from duffsym.errors import DataError
 
@@ -41,8 +43,7 @@ def max_input_bytes() -> int:
 
 
 @contextlib.contextmanager
-def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newline: str | None = None
-                 ) -> Iterator[IO]:
+def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newline: str | None = None) -> Iterator[IO]:
     """Open a temporary file beside ``path`` for writing; on success rename it over ``path``.
 
     On any exception (including KeyboardInterrupt) the temporary file is removed and ``path`` is
@@ -80,8 +81,7 @@ def atomic_path(path, *, keep_suffix: bool = True) -> Iterator[Path]:
     so that a temporary file never matches the pattern of finished ones (e.g. ``*.json``)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    prefix, suffix = ((f".{path.stem}.", f"{TMP_SUFFIX}{path.suffix}") if keep_suffix
-                      else (f".{path.name}.", TMP_SUFFIX))
+    prefix, suffix = (f".{path.stem}.", f"{TMP_SUFFIX}{path.suffix}") if keep_suffix else (f".{path.name}.", TMP_SUFFIX)
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=prefix, suffix=suffix)
     except OSError as exc:
@@ -137,13 +137,18 @@ def check_input_file(path, *, what: str = "data file", limit: int | None = None)
     if stat.S_ISDIR(st.st_mode):
         raise DataError(f"{path}: is a folder, not a {what}; give a file")
     if not stat.S_ISREG(st.st_mode):
-        kind = "a pipe (FIFO)" if stat.S_ISFIFO(st.st_mode) else (
-            "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file")
+        kind = (
+            "a pipe (FIFO)"
+            if stat.S_ISFIFO(st.st_mode)
+            else ("a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file")
+        )
         raise DataError(f"{path}: is {kind}, which cannot be sized; save the {what} to a regular file first")
     limit = max_input_bytes() if limit is None else limit
     if st.st_size > limit:
-        raise DataError(f"{path}: {st.st_size / 1e6:.1f} MB is more than the {limit / 1e6:.0f} MB limit for a "
-                        f"{what}; split the record or raise DUFFSYM_MAX_INPUT_BYTES")
+        raise DataError(
+            f"{path}: {st.st_size / 1e6:.1f} MB is more than the {limit / 1e6:.0f} MB limit for a "
+            f"{what}; split the record or raise DUFFSYM_MAX_INPUT_BYTES"
+        )
     return int(st.st_size)
 
 
@@ -179,8 +184,10 @@ def check_output_path(path, *, inputs=(), option: str = "--out") -> Path:
         raise DataError(f"{option} {path}: a loop of symbolic links; give a real file path")
     for src in inputs:
         if src is not None and same_file(path, src):
-            raise DataError(f"{option} {path} is also an input ({src}); writing it would destroy the input: choose "
-                            "another output path")
+            raise DataError(
+                f"{option} {path} is also an input ({src}); writing it would destroy the input: choose "
+                "another output path"
+            )
     if path.is_dir():
         raise DataError(f"{option} {path} is a folder; give a file name")
     _writable_folder(path.parent, f"{option} {path}", "another output path")
@@ -205,7 +212,9 @@ def _writable_folder(folder: Path, what: str, instead: str) -> None:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise DataError(f"{what}: cannot create the folder {folder} ({exc.strerror or exc}); choose {instead}") from None
+        raise DataError(
+            f"{what}: cannot create the folder {folder} ({exc.strerror or exc}); choose {instead}"
+        ) from None
     if not os.access(folder, os.W_OK | os.X_OK):
         raise DataError(f"{what}: the folder {folder} is not writable; choose {instead}")
 
@@ -236,8 +245,10 @@ def read_columns(path, roles: dict[str, tuple[str, ...]], optional=()) -> dict:
             try:
                 v = float(row[i])
             except (IndexError, ValueError):
-                raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not a number "
-                                f"({row[i] if i < len(row) else 'missing'!r}); fix the value") from None
+                raise DataError(
+                    f"{path}: row {k}, column {rows[0][i]!r}: not a number "
+                    f"({row[i] if i < len(row) else 'missing'!r}); fix the value"
+                ) from None
             if not math.isfinite(v):
                 raise DataError(f"{path}: row {k}, column {rows[0][i]!r}: not finite ({row[i]!r}); fill or remove it")
             out[role][k - 2] = v

@@ -1,8 +1,9 @@
 """JSON-safe values: numpy scalars and arrays to Python, non-finite floats to None (JSON has no NaN/inf)."""
+
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

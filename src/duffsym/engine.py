@@ -19,11 +19,13 @@ a pool, so an engine can be passed as ``pool=`` to :func:`duffsym.uncertainty.sa
 Tasks run one at a time per worker (one thread each): IPOPT and the compiled simulators are
 single-threaded, and two fits in threads of one process would only contend for the GIL.
 """
+
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Iterator, Mapping
+from typing import Any
 
 from duffsym.errors import DuffsymError
 
@@ -105,7 +107,7 @@ class Engine:
         self._scattered: dict[int, tuple[Any, Any]] = {}
 
     # ------------------------------------------------------------------ life cycle
-    def start(self) -> "Engine":
+    def start(self) -> Engine:
         """Start the local cluster or connect to the scheduler (nothing to do when serial)."""
         if self.kind == "serial" or self._client is not None:
             return self
@@ -119,19 +121,29 @@ class Engine:
         try:
             if self.kind == "cluster":
                 spec = str(self.scheduler)
-                self._client = (Client(scheduler_file=spec, timeout="30s") if spec.endswith(".json")
-                                else Client(spec, timeout="30s"))
+                self._client = (
+                    Client(scheduler_file=spec, timeout="30s")
+                    if spec.endswith(".json")
+                    else Client(spec, timeout="30s")
+                )
             else:
                 # processes, one thread each; the scheduler and its status page on loopback, any free port
-                self._cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                             host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                                             silence_logs=level)
+                self._cluster = LocalCluster(
+                    n_workers=self.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address="127.0.0.1:0",
+                    silence_logs=level,
+                )
                 self._client = Client(self._cluster)
         except OSError as exc:
             self.close()
             where = f"the scheduler at {self.scheduler}" if self.kind == "cluster" else "a local cluster"
-            raise EngineError(f"cannot start or reach {where} ({exc}); check the address and that the scheduler "
-                              "runs (dask scheduler), or run without --scheduler") from None
+            raise EngineError(
+                f"cannot start or reach {where} ({exc}); check the address and that the scheduler "
+                "runs (dask scheduler), or run without --scheduler"
+            ) from None
         return self
 
     def close(self) -> None:
@@ -145,7 +157,7 @@ class Engine:
                     pass
         self._client = self._cluster = None
 
-    def __enter__(self) -> "Engine":
+    def __enter__(self) -> Engine:
         return self.start()
 
     def __exit__(self, *exc) -> None:

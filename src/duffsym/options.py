@@ -12,10 +12,12 @@ that every keyword call keeps working and a study can keep one options object fo
 :func:`resolve` does the merging and names an unknown setting in a :class:`TypeError`, as Python does for an
 unknown keyword argument.
 """
+
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Mapping, TypeVar
+from collections.abc import Mapping
+from typing import Any, TypeVar
 
 T = TypeVar("T")
 
@@ -33,7 +35,8 @@ def resolve(cls: type[T], options: T | None, settings: Mapping[str, Any], functi
     known = set(field_names(cls))
     unknown = [k for k in settings if k not in known]
     if unknown:
-        raise TypeError(f"{function}() got an unexpected keyword argument {unknown[0]!r} (settings: "
-                        f"{', '.join(sorted(known))})")
+        raise TypeError(
+            f"{function}() got an unexpected keyword argument {unknown[0]!r} (settings: {', '.join(sorted(known))})"
+        )
     base = cls() if options is None else options
     return dataclasses.replace(base, **settings) if settings else base

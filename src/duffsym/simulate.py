@@ -9,11 +9,12 @@ interval; a step whose end state is stiffer than the count allows is redone with
 (an under-resolved step under-estimates the stiffness, as at an impulsive start). Blow-up
 (non-finite or huge states) and excessive stiffness stop the run and are reported.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -85,11 +86,14 @@ class Trajectory:
     @property
     def integrator(self) -> dict:
         """Which integrator produced the trajectory and why: ``{"method": str, "reason": str}``."""
-        reason = self.fallback or ("requested" if self.method in ("rosenbrock", "radau") else
-                                   "default explicit path (accurate at this stiffness)")
+        reason = self.fallback or (
+            "requested"
+            if self.method in ("rosenbrock", "radau")
+            else "default explicit path (accurate at this stiffness)"
+        )
         return {"method": self.method, "reason": reason}
 
-    def raise_for_status(self) -> "Trajectory":
+    def raise_for_status(self) -> Trajectory:
         """Raise :class:`SimulationError` if the simulation failed; return self otherwise."""
         if not self.success:
             raise SimulationError(self.message, trajectory=self)
@@ -97,9 +101,12 @@ class Trajectory:
 
     def summary(self) -> str:
         sub = f", substeps {int(self.substeps.min())}..{int(self.substeps.max())}" if self.substeps.size else ""
-        return (f"{self.model}: {self.t.size} samples over {self.t[-1] - self.t[0]:g} s, {self.method}{sub}; "
-                f"{self.status}" + ("" if self.success else f": {self.message}")
-                + (f" [{self.fallback}]" if self.fallback else ""))
+        return (
+            f"{self.model}: {self.t.size} samples over {self.t[-1] - self.t[0]:g} s, {self.method}{sub}; "
+            f"{self.status}"
+            + ("" if self.success else f": {self.message}")
+            + (f" [{self.fallback}]" if self.fallback else "")
+        )
 
 
 def check_time(t) -> np.ndarray:
@@ -117,8 +124,9 @@ def check_time(t) -> np.ndarray:
     return t
 
 
-def input_matrix(model: SymbolicModel, t: np.ndarray,
-                 inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray) -> np.ndarray:
+def input_matrix(
+    model: SymbolicModel, t: np.ndarray, inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray
+) -> np.ndarray:
     """The model's input matrix ``(n_times, n_inputs)`` from an excitation, a mapping or an array."""
     if isinstance(inputs, Excitation):
         return _excitation_matrix(model, t, inputs)
@@ -132,9 +140,7 @@ def input_matrix(model: SymbolicModel, t: np.ndarray,
                 )
             col = np.asarray(inputs[ch.name], dtype=float)
             if col.shape != t.shape:
-                raise DataError(
-                    f"input {ch.name!r} must have shape (n_times,) = ({t.size},) like t; got {col.shape}"
-                )
+                raise DataError(f"input {ch.name!r} must have shape (n_times,) = ({t.size},) like t; got {col.shape}")
             cols.append(col)
         U = np.column_stack(cols)
     else:
@@ -168,12 +174,16 @@ def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> 
         return hit.copy()
     U = np.ascontiguousarray(exc.channels(t, model), dtype=float)
     if U.shape != (t.size, model.n_inputs):
-        raise DataError(f"excitation {type(exc).__name__} gave inputs of shape {U.shape}; "
-                        f"expected ({t.size}, {model.n_inputs}); fix its channels()")
+        raise DataError(
+            f"excitation {type(exc).__name__} gave inputs of shape {U.shape}; "
+            f"expected ({t.size}, {model.n_inputs}); fix its channels()"
+        )
     if not np.isfinite(U).all():
         i, j = np.argwhere(~np.isfinite(U))[0]
-        raise DataError(f"excitation {type(exc).__name__}: input {model.inputs[j].name} is not finite at "
-                        f"index {i} (t={t[i]:g} s); check its parameters")
+        raise DataError(
+            f"excitation {type(exc).__name__}: input {model.inputs[j].name} is not finite at "
+            f"index {i} (t={t[i]:g} s); check its parameters"
+        )
     if key is not None:
         if len(_EXCITATION_CACHE) >= _EXCITATION_CACHE_SIZE:
             _EXCITATION_CACHE.pop(next(iter(_EXCITATION_CACHE)))
@@ -184,20 +194,28 @@ def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> 
 def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup, method="rk4"):
     if method == "rosenbrock":
         if status == 1:
-            return (f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}) with the "
-                    f"implicit integrator (ROS2, error-controlled): a state became non-finite or exceeded {blowup:g}, "
-                    "so the trajectory itself diverges; the parameter set is probably unstable "
-                    "(check duffsym.derive.stability_certificate) or the input too large")
-        return (f"model {model.name}: the implicit integrator's step size collapsed at t={t[k]:.6g} s (sample {k} of "
-                f"{t.size}; more than {IMPLICIT_MAX_STEPS} steps in one sample interval) without the state growing: "
-                "the right-hand side is too stiff or too rough for the error control (a near-discontinuous term?)")
+            return (
+                f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}) with the "
+                f"implicit integrator (ROS2, error-controlled): a state became non-finite or exceeded {blowup:g}, "
+                "so the trajectory itself diverges; the parameter set is probably unstable "
+                "(check duffsym.derive.stability_certificate) or the input too large"
+            )
+        return (
+            f"model {model.name}: the implicit integrator's step size collapsed at t={t[k]:.6g} s (sample {k} of "
+            f"{t.size}; more than {IMPLICIT_MAX_STEPS} steps in one sample interval) without the state growing: "
+            "the right-hand side is too stiff or too rough for the error control (a near-discontinuous term?)"
+        )
     if status == 1:
-        return (f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}): "
-                f"a state became non-finite or exceeded {blowup:g}; the parameter set is probably unstable "
-                "(check duffsym.derive.stability_certificate) or the input too large")
-    return (f"model {model.name}: the simulation became too stiff at t={t[k]:.6g} s (sample {k} of {t.size}): "
-            f"it needed more than max_substeps={max_substeps} RK4 substeps per sample to keep "
-            f"h*rho(J) <= {h_lambda:g}; the trajectory is probably diverging, else raise max_substeps")
+        return (
+            f"model {model.name}: the simulation blew up at t={t[k]:.6g} s (sample {k} of {t.size}): "
+            f"a state became non-finite or exceeded {blowup:g}; the parameter set is probably unstable "
+            "(check duffsym.derive.stability_certificate) or the input too large"
+        )
+    return (
+        f"model {model.name}: the simulation became too stiff at t={t[k]:.6g} s (sample {k} of {t.size}): "
+        f"it needed more than max_substeps={max_substeps} RK4 substeps per sample to keep "
+        f"h*rho(J) <= {h_lambda:g}; the trajectory is probably diverging, else raise max_substeps"
+    )
 
 
 def simulate(
@@ -267,30 +285,53 @@ def simulate(
         subs, ran = np.zeros(0, dtype=np.int64), "radau"
     else:
         ran = "rosenbrock" if method == "rosenbrock" else "rk4"
-        X, Y, st, idx, subs = _compiled_run(model, ran, t, U, x0, p, fixed, h_lambda, max_substeps,
-                                            reconstruction == "hold", blowup)
+        X, Y, st, idx, subs = _compiled_run(
+            model, ran, t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+        )
         if method == "auto" and st != 0:
-            fallback = (f"explicit RK4 stopped ({STATUS_MESSAGES[st]} at t={t[idx]:.6g} s); rerun with the implicit "
-                        "ROS2 integrator")
+            fallback = (
+                f"explicit RK4 stopped ({STATUS_MESSAGES[st]} at t={t[idx]:.6g} s); rerun with the implicit "
+                "ROS2 integrator"
+            )
             first = _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
-            X, Y, st, idx, subs = _compiled_run(model, "rosenbrock", t, U, x0, p, fixed, h_lambda, max_substeps,
-                                                reconstruction == "hold", blowup)
+            X, Y, st, idx, subs = _compiled_run(
+                model, "rosenbrock", t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+            )
             ran = "rosenbrock"
             if st != 0:
                 fallback += f"; it failed too (the RK4 run: {first})"
     message = "ok" if st == 0 else _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup, ran)
-    traj = Trajectory(model=model.name, t=t, x=X, y=Y, u=U, params=dict(zip(model.param_names, p.tolist())),
-                      success=st == 0,
-                      status=STATUS_MESSAGES[st], message=message, method=ran, substeps=subs, failed_at=idx,
-                      input_names=tuple(c.name for c in model.inputs), state_names=model.state_names,
-                      output_name=model.output_name, fallback=fallback)
+    traj = Trajectory(
+        model=model.name,
+        t=t,
+        x=X,
+        y=Y,
+        u=U,
+        params=dict(zip(model.param_names, p.tolist())),
+        success=st == 0,
+        status=STATUS_MESSAGES[st],
+        message=message,
+        method=ran,
+        substeps=subs,
+        failed_at=idx,
+        input_names=tuple(c.name for c in model.inputs),
+        state_names=model.state_names,
+        output_name=model.output_name,
+        fallback=fallback,
+    )
     if on_failure == "raise":
         traj.raise_for_status()
     return traj
 
 
-def simulate_record(model: SymbolicModel, params: Mapping[str, float] | Sequence[float], record, *,
-                    x0: Sequence[float] | None = None, **options) -> Trajectory:
+def simulate_record(
+    model: SymbolicModel,
+    params: Mapping[str, float] | Sequence[float],
+    record,
+    *,
+    x0: Sequence[float] | None = None,
+    **options,
+) -> Trajectory:
     """The free run of ``model`` with ``params`` on a measured ``record``: the one public way to run a model
     on a record.
 
@@ -314,8 +355,9 @@ def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hol
     if method == "rk4":
         st, idx = mod.integrate(t, U, x0, p, fixed, float(h_lambda), int(max_substeps), hold, float(blowup), X, Y, M)
     else:
-        st, idx = mod.integrate_implicit(t, U, x0, p, fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold,
-                                         float(blowup), X, Y, M)
+        st, idx = mod.integrate_implicit(
+            t, U, x0, p, fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold, float(blowup), X, Y, M
+        )
     return X, Y, int(st), int(idx), M
 
 
@@ -400,9 +442,20 @@ class BatchResult:
         return self.status == 0
 
 
-def simulate_batch(model: SymbolicModel, params: np.ndarray, t, inputs, *, x0=None, substeps: int | str = "auto",
-                   h_lambda: float = H_LAMBDA, max_substeps: int = MAX_SUBSTEPS, reconstruction: str = "linear",
-                   blowup: float = BLOWUP, method: str = "rk4") -> BatchResult:
+def simulate_batch(
+    model: SymbolicModel,
+    params: np.ndarray,
+    t,
+    inputs,
+    *,
+    x0=None,
+    substeps: int | str = "auto",
+    h_lambda: float = H_LAMBDA,
+    max_substeps: int = MAX_SUBSTEPS,
+    reconstruction: str = "linear",
+    blowup: float = BLOWUP,
+    method: str = "rk4",
+) -> BatchResult:
     """Simulate many parameter sets (rows of ``params``, ordered as ``model.params``) in parallel.
 
     Failures do not raise: they are reported per set in ``status`` (0 ok, 1 blow-up, 2 too stiff). With
@@ -438,14 +491,27 @@ def simulate_batch(model: SymbolicModel, params: np.ndarray, t, inputs, *, x0=No
     fail = np.zeros(P.shape[0], dtype=np.int64)
     total = np.zeros(P.shape[0], dtype=np.int64)
     fixed = _substep_setting(substeps)
-    compiled_module(model).integrate_batch(t, U, X0, np.ascontiguousarray(P), fixed,
-                                           float(h_lambda), int(max_substeps), reconstruction == "hold",
-                                           float(blowup), Y, status, fail, total)
+    compiled_module(model).integrate_batch(
+        t,
+        U,
+        X0,
+        np.ascontiguousarray(P),
+        fixed,
+        float(h_lambda),
+        int(max_substeps),
+        reconstruction == "hold",
+        float(blowup),
+        Y,
+        status,
+        fail,
+        total,
+    )
     if method not in ("rk4", "auto"):
         raise ModelError(f"method must be 'rk4' or 'auto' for a batch; got {method!r}")
     for s in np.flatnonzero(status != 0) if method == "auto" else ():  # the implicit integrator decides
-        _, Y[s], status[s], fail[s], M = _compiled_run(model, "rosenbrock", t, U, X0[s], P[s], fixed, h_lambda,
-                                                       max_substeps, reconstruction == "hold", blowup)
+        _, Y[s], status[s], fail[s], M = _compiled_run(
+            model, "rosenbrock", t, U, X0[s], P[s], fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+        )
         total[s] = M.sum()
     return BatchResult(t=t, y=Y, status=status, failed_at=fail, total_substeps=total)
 

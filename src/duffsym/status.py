@@ -6,6 +6,7 @@ A :class:`Status` is a ``str``: its value is exactly the string the JSON outputs
 ``json.dumps`` and comparisons with those strings are unchanged (``docs/contract.md``). Code tests members
 (``status is Status.BLOW_UP``, ``status.success``) rather than spelling strings.
 """
+
 from __future__ import annotations
 
 from enum import Enum
@@ -86,10 +87,10 @@ MESSAGES: dict[Status, str] = {
     Status.CPU_TIME: "IPOPT reached its CPU-time limit before converging",
     Status.IPOPT_WALL_TIME: "IPOPT reached its wall-time limit before converging",
     Status.INFEASIBLE: "IPOPT found the collocation constraints locally infeasible; check the parameter bounds and "
-                       "the model's stability for this input",
+    "the model's stability for this input",
     Status.RESTORATION_FAILED: "IPOPT's restoration phase failed; try another start or looser bounds",
     Status.INVALID_NUMBER: "IPOPT met NaN/inf in the model functions; the start or bounds allow a blow-up, tighten "
-                           "the bounds",
+    "the bounds",
     Status.FREE_RUN_FAILED: "the optimiser converged but the free run of the fitted model fails on the record",
     Status.OK: "the run reached the end of the record",
     Status.BLOW_UP: "the state grew past the blow-up limit: the trajectory diverges",

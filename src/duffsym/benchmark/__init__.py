@@ -4,6 +4,7 @@
   (a mass whose restoring force includes the Duffing-like element).
 - :func:`run_silverbox`: the Silverbox's three official scores with Eq. 1 and catalogued effects.
 """
+
 from duffsym.benchmark.bouc_wen import BoucWenOptions, run_bouc_wen
 from duffsym.benchmark.result import BenchmarkResult, Published
 from duffsym.benchmark.silverbox import SilverboxOptions, run_silverbox

@@ -24,6 +24,7 @@ Estimation: :func:`duffsym.identify.structure.equation_error_start` (variable pr
 low-passed equation error, random starts) on ``ee_samples`` samples, then the output-error collocation
 fit (:func:`duffsym.identify.fit`) from that start on ``oe_samples`` samples.
 """
+
 from __future__ import annotations
 
 import time
@@ -35,14 +36,26 @@ from duffsym.benchmark.result import BenchmarkResult, Published
 
 #: Published RMSE on the validation sets [m] (sources: ``shared/data/external/README.md``).
 PUBLISHED = (
-    Published("dynoNet (Forgione & Piga 2021)", {"multisine": 4.52e-5},
-              "forgi86/dynonet doc/paper/ms.tex (doi:10.1002/acs.3216)"),
-    Published("decoupled PNLSS (Esfahani et al. 2017)", {"multisine": 1.87e-5},
-              "IFAC-PapersOnLine 50(1):458-463, as cited in dynoNet's ms.tex"),
-    Published("NFIR local model network (Belz et al. 2017)", {"multisine": 16.3e-5},
-              "IFAC-PapersOnLine 50(1):470-475, as cited in dynoNet's ms.tex"),
-    Published("gr-SS-NN (Iacob et al. 2025)", {"multisine": 7.53e-6},
-              "arXiv:2507.09646 Table 1, as quoted in the project's design notes (not re-read here)"),
+    Published(
+        "dynoNet (Forgione & Piga 2021)",
+        {"multisine": 4.52e-5},
+        "forgi86/dynonet doc/paper/ms.tex (doi:10.1002/acs.3216)",
+    ),
+    Published(
+        "decoupled PNLSS (Esfahani et al. 2017)",
+        {"multisine": 1.87e-5},
+        "IFAC-PapersOnLine 50(1):458-463, as cited in dynoNet's ms.tex",
+    ),
+    Published(
+        "NFIR local model network (Belz et al. 2017)",
+        {"multisine": 16.3e-5},
+        "IFAC-PapersOnLine 50(1):470-475, as cited in dynoNet's ms.tex",
+    ),
+    Published(
+        "gr-SS-NN (Iacob et al. 2025)",
+        {"multisine": 7.53e-6},
+        "arXiv:2507.09646 Table 1, as quoted in the project's design notes (not re-read here)",
+    ),
 )
 TARGET = 4.52e-5
 
@@ -51,28 +64,28 @@ TARGET = 4.52e-5
 class BoucWenOptions:
     """Every option of the Bouc-Wen run (the defaults are what ``duffsym benchmark bouc-wen`` uses)."""
 
-    element: str = "path"           # "path": the rate-independent element (path time); "rate": Eq. 12 as published
-    n: int = 3                      # power of the element (Eq. 12)
-    powers: tuple = (3, 5)          # polynomial stiffness terms of the structure
-    epsilon: float = 0.16           # mm/s, regularisation of |q'| in the path time (1e-3 of the training rms of q')
-    force_scale: float = 50.0       # N, A_f of a path element (the multisine's rms force)
+    element: str = "path"  # "path": the rate-independent element (path time); "rate": Eq. 12 as published
+    n: int = 3  # power of the element (Eq. 12)
+    powers: tuple = (3, 5)  # polynomial stiffness terms of the structure
+    epsilon: float = 0.16  # mm/s, regularisation of |q'| in the path time (1e-3 of the training rms of q')
+    force_scale: float = 50.0  # N, A_f of a path element (the multisine's rms force)
     element_gains: tuple = (0.3, 1.0, 3.0)  # O(1) starts of a path element's c1, c2, c3, k1, k2
-    n_elements: int = 1             # elements in parallel (the second one's parameters end in _2)
-    direction: str = "velocity"     # directional damping on each path element: x'' += -dir_c d' g(x), g = |x'|
-                                    # ("velocity"), |x'| x', |x| or "" (none); see effects.mechanical.DIRECTION_FORMS
-    estimation_start: int = 8192    # first training sample used (period 1 is the start-up transient)
-    ee_samples: int = 8192          # samples of the equation-error start
-    ee_random_starts: int = 8       # random starts of the equation-error start (besides the explicit ones;
-                                    # measured: 0, 8 and 32 give the same start, with or without the directional
-                                    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8;
-                                    # the rate element needs 32: 6.8e-5 m, with 8 1.2e-4 m; RATE_RANDOM_STARTS)
-    ee_spread: float = 1000.0       # ... log-uniform within this factor of the element's defaults
-    oe_samples: int = 3000          # samples of the output-error collocation fit (0: none)
-    max_iter: int = 300             # IPOPT iterations of that fit
-    transient_periods: int = 2      # multisine periods run before the scored one
+    n_elements: int = 1  # elements in parallel (the second one's parameters end in _2)
+    direction: str = "velocity"  # directional damping on each path element: x'' += -dir_c d' g(x), g = |x'|
+    # ("velocity"), |x'| x', |x| or "" (none); see effects.mechanical.DIRECTION_FORMS
+    estimation_start: int = 8192  # first training sample used (period 1 is the start-up transient)
+    ee_samples: int = 8192  # samples of the equation-error start
+    ee_random_starts: int = 8  # random starts of the equation-error start (besides the explicit ones;
+    # measured: 0, 8 and 32 give the same start, with or without the directional
+    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8;
+    # the rate element needs 32: 6.8e-5 m, with 8 1.2e-4 m; RATE_RANDOM_STARTS)
+    ee_spread: float = 1000.0  # ... log-uniform within this factor of the element's defaults
+    oe_samples: int = 3000  # samples of the output-error collocation fit (0: none)
+    max_iter: int = 300  # IPOPT iterations of that fit
+    transient_periods: int = 2  # multisine periods run before the scored one
 
     @classmethod
-    def smoke(cls) -> "BoucWenOptions":
+    def smoke(cls) -> BoucWenOptions:
         return cls(ee_samples=2000, ee_random_starts=0, oe_samples=0)
 
 
@@ -98,21 +111,24 @@ def bouc_wen_model(options: BoucWenOptions = BoucWenOptions()):
     path = options.element == "path"
     make = (lambda: path_time(mr_damper(options.n), options.epsilon)) if path else (lambda: mr_damper(options.n))
     if options.direction and not path:
-        raise ModelError("BoucWenOptions.direction applies to the path element only; use direction=\"\" with "
-                         "element=\"rate\"")
+        raise ModelError(
+            'BoucWenOptions.direction applies to the path element only; use direction="" with element="rate"'
+        )
     if options.direction:
         from duffsym.effects.mechanical import DIRECTION_FORMS, DirectionalDamping
 
         if options.direction not in DIRECTION_FORMS:
-            raise ModelError(f"BoucWenOptions.direction must be one of {sorted(DIRECTION_FORMS)} or \"\"; "
-                             f"got {options.direction!r}")
+            raise ModelError(
+                f'BoucWenOptions.direction must be one of {sorted(DIRECTION_FORMS)} or ""; got {options.direction!r}'
+            )
 
         plain, effect = make, DirectionalDamping(shape=options.direction)
         make = lambda: effect.apply(plain())  # noqa: E731
     eq, params = mass_spring_damper(tuple(options.powers))
     extra = tuple(make() for _ in range(options.n_elements - 1))
-    model = structure(make(), equation=eq, params=params, name="structure-path" if path else "structure",
-                      extra_elements=extra)
+    model = structure(
+        make(), equation=eq, params=params, name="structure-path" if path else "structure", extra_elements=extra
+    )
     if not path:
         return model
     return scaled_to(model, element_start(model, options, 1.0))
@@ -137,8 +153,8 @@ def _starts(model, options: BoucWenOptions) -> list[dict]:
         base = element_start(model, options, g)
         out.append(base)
         dirs = [n for n in base if n.startswith("dir_")]
-        for s in ((-0.5, 0.5) if dirs else ()):
-            out.append({**base, **{n: s * g for n in dirs}})
+        for s in (-0.5, 0.5) if dirs else ():
+            out.append({**base, **dict.fromkeys(dirs, s * g)})
     return out
 
 
@@ -159,20 +175,39 @@ def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -
     say(f"equation-error start on {seg.n_times} samples ({options.ee_random_starts} random starts)")
     t0 = time.perf_counter()
     starts = _starts(model, options) if options.element == "path" else None
-    start = equation_error_start(seg, model, n_random=options.ee_random_starts, spread=options.ee_spread,
-                                 free_element=_free_element(model, options), starts=starts)
-    details = {"equation_error_nrmse": start.pop("_equation_nrmse"), "ee_seconds": time.perf_counter() - t0,
-               "start": dict(start)}
+    start = equation_error_start(
+        seg,
+        model,
+        n_random=options.ee_random_starts,
+        spread=options.ee_spread,
+        free_element=_free_element(model, options),
+        starts=starts,
+    )
+    details = {
+        "equation_error_nrmse": start.pop("_equation_nrmse"),
+        "ee_seconds": time.perf_counter() - t0,
+        "start": dict(start),
+    }
     params = dict(start)
     if options.oe_samples:
         rec = train.slice(a, a + options.oe_samples)
         say(f"output-error collocation fit on {rec.n_times} samples")
         t1 = time.perf_counter()
         scaled = scaled_to(model, start)
-        r = fit(Problem(scaled, rec, free=[p for p in model.param_names if not p.startswith(("A_f", "k3"))]), start,
-                max_iter=options.max_iter, compute_stderr=False, progress=progress)
-        details.update(oe_status=r.status, oe_success=bool(r.success), oe_nrmse=float(r.nrmse),
-                       oe_seconds=time.perf_counter() - t1, oe_flags=[f.get("flag") for f in r.flags])
+        r = fit(
+            Problem(scaled, rec, free=[p for p in model.param_names if not p.startswith(("A_f", "k3"))]),
+            start,
+            max_iter=options.max_iter,
+            compute_stderr=False,
+            progress=progress,
+        )
+        details.update(
+            oe_status=r.status,
+            oe_success=bool(r.success),
+            oe_nrmse=float(r.nrmse),
+            oe_seconds=time.perf_counter() - t1,
+            oe_flags=[f.get("flag") for f in r.flags],
+        )
         if r.success:
             params = dict(r.params)
     return model, params, details
@@ -187,7 +222,7 @@ def score(model, params, test, kind: str, transient_periods: int = 2) -> tuple[f
     uu = np.tile(u, reps)
     t = np.arange(uu.size) / test.metadata["fs"]
     tr = simulate(model, params, t, {"F": uu}, on_failure="return")
-    y_hat = np.asarray(tr.y[-u.size:], dtype=float)
+    y_hat = np.asarray(tr.y[-u.size :], dtype=float)
     err = (np.asarray(test.y) - y_hat) * 1e-3
     rmse = float(np.sqrt(np.mean(err**2))) if tr.success else float("nan")
     return rmse, y_hat * 1e-3
@@ -209,21 +244,39 @@ def run_bouc_wen(folder=None, options: BoucWenOptions = BoucWenOptions(), progre
         notes.append(f"multisine RMSE {scores['multisine']:.3g} m is above dynoNet's {TARGET:.3g} m")
     dirs = [n for n in params if n.startswith("dir_c")]
     for n in dirs:
-        suffix = n[len("dir_c"):]
+        suffix = n[len("dir_c") :]
         damp = params.get("c1" + suffix, 0.0) + params.get("c2" + suffix, 0.0)
         if abs(params[n]) >= damp:
-            notes.append(f"the fitted directional damping |{n}| = {abs(params[n]):.3g} >= c1 + c2 = {damp:.3g}: the "
-                         "element's path damping is negative on loading, outside the Lyapunov argument (stable "
-                         "only because the drive reverses, as a Bouc-Wen element with |delta| > gamma)")
+            notes.append(
+                f"the fitted directional damping |{n}| = {abs(params[n]):.3g} >= c1 + c2 = {damp:.3g}: the "
+                "element's path damping is negative on loading, outside the Lyapunov argument (stable "
+                "only because the drive reverses, as a Bouc-Wen element with |delta| > gamma)"
+            )
     if details.get("oe_success") is False:
-        notes.append(f"the output-error fit did not converge ({details.get('oe_status')}); the equation-error "
-                     "start is scored")
-    protocol = {**asdict(options), "estimation": "train.h5 multisine (generated by the benchmark's integrator, "
-                "noise-free), samples from estimation_start", "multisine_rule": "periodic steady state: "
-                f"{options.transient_periods} periods of the same input run before the scored period",
-                "sinesweep_rule": "from rest (zero initial state)", "score": "RMSE over every test sample, metres",
-                "units_inside": "displacement in mm, force in N"}
-    return BenchmarkResult(benchmark="bouc-wen", unit="m", scores=scores, model=model.name, effects=tuple(model.effects),
-                           n_params=model.n_params, seconds=time.perf_counter() - t0, protocol=protocol,
-                           params={k: float(v) for k, v in params.items()}, published=PUBLISHED, notes=tuple(notes),
-                           details={**details, "n_free": len([p for p in model.param_names if not p.startswith(("A_f", "k3"))])})
+        notes.append(
+            f"the output-error fit did not converge ({details.get('oe_status')}); the equation-error start is scored"
+        )
+    protocol = {
+        **asdict(options),
+        "estimation": "train.h5 multisine (generated by the benchmark's integrator, "
+        "noise-free), samples from estimation_start",
+        "multisine_rule": "periodic steady state: "
+        f"{options.transient_periods} periods of the same input run before the scored period",
+        "sinesweep_rule": "from rest (zero initial state)",
+        "score": "RMSE over every test sample, metres",
+        "units_inside": "displacement in mm, force in N",
+    }
+    return BenchmarkResult(
+        benchmark="bouc-wen",
+        unit="m",
+        scores=scores,
+        model=model.name,
+        effects=tuple(model.effects),
+        n_params=model.n_params,
+        seconds=time.perf_counter() - t0,
+        protocol=protocol,
+        params={k: float(v) for k, v in params.items()},
+        published=PUBLISHED,
+        notes=tuple(notes),
+        details={**details, "n_free": len([p for p in model.param_names if not p.startswith(("A_f", "k3"))])},
+    )

@@ -1,4 +1,5 @@
 """The result of a benchmark run: scores by the benchmark's protocol beside the published figures."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -44,11 +45,20 @@ class BenchmarkResult:
     details: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {"benchmark": self.benchmark, "unit": self.unit, "scores": dict(self.scores), "model": self.model,
-                "effects": list(self.effects), "n_params": int(self.n_params), "seconds": float(self.seconds),
-                "protocol": dict(self.protocol), "params": dict(self.params),
-                "published": [{"name": p.name, "scores": dict(p.scores), "source": p.source} for p in self.published],
-                "notes": list(self.notes), "details": dict(self.details)}
+        return {
+            "benchmark": self.benchmark,
+            "unit": self.unit,
+            "scores": dict(self.scores),
+            "model": self.model,
+            "effects": list(self.effects),
+            "n_params": int(self.n_params),
+            "seconds": float(self.seconds),
+            "protocol": dict(self.protocol),
+            "params": dict(self.params),
+            "published": [{"name": p.name, "scores": dict(p.scores), "source": p.source} for p in self.published],
+            "notes": list(self.notes),
+            "details": dict(self.details),
+        }
 
     def table(self) -> str:
         """The scores beside the published ones, one row each."""
@@ -56,18 +66,23 @@ class BenchmarkResult:
         fmt = (lambda v: f"{v:.4g}") if self.unit == "m" else (lambda v: f"{v:.3f}")
         head = f"{'model':<46}" + "".join(f"{s:>24}" for s in sets)
         rows = [head, "-" * len(head)]
-        rows.append(f"{'duffsym: ' + self.model + (' + ' + ', '.join(self.effects) if self.effects else ''):<46}"[:46]
-                    + "".join(f"{fmt(self.scores[s]):>24}" for s in sets))
+        rows.append(
+            f"{'duffsym: ' + self.model + (' + ' + ', '.join(self.effects) if self.effects else ''):<46}"[:46]
+            + "".join(f"{fmt(self.scores[s]):>24}" for s in sets)
+        )
         for p in self.published:
-            rows.append(f"{p.name:<46}"[:46] + "".join(
-                f"{(fmt(p.scores[s]) if s in p.scores else '-'):>24}" for s in sets))
+            rows.append(
+                f"{p.name:<46}"[:46] + "".join(f"{(fmt(p.scores[s]) if s in p.scores else '-'):>24}" for s in sets)
+            )
         rows.append(f"(RMSE in {self.unit}; sources below)")
         rows += [f"  {p.name}: {p.source}" for p in self.published]
         return "\n".join(rows)
 
     def summary(self) -> str:
-        lines = [f"benchmark {self.benchmark}: model {self.model} ({self.n_params} parameters), "
-                 f"{self.seconds:.0f} s", self.table()]
+        lines = [
+            f"benchmark {self.benchmark}: model {self.model} ({self.n_params} parameters), {self.seconds:.0f} s",
+            self.table(),
+        ]
         lines += [f"  protocol: {k} = {v}" for k, v in self.protocol.items()]
         lines += [f"  note: {n}" for n in self.notes]
         return "\n".join(lines)

@@ -14,6 +14,7 @@ effect added by :func:`duffsym.identify.fit_with_effects` from the previous step
 refit on ``refit_len`` samples. The input derivative the effects see is the band-limited one
 (:func:`duffsym.identify.structure.bandlimited_derivative`), computed on the whole part before slicing.
 """
+
 from __future__ import annotations
 
 import time
@@ -27,10 +28,12 @@ N_SKIP = 50
 N_NO_EXTRAPOLATION = 32000
 #: Published RMSE [mV] (sources: ``shared/data/external/README.md``).
 PUBLISHED = (
-    Published("SUBNET nx=4 (Beintema et al. 2021)", {"arrow_full": 1.406, "arrow_no_extrapolation": 0.316},
-              "arXiv:2012.07697; printed output of GerbenBeintema/SS-encoder-WH-Silver @6b531a1 notebook"),
-    Published("SUBNET nx=8 (Beintema et al. 2021)", {"arrow_full": 2.001, "arrow_no_extrapolation": 0.307},
-              "same"),
+    Published(
+        "SUBNET nx=4 (Beintema et al. 2021)",
+        {"arrow_full": 1.406, "arrow_no_extrapolation": 0.316},
+        "arXiv:2012.07697; printed output of GerbenBeintema/SS-encoder-WH-Silver @6b531a1 notebook",
+    ),
+    Published("SUBNET nx=8 (Beintema et al. 2021)", {"arrow_full": 2.001, "arrow_no_extrapolation": 0.307}, "same"),
 )
 #: The effects the ladder of study s10 chose on the estimation data (in order).
 LADDER_EFFECTS = ("force-offset", "input-curvature", "quadratic-stiffness", "cubic-damping")
@@ -41,14 +44,14 @@ class SilverboxOptions:
     """Every option of the Silverbox run (the defaults are what ``duffsym benchmark silverbox`` uses)."""
 
     effects: tuple = LADDER_EFFECTS
-    seg_start: int = 500         # first estimation sample of the stepwise fit
-    seg_len: int = 4000          # samples of the stepwise fit
-    refit_len: int = 16000       # samples of the final refit (0: none)
+    seg_start: int = 500  # first estimation sample of the stepwise fit
+    seg_len: int = 4000  # samples of the stepwise fit
+    refit_len: int = 16000  # samples of the final refit (0: none)
     max_iter: int = 300
-    substeps: int = 16           # RK4 substeps per sample of the scored free runs
+    substeps: int = 16  # RK4 substeps per sample of the scored free runs
 
     @classmethod
-    def smoke(cls) -> "SilverboxOptions":
+    def smoke(cls) -> SilverboxOptions:
         return cls(effects=("force-offset",), seg_len=1200, refit_len=0)
 
 
@@ -97,8 +100,14 @@ def free_run(model, params: dict, rec, *, substeps="auto", info: dict | None = N
     NaN where it fails; ``info`` receives whether it succeeded and the most substeps it used."""
     from duffsym.simulate import simulate_record
 
-    tr = simulate_record(model, model.param_vector(params), rec, x0=initial_state(model, params, rec),
-                         substeps=substeps, on_failure="return")
+    tr = simulate_record(
+        model,
+        model.param_vector(params),
+        rec,
+        x0=initial_state(model, params, rec),
+        substeps=substeps,
+        on_failure="return",
+    )
     y = np.asarray(tr.y, dtype=float)
     if info is not None:
         sub = np.asarray(tr.substeps)
@@ -136,8 +145,7 @@ def estimate(train, options: SilverboxOptions = SilverboxOptions(), progress=Non
     r = fit(Problem(model, seg), max_iter=options.max_iter)
     params, steps = dict(r.params), [{"effects": [], "nrmse": float(r.nrmse), "success": bool(r.success)}]
     for name in options.effects:
-        y_prev = simulate(model, params, np.asarray(seg.t), seg.inputs_for(model), x0=r.x0[0],
-                          on_failure="return").y
+        y_prev = simulate(model, params, np.asarray(seg.t), seg.inputs_for(model), x0=r.x0[0], on_failure="return").y
         effects += (name,)
         model = build(effects)
         say(f"+ {name}")
@@ -177,7 +185,7 @@ def run_silverbox(folder=None, options: SilverboxOptions = SilverboxOptions(), p
     from duffsym.data.loaders import external_data_dir, load_silverbox
 
     t0 = time.perf_counter()
-    path = (external_data_dir() / "silverbox" if folder is None else folder)
+    path = external_data_dir() / "silverbox" if folder is None else folder
     path = path / "SNLS80mV.csv"
     train = with_bandlimited_rate(load_silverbox(path, part="multisine_train"))
     model, params, details = estimate(train, options, progress)
@@ -187,11 +195,25 @@ def run_silverbox(folder=None, options: SilverboxOptions = SilverboxOptions(), p
         worse = [k for k, v in p.scores.items() if not out[k] < v]
         if worse:
             notes.append(f"not better than {p.name} on {', '.join(worse)}")
-    protocol = {**asdict(options), "estimation": "multisine_train (rows 40650..105712) only",
-                "skip": f"first {N_SKIP} samples of each test set (used to fit the initial position and velocity)",
-                "score": "RMSE of the free run in mV", "input_rate": "band-limited differentiator (31 taps)",
-                "effects_choice": "the ladder of study s10 on the estimation data (default effects)"}
-    return BenchmarkResult(benchmark="silverbox", unit="mV", scores=out, model="duffing-gain",
-                           effects=tuple(model.effects), n_params=model.n_params, seconds=time.perf_counter() - t0,
-                           protocol=protocol, params={k: float(v) for k, v in params.items()}, published=PUBLISHED,
-                           notes=tuple(notes), details=details)
+    protocol = {
+        **asdict(options),
+        "estimation": "multisine_train (rows 40650..105712) only",
+        "skip": f"first {N_SKIP} samples of each test set (used to fit the initial position and velocity)",
+        "score": "RMSE of the free run in mV",
+        "input_rate": "band-limited differentiator (31 taps)",
+        "effects_choice": "the ladder of study s10 on the estimation data (default effects)",
+    }
+    return BenchmarkResult(
+        benchmark="silverbox",
+        unit="mV",
+        scores=out,
+        model="duffing-gain",
+        effects=tuple(model.effects),
+        n_params=model.n_params,
+        seconds=time.perf_counter() - t0,
+        protocol=protocol,
+        params={k: float(v) for k, v in params.items()},
+        published=PUBLISHED,
+        notes=tuple(notes),
+        details=details,
+    )

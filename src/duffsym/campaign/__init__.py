@@ -11,15 +11,17 @@ options). A rerun skips the records whose result is complete and whose hash is u
 interrupted batch resumes where it stopped. ``summary.json``, ``summary.csv`` and ``summary.png``
 describe every record, failures included: one record's error never stops the others.
 """
+
 from __future__ import annotations
 
 import json
 import sys
 import threading
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 from duffsym._io import check_output_dir, write_json_atomic
 from duffsym._json import jsonable
@@ -92,18 +94,30 @@ class CampaignResult:
         return json.loads(Path(self[name]["result"]).read_text())
 
     def to_dict(self) -> dict:
-        return {"command": self.command, "out": str(self.out), "records": [dict(r) for r in self.rows],
-                "counts": self.counts, "n_records": len(self.rows), "n_ran": self.n_ran,
-                "n_reused": sum(bool(r["reused"]) for r in self.rows), "seconds": self.seconds,
-                "engine": self.engine, "figure": None if self.figure is None else str(self.figure),
-                "interrupted": self.interrupted, **self.extra}
+        return {
+            "command": self.command,
+            "out": str(self.out),
+            "records": [dict(r) for r in self.rows],
+            "counts": self.counts,
+            "n_records": len(self.rows),
+            "n_ran": self.n_ran,
+            "n_reused": sum(bool(r["reused"]) for r in self.rows),
+            "seconds": self.seconds,
+            "engine": self.engine,
+            "figure": None if self.figure is None else str(self.figure),
+            "interrupted": self.interrupted,
+            **self.extra,
+        }
 
     def summary(self) -> str:
         c = self.counts
-        lines = [f"batch {self.command}: {len(self.rows)} records, {c['ok']} ok, {c['failed']} not usable, "
-                 f"{c['error']} errors" + (f", {c['interrupted']} not run (interrupted)" if c["interrupted"] else "")
-                 + f"; ran {self.n_ran}, reused {len(self.rows) - self.n_ran - c['interrupted']}; "
-                 f"{self.seconds:.1f} s on {self.engine}"]
+        lines = [
+            f"batch {self.command}: {len(self.rows)} records, {c['ok']} ok, {c['failed']} not usable, "
+            f"{c['error']} errors"
+            + (f", {c['interrupted']} not run (interrupted)" if c["interrupted"] else "")
+            + f"; ran {self.n_ran}, reused {len(self.rows) - self.n_ran - c['interrupted']}; "
+            f"{self.seconds:.1f} s on {self.engine}"
+        ]
         width = max([len(r["record"]) for r in self.rows] + [6])
         for r in self.rows:
             nr = "" if r["nrmse"] is None else f"{r['nrmse']:.4g}"
@@ -137,26 +151,54 @@ def _document(command: str, job: Job, digest: str, outcome) -> dict:
         status = {0: "ok", 1: "failed"}.get(v.exit_code, "error")
         if status == "failed" and ": internal error:" in v.message:  # the CLI's exit 1 for a crash
             status = "error"
-        meta = dict(message=v.message, seconds=v.seconds, worker=v.worker, exit_code=v.exit_code,
-                    stderr=v.stderr, complete=True)
+        meta = dict(
+            message=v.message, seconds=v.seconds, worker=v.worker, exit_code=v.exit_code, stderr=v.stderr, complete=True
+        )
         body = {} if v.result is None else v.result.to_dict()
     else:
         # the engine lost the task (a worker died): not complete, so a rerun tries again
         status, body = "error", {}
-        meta = dict(message=f"{type(outcome.error).__name__}: {outcome.error}", seconds=None, worker=None,
-                    exit_code=None, stderr="", complete=False)
+        meta = dict(
+            message=f"{type(outcome.error).__name__}: {outcome.error}",
+            seconds=None,
+            worker=None,
+            exit_code=None,
+            stderr="",
+            complete=False,
+        )
     if not meta["message"] and status != "ok":
         meta["message"] = f"exit code {meta['exit_code']}"
-    batch = dict(status=status, command=command, record=job.name, data=str(job.data),
-                 fit=None if job.fit is None else str(job.fit), argv=list(job.argv), labels=job.labels, hash=digest,
-                 **meta)
+    batch = dict(
+        status=status,
+        command=command,
+        record=job.name,
+        data=str(job.data),
+        fit=None if job.fit is None else str(job.fit),
+        argv=list(job.argv),
+        labels=job.labels,
+        hash=digest,
+        **meta,
+    )
     return {**{k: v for k, v in body.items() if k != "batch"}, "batch": batch}
 
 
 # ---------------------------------------------------------------------------------------------- main
-def run_batch(inputs: Iterable = (), *, make_task, command: str = "fit", out, manifest=None, fit=None, options: Any = None,
-              workers: int | None = None, scheduler: str | None = None, engine=None, retry_failed: bool = False,
-              progress: bool = True, figure: bool = True) -> CampaignResult:
+def run_batch(
+    inputs: Iterable = (),
+    *,
+    make_task,
+    command: str = "fit",
+    out,
+    manifest=None,
+    fit=None,
+    options: Any = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    engine=None,
+    retry_failed: bool = False,
+    progress: bool = True,
+    figure: bool = True,
+) -> CampaignResult:
     """Run the task of every record of a folder, a glob or a manifest, on an engine.
 
     Parameters
@@ -204,8 +246,11 @@ def run_batch(inputs: Iterable = (), *, make_task, command: str = "fit", out, ma
     bar = _progress_bar(len(todo), command, progress)
     say = bar.write if progress else (lambda *a, **k: None)
     if progress:
-        say(f"batch {command}: {len(jobs)} records, {len(done)} complete from an earlier run, {len(todo)} to "
-                  f"run on {engine!r}", file=sys.stderr)
+        say(
+            f"batch {command}: {len(jobs)} records, {len(done)} complete from an earlier run, {len(todo)} to "
+            f"run on {engine!r}",
+            file=sys.stderr,
+        )
     fresh: dict[str, dict] = {}
     interrupted = False
     try:
@@ -234,8 +279,15 @@ def run_batch(inputs: Iterable = (), *, make_task, command: str = "fit", out, ma
             closing.start()
         try:
             rows = _rows(command, jobs, fresh, done, out)
-            res = CampaignResult(command=command, out=out, rows=tuple(rows), seconds=time.perf_counter() - t0,
-                              engine=repr(engine), n_ran=len(fresh), interrupted=interrupted)
+            res = CampaignResult(
+                command=command,
+                out=out,
+                rows=tuple(rows),
+                seconds=time.perf_counter() - t0,
+                engine=repr(engine),
+                n_ran=len(fresh),
+                interrupted=interrupted,
+            )
             _write_summary(res, figure and not interrupted)
         finally:
             if closing is not None:
@@ -251,9 +303,22 @@ def _rows(command: str, jobs: list[Job], fresh: dict, done: dict, out: Path) -> 
     for j in jobs:
         doc = fresh.get(j.name) or done.get(j.name)
         if doc is None:
-            rows.append({"record": j.name, "status": "interrupted", "success": False, "nrmse": None, "result": None,
-                         "message": "not run: the batch was interrupted; rerun to complete it", "seconds": None,
-                         "reused": False, "data": str(j.data), "worker": None, "labels": dict(j.labels), "params": {}})
+            rows.append(
+                {
+                    "record": j.name,
+                    "status": "interrupted",
+                    "success": False,
+                    "nrmse": None,
+                    "result": None,
+                    "message": "not run: the batch was interrupted; rerun to complete it",
+                    "seconds": None,
+                    "reused": False,
+                    "data": str(j.data),
+                    "worker": None,
+                    "labels": dict(j.labels),
+                    "params": {},
+                }
+            )
         else:
             rows.append(row(command, j.name, out / f"{j.name}.json", doc, reused=j.name in done))
     return rows
@@ -301,5 +366,6 @@ def _write_summary(res: CampaignResult, figure: bool) -> None:
 def _progress_bar(total: int, command: str, enabled: bool):
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=f"batch {command}", unit="record", file=sys.stderr, disable=not enabled,
-                dynamic_ncols=True)
+    return tqdm(
+        total=total, desc=f"batch {command}", unit="record", file=sys.stderr, disable=not enabled, dynamic_ncols=True
+    )

@@ -15,6 +15,7 @@ per record with the fields
 Every other field is a label carried to the summary (e.g. ``current``, ``amplitude``, ``frequency``:
 the summary figure plots the parameters against them).
 """
+
 from __future__ import annotations
 
 import csv
@@ -23,9 +24,10 @@ import hashlib
 import json
 import re
 import shlex
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable, Mapping
+from typing import Any
 
 from duffsym.errors import DataError
 
@@ -56,8 +58,9 @@ class Job:
         from duffsym import __version__
 
         h = hashlib.sha256()
-        h.update(json.dumps({"duffsym": __version__, "command": command, "argv": list(self.argv)},
-                            sort_keys=True).encode())
+        h.update(
+            json.dumps({"duffsym": __version__, "command": command, "argv": list(self.argv)}, sort_keys=True).encode()
+        )
         for path in (self.data, self.fit):
             if path is not None:
                 h.update(b"\0file\0")
@@ -90,15 +93,19 @@ def _options_argv(options: Any, where: str) -> list[str]:
             else:
                 out += [flag, str(value)]
         return out
-    raise DataError(f"{where}: options must be a string (as on the command line) or an object; got {type(options).__name__}")
+    raise DataError(
+        f"{where}: options must be a string (as on the command line) or an object; got {type(options).__name__}"
+    )
 
 
 def _check_reserved(argv: list[str], where: str) -> None:
     for a in argv:
         flag = a.split("=", 1)[0]
         if flag in RESERVED:
-            raise DataError(f"{where}: option {flag} is set by the batch (results go to --out DIR as JSON; a fit is "
-                            "given with the manifest's 'fit' field or batch --fit); remove it")
+            raise DataError(
+                f"{where}: option {flag} is set by the batch (results go to --out DIR as JSON; a fit is "
+                "given with the manifest's 'fit' field or batch --fit); remove it"
+            )
 
 
 def _joined(value: Any) -> str:
@@ -135,8 +142,9 @@ def _resolve_fit(fit: Path | None, name: str, where: str) -> Path | None:
     if fit.is_dir():
         fit = fit / f"{name}.json"
     if not fit.is_file():
-        raise DataError(f"{where}: fit {fit} not found; give a FIT.json or the folder of a batch fit run "
-                        "(holding <record>.json)")
+        raise DataError(
+            f"{where}: fit {fit} not found; give a FIT.json or the folder of a batch fit run (holding <record>.json)"
+        )
     return fit
 
 
@@ -150,10 +158,10 @@ def read_manifest(path) -> list[dict]:
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
-            raise DataError(f"{path}: not valid JSON ({exc}); give a list of records or {{\"records\": [...]}}") from None
+            raise DataError(f'{path}: not valid JSON ({exc}); give a list of records or {{"records": [...]}}') from None
         entries = data.get("records") if isinstance(data, dict) else data
         if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
-            raise DataError(f"{path}: a JSON manifest is a list of objects (or {{\"records\": [...]}}), one per record")
+            raise DataError(f'{path}: a JSON manifest is a list of objects (or {{"records": [...]}}), one per record')
     else:
         rows = list(csv.DictReader(text.splitlines()))
         entries = [{k.strip(): (v or "").strip() for k, v in row.items() if k} for row in rows]
@@ -186,7 +194,9 @@ def _from_inputs(inputs: Iterable) -> list[Path]:
     return files
 
 
-def collect_jobs(inputs: Iterable = (), *, command: str = "fit", manifest=None, fit=None, options: Any = None) -> list[Job]:
+def collect_jobs(
+    inputs: Iterable = (), *, command: str = "fit", manifest=None, fit=None, options: Any = None
+) -> list[Job]:
     """The jobs of a batch, from input paths (files, folders of ``*.csv``, globs) and/or a manifest.
 
     Parameters
@@ -234,8 +244,15 @@ def collect_jobs(inputs: Iterable = (), *, command: str = "fit", manifest=None, 
                 fit_path = Path(str(fit_path))
                 fit_path = fit_path if fit_path.is_absolute() else base / fit_path
             labels = {k: _label(v) for k, v in e.items() if k not in KNOWN_FIELDS}
-            jobs.append(Job(name=_safe_name(str(e.get("name") or data.stem)), data=data, fit=fit_path,
-                            argv=tuple(argv), labels=labels))
+            jobs.append(
+                Job(
+                    name=_safe_name(str(e.get("name") or data.stem)),
+                    data=data,
+                    fit=fit_path,
+                    argv=tuple(argv),
+                    labels=labels,
+                )
+            )
     if not jobs:
         raise DataError("no records: give CSV files, folders or globs, or --manifest FILE")
     out = []
@@ -250,7 +267,8 @@ def collect_jobs(inputs: Iterable = (), *, command: str = "fit", manifest=None, 
     seen: dict[str, Path] = {}
     for j in out:
         if j.name in seen:
-            raise DataError(f"two records are named {j.name!r} ({seen[j.name]} and {j.data}); give each a 'name' in a "
-                            "manifest")
+            raise DataError(
+                f"two records are named {j.name!r} ({seen[j.name]} and {j.data}); give each a 'name' in a manifest"
+            )
         seen[j.name] = j.data
     return out

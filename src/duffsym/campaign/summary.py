@@ -1,4 +1,5 @@
 """The summary of a batch: one row per record (``summary.json``, ``summary.csv``) and a figure."""
+
 from __future__ import annotations
 
 import csv
@@ -53,10 +54,20 @@ def row(command: str, name: str, path: Path, doc: dict, *, reused: bool) -> dict
     """The summary row of one record from its stored result (``{...command JSON, "batch": {...}}``)."""
     b = doc.get("batch", {})
     result = {k: v for k, v in doc.items() if k != "batch"} or None
-    return {"record": name, "status": b.get("status", "error"), "success": b.get("status") == "ok",
-            "nrmse": nrmse_of(command, result), "result": str(path), "message": b.get("message", ""),
-            "seconds": b.get("seconds"), "reused": reused, "data": b.get("data"), "worker": b.get("worker"),
-            "labels": dict(b.get("labels", {})), "params": params_of(command, result)}
+    return {
+        "record": name,
+        "status": b.get("status", "error"),
+        "success": b.get("status") == "ok",
+        "nrmse": nrmse_of(command, result),
+        "result": str(path),
+        "message": b.get("message", ""),
+        "seconds": b.get("seconds"),
+        "reused": reused,
+        "data": b.get("data"),
+        "worker": b.get("worker"),
+        "labels": dict(b.get("labels", {})),
+        "params": params_of(command, result),
+    }
 
 
 def to_csv(rows: list[dict]) -> str:
@@ -113,8 +124,14 @@ def plot_summary(rows: list[dict], command: str, path) -> Path:
     top = np.nanmax(vals) if np.any(np.isfinite(vals)) else 1.0
     for i, r in enumerate(rows):
         if r["status"] != "ok":
-            ax.text(0.02 * top, i, r["status"] if r["status"] != "failed" else "not usable", va="center",
-                    fontsize=7, color="tab:red")
+            ax.text(
+                0.02 * top,
+                i,
+                r["status"] if r["status"] != "failed" else "not usable",
+                va="center",
+                fontsize=7,
+                color="tab:red",
+            )
     ax.set_yticks(y, names, fontsize=7 if len(rows) > 12 else 9)
     ax.invert_yaxis()
     ax.set_xlabel("free-run NRMSE")

@@ -7,6 +7,7 @@ returns the exit code. Shared helpers (usage errors, JSON output, reading a reco
 arguments) are in :mod:`duffsym.cli.common`. ``--json`` prints one JSON object on stdout and
 nothing else there; messages go to stderr. Bad input exits non-zero with one line, no traceback.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,20 +19,20 @@ from duffsym.errors import DuffsymError
 
 #: Modules that add subcommands, in the order ``duffsym --help`` lists them.
 COMMAND_MODULES = (
-    "duffsym.cli.models",     # models
-    "duffsym.cli.derive",     # derive
-    "duffsym.cli.simulate",   # simulate
-    "duffsym.cli.fit",        # fit, validate
+    "duffsym.cli.models",  # models
+    "duffsym.cli.derive",  # derive
+    "duffsym.cli.simulate",  # simulate
+    "duffsym.cli.fit",  # fit, validate
     "duffsym.cli.reproduce",  # reproduce
-    "duffsym.cli.effects",    # effects
-    "duffsym.cli.diagnose",   # diagnose, ladder
-    "duffsym.cli.compare",    # compare
-    "duffsym.cli.sample",     # sample
-    "duffsym.cli.sindy",      # sindy
-    "duffsym.cli.convert",    # convert
-    "duffsym.cli.batch",      # batch
+    "duffsym.cli.effects",  # effects
+    "duffsym.cli.diagnose",  # diagnose, ladder
+    "duffsym.cli.compare",  # compare
+    "duffsym.cli.sample",  # sample
+    "duffsym.cli.sindy",  # sindy
+    "duffsym.cli.convert",  # convert
+    "duffsym.cli.batch",  # batch
     "duffsym.cli.benchmark",  # benchmark
-    "duffsym.cli.invert",     # invert
+    "duffsym.cli.invert",  # invert
 )
 
 
@@ -41,33 +42,60 @@ COMMAND_MODULES = (
 #: the module of COMMAND.
 COMMANDS = (
     ("models", "duffsym.cli.models", "list the models"),
-    ("derive", "duffsym.cli.derive", "the paper's derivations for a model: state space, Lyapunov, invariant "
-     "set, stability conditions, scaling symmetry"),
-    ("simulate", "duffsym.cli.simulate", "simulate a model under an excitation; CSV (time, displacement, "
-     "velocity, force) and an optional loop plot"),
+    (
+        "derive",
+        "duffsym.cli.derive",
+        "the paper's derivations for a model: state space, Lyapunov, invariant "
+        "set, stability conditions, scaling symmetry",
+    ),
+    (
+        "simulate",
+        "duffsym.cli.simulate",
+        "simulate a model under an excitation; CSV (time, displacement, velocity, force) and an optional loop plot",
+    ),
     ("fit", "duffsym.cli.fit", "identify a model's parameters from a measured record (collocation + IPOPT)"),
     ("validate", "duffsym.cli.fit", "free-run error of a saved fit on another record"),
     ("reproduce", "duffsym.cli.reproduce", "run the studies and regenerate every figure and number"),
-    ("effects", "duffsym.cli.effects", "list the physical effects that can be added to a model (fit --add, "
-     "ladder)"),
-    ("diagnose", "duffsym.cli.diagnose", "where the model fails on a record, and which catalogued effect is "
-     "missing"),
-    ("ladder", "duffsym.cli.diagnose", "base fit, then add the best supported effect and refit, while the "
-     "evidence supports it; the error at each step"),
-    ("compare", "duffsym.cli.compare", "fit several models on the same records and score them on "
-     "held-out data"),
-    ("sample", "duffsym.cli.sample", "emcee posterior of a saved fit's free parameters (medians, 90 %% "
-     "intervals, tau, ESS, Laplace comparison)"),
-    ("sindy", "duffsym.cli.sindy", "SINDy cross-check of the terms of the velocity equation (which terms the "
-     "data support)"),
-    ("convert", "duffsym.cli.convert", "turn a text/CSV/.mat data file into a duffsym CSV record (time, "
-     "displacement, velocity, force)"),
-    ("batch", "duffsym.cli.batch", "run fit, validate, diagnose, ladder or sample on many records (local "
-     "processes or a Dask cluster); one result file per record, resumable, with a summary table and figure"),
-    ("benchmark", "duffsym.cli.benchmark", "score a public benchmark by its own protocol (silverbox, bouc-wen) "
-     "beside the published figures"),
-    ("invert", "duffsym.cli.invert", "the command (current/voltage) history that makes a fitted model produce "
-     "a desired force"),
+    ("effects", "duffsym.cli.effects", "list the physical effects that can be added to a model (fit --add, ladder)"),
+    ("diagnose", "duffsym.cli.diagnose", "where the model fails on a record, and which catalogued effect is missing"),
+    (
+        "ladder",
+        "duffsym.cli.diagnose",
+        "base fit, then add the best supported effect and refit, while the "
+        "evidence supports it; the error at each step",
+    ),
+    ("compare", "duffsym.cli.compare", "fit several models on the same records and score them on held-out data"),
+    (
+        "sample",
+        "duffsym.cli.sample",
+        "emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, tau, ESS, Laplace comparison)",
+    ),
+    (
+        "sindy",
+        "duffsym.cli.sindy",
+        "SINDy cross-check of the terms of the velocity equation (which terms the data support)",
+    ),
+    (
+        "convert",
+        "duffsym.cli.convert",
+        "turn a text/CSV/.mat data file into a duffsym CSV record (time, displacement, velocity, force)",
+    ),
+    (
+        "batch",
+        "duffsym.cli.batch",
+        "run fit, validate, diagnose, ladder or sample on many records (local "
+        "processes or a Dask cluster); one result file per record, resumable, with a summary table and figure",
+    ),
+    (
+        "benchmark",
+        "duffsym.cli.benchmark",
+        "score a public benchmark by its own protocol (silverbox, bouc-wen) beside the published figures",
+    ),
+    (
+        "invert",
+        "duffsym.cli.invert",
+        "the command (current/voltage) history that makes a fitted model produce a desired force",
+    ),
 )
 
 
@@ -76,8 +104,10 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
     imported, the others are listed by :data:`COMMANDS`; without, every command module registers its own."""
     from duffsym import __version__
 
-    p = argparse.ArgumentParser(prog="duffsym", description="Continuous hysteresis models from one symbolic model "
-                                "(Tu, Lin & Cheng's Duffing-like equation).")
+    p = argparse.ArgumentParser(
+        prog="duffsym",
+        description="Continuous hysteresis models from one symbolic model (Tu, Lin & Cheng's Duffing-like equation).",
+    )
     p.add_argument("--version", action="version", version=f"duffsym {__version__}")
     p.add_argument("--debug", action="store_true", help="show tracebacks of unexpected errors")
     # not "command": `batch --command fit` has an option of that name, which would rename the command
@@ -175,8 +205,10 @@ def guarded(args, work):
     except Exception as exc:  # an unexpected failure: one line, the traceback only on --debug
         if debug:
             raise
-        err(f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
-            "and please report it)")
+        err(
+            f"duffsym {name}: internal error: {type(exc).__name__}: {exc} (rerun with --debug for the traceback "
+            "and please report it)"
+        )
         return None, 1
 
 

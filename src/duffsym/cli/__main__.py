@@ -1,4 +1,5 @@
 """``python -m duffsym.cli ...``: the ``duffsym`` command."""
+
 import sys
 
 from duffsym.cli import main

@@ -11,6 +11,7 @@ It returns a :class:`~duffsym.campaign.RecordRun` holding the command's :class:`
 (its ``to_dict()`` is the JSON the command prints), the exit code and the record's stderr, with the
 temporary paths replaced by the original ones in the messages and the result.
 """
+
 from __future__ import annotations
 
 import io
@@ -81,7 +82,7 @@ class InputFile:
     data: bytes
 
     @classmethod
-    def read(cls, path) -> "InputFile":
+    def read(cls, path) -> InputFile:
         return cls(str(path), Path(path).read_bytes())
 
 
@@ -123,8 +124,9 @@ def record_task(command: str, job):
     from duffsym.engine import Task
 
     files = [InputFile.read(job.data)] + ([InputFile.read(job.fit)] if job.fit is not None else [])
-    argv = command_line(command, str(job.data), None if job.fit is None else str(job.fit), job.argv,
-                        quiet=_has_quiet(command))
+    argv = command_line(
+        command, str(job.data), None if job.fit is None else str(job.fit), job.argv, quiet=_has_quiet(command)
+    )
     args, usage = parse_record(command, argv)
     if usage is not None:
         return Task(usage_error, usage)
@@ -135,8 +137,9 @@ def usage_error(code: int, text: str):
     """The outcome of a record whose options the command's parser refused (no work done)."""
     from duffsym.campaign import RecordRun
 
-    return RecordRun(exit_code=code, result=None, message=_last_line(text), stderr=text[-4000:], seconds=0.0,
-                     worker=_worker())
+    return RecordRun(
+        exit_code=code, result=None, message=_last_line(text), stderr=text[-4000:], seconds=0.0, worker=_worker()
+    )
 
 
 def _last_line(text: str) -> str:
@@ -210,5 +213,11 @@ def run_record(args, files: tuple[InputFile, ...]):
         code = result.exit_code
         result = replace(result, data=_swapped(result.portable().data, back), value=None, text="")
     text = _swapped(text, back)
-    return RecordRun(exit_code=code, result=result, message=_last_line(text) if code else "", stderr=text[-4000:],
-                     seconds=time.perf_counter() - t0, worker=_worker())
+    return RecordRun(
+        exit_code=code,
+        result=result,
+        message=_last_line(text) if code else "",
+        stderr=text[-4000:],
+        seconds=time.perf_counter() - t0,
+        worker=_worker(),
+    )

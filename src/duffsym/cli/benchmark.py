@@ -1,4 +1,5 @@
 """``duffsym benchmark silverbox|bouc-wen``: estimate on the benchmark's estimation data, score its test sets."""
+
 from __future__ import annotations
 
 import sys
@@ -43,16 +44,26 @@ def cmd_benchmark(args) -> int:
 
 
 def register(sub) -> None:
-    s = sub.add_parser("benchmark", help="score a public benchmark by its own protocol (silverbox, bouc-wen) beside "
-                       "the published figures")
+    s = sub.add_parser(
+        "benchmark",
+        help="score a public benchmark by its own protocol (silverbox, bouc-wen) beside the published figures",
+    )
     s.add_argument("name", choices=("silverbox", "bouc-wen"), help="the benchmark")
     s.add_argument("--smoke", action="store_true", help="small settings (seconds; scores not comparable)")
-    s.add_argument("--element", choices=("path", "rate"), default=None,
-                   help="bouc-wen only: the element in the structure, 'path' (default: the rate-independent "
-                        "path-time variant of Eq. 12) or 'rate' (Eq. 12 as published)")
-    s.add_argument("--direction", choices=("velocity", "velocity-quadratic", "position", "none"), default=None,
-                   help="bouc-wen, path element only: its directional damping x'' += -dir_c d' g, g = |x'| "
-                        "('velocity', the default), |x'| x', |x|, or 'none'")
+    s.add_argument(
+        "--element",
+        choices=("path", "rate"),
+        default=None,
+        help="bouc-wen only: the element in the structure, 'path' (default: the rate-independent "
+        "path-time variant of Eq. 12) or 'rate' (Eq. 12 as published)",
+    )
+    s.add_argument(
+        "--direction",
+        choices=("velocity", "velocity-quadratic", "position", "none"),
+        default=None,
+        help="bouc-wen, path element only: its directional damping x'' += -dir_c d' g, g = |x'| "
+        "('velocity', the default), |x'| x', |x|, or 'none'",
+    )
     s.add_argument("--out", help="also write the result JSON to this file")
     s.add_argument("--quiet", action="store_true", help="no progress on stderr")
     s.add_argument("--json", action="store_true", help="print one JSON object")

@@ -4,15 +4,17 @@ with ``--add`` effects, ``--mask`` and the common arguments.
 The command modules (``duffsym/cli/<topic>.py``) import from here; :mod:`duffsym.cli` only builds the
 parser from them and turns errors into exit codes.
 """
+
 from __future__ import annotations
 
 import argparse
 import json
 import math
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from duffsym.errors import DuffsymError
 
@@ -61,14 +63,16 @@ class CommandResult:
     def success(self) -> bool:
         return self.exit_code == 0
 
-    def portable(self) -> "CommandResult":
+    def portable(self) -> CommandResult:
         """This result with its JSON made JSON-safe and without the library object or a text not yet made:
         small and picklable (what a batch worker returns; the batch stores ``to_dict()``)."""
         from dataclasses import replace
 
         from duffsym._json import jsonable
 
-        return replace(self, data=_plain(jsonable(self.data)), value=None, text="" if callable(self.text) else self.text)
+        return replace(
+            self, data=_plain(jsonable(self.data)), value=None, text="" if callable(self.text) else self.text
+        )
 
 
 def _plain(obj):
@@ -131,9 +135,13 @@ def read_record(args, path):
         from duffsym.data.loaders import load_friction_damper_json
 
         return load_friction_damper_json(path)
-    return read_csv(path, columns=parse_mapping(args.columns, "--columns") or None,
-                    units=parse_mapping(args.units, "--units") or None, nan_policy=args.nan_policy,
-                    sampling=getattr(args, "sampling", "strict"))
+    return read_csv(
+        path,
+        columns=parse_mapping(args.columns, "--columns") or None,
+        units=parse_mapping(args.units, "--units") or None,
+        nan_policy=args.nan_policy,
+        sampling=getattr(args, "sampling", "strict"),
+    )
 
 
 def check_outputs(args, inputs, options=("out", "plot")) -> None:
@@ -167,8 +175,10 @@ def require_success(result, args) -> None:
     if result.success:
         return
     if not getattr(args, "force", False):
-        raise CLIError(f"{args.fit} is a failed fit (status {str(result.status)!r}: {str(result.message)[:120]}); refit, "
-                       "or pass --force to use it anyway")
+        raise CLIError(
+            f"{args.fit} is a failed fit (status {str(result.status)!r}: {str(result.message)[:120]}); refit, "
+            "or pass --force to use it anyway"
+        )
     err(f"warning: using the failed fit {args.fit} (--force): {result.status}")
 
 
@@ -209,8 +219,10 @@ def mask_from_args(spec: str | None, record):
         raise CLIError(f"--mask {spec}: not a column of 0/1 values ({str(exc)[:80]})") from None
     bad = np.flatnonzero((values != 0) & (values != 1))
     if bad.size:
-        raise CLIError(f"--mask {spec}: value {values[bad[0]]:g} at sample {bad[0]} ({bad.size} value(s) not 0 or 1); "
-                       "give 1 to leave a sample out of the objective and 0 to keep it")
+        raise CLIError(
+            f"--mask {spec}: value {values[bad[0]]:g} at sample {bad[0]} ({bad.size} value(s) not 0 or 1); "
+            "give 1 to leave a sample out of the objective and 0 to keep it"
+        )
     return values.astype(bool), {"rule": f"user mask from {spec}"}
 
 
@@ -220,12 +232,23 @@ def add_model_arguments(s: argparse.ArgumentParser) -> None:
 
 
 def add_file_arguments(s: argparse.ArgumentParser) -> None:
-    s.add_argument("--columns", help="map roles to the file's columns, e.g. time=t,input=V1,output=V2 "
-                   "(roles: time, displacement/input, force/output, velocity, current, voltage)")
+    s.add_argument(
+        "--columns",
+        help="map roles to the file's columns, e.g. time=t,input=V1,output=V2 "
+        "(roles: time, displacement/input, force/output, velocity, current, voltage)",
+    )
     s.add_argument("--units", help="record units, e.g. input=mm,output=N")
-    s.add_argument("--nan-policy", choices=("raise", "omit"), default="raise",
-                   help="samples with NaN/inf: raise an error (default) or omit them (with a warning)")
-    s.add_argument("--sampling", choices=("strict", "resample", "as-given"), default="strict",
-                   help="a time column that is not uniform: strict (default: a uniform grid printed with rounding is "
-                   "rebuilt and reported, anything else is an error), resample (interpolate onto a uniform grid at "
-                   "the median step) or as-given (use the stamps as they are)")
+    s.add_argument(
+        "--nan-policy",
+        choices=("raise", "omit"),
+        default="raise",
+        help="samples with NaN/inf: raise an error (default) or omit them (with a warning)",
+    )
+    s.add_argument(
+        "--sampling",
+        choices=("strict", "resample", "as-given"),
+        default="strict",
+        help="a time column that is not uniform: strict (default: a uniform grid printed with rounding is "
+        "rebuilt and reported, anything else is an error), resample (interpolate onto a uniform grid at "
+        "the median step) or as-given (use the stamps as they are)",
+    )

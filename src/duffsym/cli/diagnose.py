@@ -1,4 +1,5 @@
 """``duffsym diagnose`` and ``duffsym ladder`` (``docs/contract.md``)."""
+
 from __future__ import annotations
 
 import time
@@ -6,10 +7,9 @@ import time
 
 def _common(args):
     """Record, model, candidates, mask and fixed values from the shared options."""
+    from duffsym._io import check_output_dir
     from duffsym.cli.common import CLIError, mask_from_args, parse_assignments, read_record
     from duffsym.effects import CATALOGUE
-
-    from duffsym._io import check_output_dir
 
     inputs = [args.data, getattr(args, "fit", None), None if args.mask in (None, "none", "auto") else args.mask]
     if getattr(args, "out", None):
@@ -24,8 +24,10 @@ def _common(args):
         cands = [c.strip() for c in args.candidates.split(",") if c.strip()]
         unknown = [c for c in cands if c not in CATALOGUE]
         if unknown:
-            raise CLIError(f"--candidates: unknown effect(s) {unknown}; choose from {{{', '.join(CATALOGUE)}}} "
-                           "(duffsym effects lists them)")
+            raise CLIError(
+                f"--candidates: unknown effect(s) {unknown}; choose from {{{', '.join(CATALOGUE)}}} "
+                "(duffsym effects lists them)"
+            )
     mask, _ = mask_from_args(args.mask, record)
     fixed = parse_assignments(args.fix, "--fix")
     if args.screen != "all":
@@ -87,9 +89,8 @@ def run_diagnose(args):
     record, cands, mask, fixed = _common(args)
     fit_result = None
     if args.fit:
-        from duffsym.identify import load_result, model_from_result
-
         from duffsym.cli.common import require_success
+        from duffsym.identify import load_result, model_from_result
 
         fit_result = load_result(args.fit)
         require_success(fit_result, args)
@@ -98,10 +99,22 @@ def run_diagnose(args):
         model = fit_model(args)
     budget = _budget(args.budget)
     with _engine(args) as engine:
-        dg = diagnose(record, model, fit_result=fit_result, candidates=cands, fixed=fixed, holdout=args.holdout,
-                      noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                      decimate=args.decimate_opt, deadline=None if budget is None else time.monotonic() + budget,
-                      progress=_progress(args), engine=engine)
+        dg = diagnose(
+            record,
+            model,
+            fit_result=fit_result,
+            candidates=cands,
+            fixed=fixed,
+            holdout=args.holdout,
+            noise=args.noise,
+            mask=mask,
+            screen=args.screen_n,
+            sindy=not args.no_sindy,
+            decimate=args.decimate_opt,
+            deadline=None if budget is None else time.monotonic() + budget,
+            progress=_progress(args),
+            engine=engine,
+        )
     from duffsym.diagnose.report import write_diagnosis_report
 
     _report(args, dg, record, write_diagnosis_report)
@@ -165,10 +178,25 @@ def run_ladder(args):
     budget = _budget(args.budget)
     on_step, written = _writer(args, record)
     with _engine(args) as engine:
-        lad = ladder(record, model, max_steps=args.max_steps, accept=args.accept, candidates=cands, fixed=fixed,
-                     holdout=args.holdout, noise=args.noise, mask=mask, screen=args.screen_n, sindy=not args.no_sindy,
-                     decimate=args.decimate_opt, budget=budget, on_step=on_step,
-                     progress=_progress(args), engine=engine, discover=not args.no_discover)
+        lad = ladder(
+            record,
+            model,
+            max_steps=args.max_steps,
+            accept=args.accept,
+            candidates=cands,
+            fixed=fixed,
+            holdout=args.holdout,
+            noise=args.noise,
+            mask=mask,
+            screen=args.screen_n,
+            sindy=not args.no_sindy,
+            decimate=args.decimate_opt,
+            budget=budget,
+            on_step=on_step,
+            progress=_progress(args),
+            engine=engine,
+            discover=not args.no_discover,
+        )
     if args.out:
         from duffsym.cli.common import save_fit
 
@@ -195,22 +223,49 @@ def _shared(s) -> None:
     s.add_argument("--add", help="effects already in the model, comma-separated (see duffsym effects)")
     s.add_argument("--candidates", help="effects to try, comma-separated (default: the whole catalogue)")
     s.add_argument("--fix", action="append", metavar="NAME=VALUE", help="hold parameters fixed in every fit")
-    s.add_argument("--holdout", type=float, default=0.3, help="fraction of the record held out at its end "
-                   "(default 0.3; snapped to whole input cycles)")
-    s.add_argument("--noise", type=float, default=None, help="output noise standard deviation if known "
-                   "(default: estimated from the measurement)")
-    s.add_argument("--screen", default="4", help="candidates not converged within the screening budget that continue to the full "
-                   "budget (the best by free-run error; default 4), or 'all'")
-    s.add_argument("--decimate", default="auto", help="fit on the record decimated where its spectrum allows "
-                   "(auto, default; the factor is reported), 'off', or the largest factor allowed")
+    s.add_argument(
+        "--holdout",
+        type=float,
+        default=0.3,
+        help="fraction of the record held out at its end (default 0.3; snapped to whole input cycles)",
+    )
+    s.add_argument(
+        "--noise",
+        type=float,
+        default=None,
+        help="output noise standard deviation if known (default: estimated from the measurement)",
+    )
+    s.add_argument(
+        "--screen",
+        default="4",
+        help="candidates not converged within the screening budget that continue to the full "
+        "budget (the best by free-run error; default 4), or 'all'",
+    )
+    s.add_argument(
+        "--decimate",
+        default="auto",
+        help="fit on the record decimated where its spectrum allows "
+        "(auto, default; the factor is reported), 'off', or the largest factor allowed",
+    )
     s.add_argument("--mask", default="none", help="none, auto or a 0/1 file: samples left out of every objective")
     add_file_arguments(s)
     s.add_argument("--no-sindy", action="store_true", help="skip the SINDy cross-check of the base model")
-    s.add_argument("--budget", default="600", metavar="SECONDS", help="time budget of the whole run (default 600; "
-                   "'none': no limit): each fit gets its share and what ran out is said; a ladder stopped by it "
-                   "(or by Ctrl-C) keeps every finished step, written to --report and --out as each completes")
-    s.add_argument("--workers", type=int, default=None, metavar="N", help="fit the candidates on N local worker "
-                   "processes (the same fits, in parallel; default: one after the other here)")
+    s.add_argument(
+        "--budget",
+        default="600",
+        metavar="SECONDS",
+        help="time budget of the whole run (default 600; "
+        "'none': no limit): each fit gets its share and what ran out is said; a ladder stopped by it "
+        "(or by Ctrl-C) keeps every finished step, written to --report and --out as each completes",
+    )
+    s.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="fit the candidates on N local worker "
+        "processes (the same fits, in parallel; default: one after the other here)",
+    )
     s.add_argument("--scheduler", metavar="ADDRESS", help="fit the candidates on the workers of this Dask scheduler")
     s.add_argument("--report", metavar="DIR", help="write a Markdown report with figures to DIR")
     s.add_argument("--json", action="store_true", help="print one JSON object")
@@ -224,17 +279,28 @@ def register(sub) -> None:
     s.add_argument("--force", action="store_true", help="diagnose around a fit marked success: false")
     s.set_defaults(func=cmd_diagnose, run=run_diagnose)
 
-    s = sub.add_parser("ladder", help="base fit, then add the best supported effect and refit, while the evidence "
-                       "supports it; the error at each step")
+    s = sub.add_parser(
+        "ladder",
+        help="base fit, then add the best supported effect and refit, while the evidence "
+        "supports it; the error at each step",
+    )
     _shared(s)
     s.add_argument("--max-steps", type=int, default=4, help="add at most this many effects (default 4)")
-    s.add_argument("--accept", choices=("needed", "supported"), default="needed",
-                   help="add an effect when the diagnosis calls it needed (default: it removes at least half of "
-                   "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
-                   "held-out error)")
+    s.add_argument(
+        "--accept",
+        choices=("needed", "supported"),
+        default="needed",
+        help="add an effect when the diagnosis calls it needed (default: it removes at least half of "
+        "the excess held-out error) or already when it is supported (dBIC < -10 and >= 10 %% lower "
+        "held-out error)",
+    )
     s.add_argument("--out", help="save the last step's fit (refitted on the whole record) as JSON for validate")
-    s.add_argument("--no-discover", action="store_true", help="do not look outside the catalogue (by default, when "
-                   "no catalogued effect is needed, a drifting parameter or a term found by sparse regression of the "
-                   "residual is tried, and added only if it passes the same held-out evidence)")
+    s.add_argument(
+        "--no-discover",
+        action="store_true",
+        help="do not look outside the catalogue (by default, when "
+        "no catalogued effect is needed, a drifting parameter or a term found by sparse regression of the "
+        "residual is tried, and added only if it passes the same held-out evidence)",
+    )
     s.add_argument("--discover", action="store_true", help="accepted for compatibility (discovery is on by default)")
     s.set_defaults(func=cmd_ladder, run=run_ladder)

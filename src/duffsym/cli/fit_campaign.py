@@ -10,6 +10,7 @@ A manifest here is the one of ``duffsym batch`` (:func:`duffsym.campaign.manifes
 the per-record ``model``, ``effects``, ``fit`` and ``options`` of a batch have no meaning in one
 fit and are refused with a one-line error.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,10 @@ def _manifest_entries(path: str) -> list[tuple[str, dict]]:
     for i, entry in enumerate(read_manifest(path)):
         bad = [k for k in PER_RECORD_ONLY if entry.get(k) not in (None, "", [], {})]
         if bad:
-            raise CLIError(f"--manifest {path} record {i + 1}: {', '.join(bad)} is per record (duffsym batch); a "
-                           "campaign fit uses one model: give --model/--add/options on the command line")
+            raise CLIError(
+                f"--manifest {path} record {i + 1}: {', '.join(bad)} is per record (duffsym batch); a "
+                "campaign fit uses one model: give --model/--add/options on the command line"
+            )
         file = Path(str(entry["file"]))
         out.append((str(file if file.is_absolute() else base / file), entry))
     return out
@@ -73,8 +76,14 @@ def campaign_records(args, read_record) -> list[tuple[str, object]]:
     for path, entry in entries:
         if entry.get("columns"):
             cols = entry["columns"]
-            args_one = type(args)(**{**vars(args), "columns": cols if isinstance(cols, str)
-                                     else ",".join(f"{k}={v}" for k, v in parse_mapping(cols, "columns").items())})
+            args_one = type(args)(
+                **{
+                    **vars(args),
+                    "columns": cols
+                    if isinstance(cols, str)
+                    else ",".join(f"{k}={v}" for k, v in parse_mapping(cols, "columns").items()),
+                }
+            )
         else:
             args_one = args
         record = _label(read_record(args_one, path), entry, path)
@@ -98,8 +107,10 @@ def hold_unseen_rates(model, records, fixed: dict, quiet: bool) -> tuple[dict, s
     if any(r.command is not None and np.ptp(np.asarray(r.command)) > 0 for r in records):
         return fixed, ""
     eta = float(model.defaults()["eta"])
-    reason = (f"held at {eta:g} 1/s: the commands are constant in every record, so the field's lag does not show "
-              "(--fix eta=VALUE to choose it)")
+    reason = (
+        f"held at {eta:g} 1/s: the commands are constant in every record, so the field's lag does not show "
+        "(--fix eta=VALUE to choose it)"
+    )
     if not quiet:
         err(f"duffsym fit: note: eta {reason}")
     return {**fixed, "eta": eta}, reason
@@ -107,9 +118,8 @@ def hold_unseen_rates(model, records, fixed: dict, quiet: bool) -> tuple[dict, s
 
 def plot_campaign(result, records, path: str) -> None:
     """Measured and fitted force against displacement, one small panel per record (at most 12 shown)."""
-    import numpy as np
-
     import matplotlib.pyplot as plt
+    import numpy as np
 
     from duffsym.plot import save_figure
 
@@ -122,13 +132,20 @@ def plot_campaign(result, records, path: str) -> None:
         ax.plot(rec.d, rec.y, ".", color="0.6", ms=1.5)
         ax.plot(rec.d, y_sim, color="k", lw=0.7)
         err = np.sqrt(np.mean((rec.y - y_sim) ** 2)) / max(np.std(rec.y), 1e-300)
-        level = f", {rec.current:g} A" if rec.current is not None else (f", {rec.voltage:g} V" if rec.voltage is not None else "")
+        level = (
+            f", {rec.current:g} A"
+            if rec.current is not None
+            else (f", {rec.voltage:g} V" if rec.voltage is not None else "")
+        )
         ax.set_title(f"{rec.name}{level}: NRMSE {err:.3f}", fontsize=8)
         ax.tick_params(labelsize=7)
-    for ax in list(axes.flat)[len(shown):]:
+    for ax in list(axes.flat)[len(shown) :]:
         ax.set_visible(False)
     more = f" (first 12 of {len(records)})" if len(records) > 12 else ""
-    fig.suptitle(f"one {result.model} parameter set for {len(records)} records{more}: measured (grey), "
-                 "fitted free run (black), force vs displacement, whole records", fontsize=9)
+    fig.suptitle(
+        f"one {result.model} parameter set for {len(records)} records{more}: measured (grey), "
+        "fitted free run (black), force vs displacement, whole records",
+        fontsize=9,
+    )
     fig.tight_layout()
     save_figure(fig, path)

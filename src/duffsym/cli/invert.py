@@ -1,10 +1,10 @@
 """``duffsym invert FIT.json --displacement D.csv --force F.csv [--limits LO,HI] [--rate R] --out CMD.csv [--json]``:
 the command history that makes a fitted command-driven model produce a desired force."""
+
 from __future__ import annotations
 
 import csv
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -37,10 +37,13 @@ def load_motion_and_force(model, disp_path: str, force_path: str, lo: float):
     fcols = read_columns(force_path, {"time": _TIME, "force": _FORCE})
     t = dcols["time"]
     if fcols["time"].shape != t.shape or not np.allclose(fcols["time"], t, rtol=0, atol=1e-9 * max(1.0, abs(t[-1]))):
-        raise DataError(f"{force_path}: its time column must equal that of {disp_path} ({t.size} samples); give the "
-                        "desired force at the displacement's sample times")
-    rec = Record(t=t, d=dcols["displacement"], y=fcols["force"], d_dot=dcols.get("velocity"), current=lo,
-                 source=str(disp_path))
+        raise DataError(
+            f"{force_path}: its time column must equal that of {disp_path} ({t.size} samples); give the "
+            "desired force at the displacement's sample times"
+        )
+    rec = Record(
+        t=t, d=dcols["displacement"], y=fcols["force"], d_dot=dcols.get("velocity"), current=lo, source=str(disp_path)
+    )
     return rec.t, rec.input_matrix(model), np.asarray(rec.y)
 
 
@@ -51,8 +54,9 @@ def write_command(res, path: str) -> None:
         w = csv.writer(fh)
         w.writerow(["time", res.command_name, "force_desired", "force_model", "unreachable"])
         for row in zip(res.t, res.command, res.force_desired, res.force_model, res.unreachable):
-            w.writerow([repr(float(row[0])), repr(float(row[1])), repr(float(row[2])), repr(float(row[3])),
-                        int(bool(row[4]))])
+            w.writerow(
+                [repr(float(row[0])), repr(float(row[1])), repr(float(row[2])), repr(float(row[3])), int(bool(row[4]))]
+            )
 
 
 def cmd_invert(args) -> int:
@@ -68,14 +72,18 @@ def cmd_invert(args) -> int:
     fit = load_result(args.fit)
     if not fit.success:  # not require_success: here --force is the desired force, --force-fit the override
         if not args.force_fit:
-            raise CLIError(f"{args.fit} is a failed fit (status {str(fit.status)!r}); refit, or pass --force-fit to use it")
+            raise CLIError(
+                f"{args.fit} is a failed fit (status {str(fit.status)!r}); refit, or pass --force-fit to use it"
+            )
         err(f"warning: using the failed fit {args.fit} (--force-fit): {fit.status}")
     model = model_from_result(fit)
     command_index(model)
     t, U, force = load_motion_and_force(model, args.displacement, args.force, lo)
     if not args.quiet:
-        err(f"inverting {model.name} for {t.size} samples of desired force (command in [{lo:g}, {hi:g}]"
-             + (f", rate <= {args.rate:g}/s)" if args.rate else ")"))
+        err(
+            f"inverting {model.name} for {t.size} samples of desired force (command in [{lo:g}, {hi:g}]"
+            + (f", rate <= {args.rate:g}/s)" if args.rate else ")")
+        )
     res = invert(model, fit.params, t, U, force, limits=(lo, hi), rate=args.rate, command_name=args.name)
     write_command(res, args.out)
     if args.json:
@@ -88,19 +96,25 @@ def cmd_invert(args) -> int:
 
 def register(sub) -> None:
     s = sub.add_parser(
-        "invert", help="the command (current/voltage) history that makes a fitted model produce a desired force",
+        "invert",
+        help="the command (current/voltage) history that makes a fitted model produce a desired force",
         description="Solve for the command history, within its range and rate, that makes a fitted command-driven "
-                    "model (e.g. mr-damper-current) produce the desired force for the given displacement: a CasADi "
-                    "collocation NLP on the model's own equations, checked by a free run. Reports where the desired "
-                    "force is unreachable and why (command at a limit, rate limit, or a force that would supply "
-                    "power: an MR damper can only dissipate). Exit 1 when no usable command was found.")
+        "model (e.g. mr-damper-current) produce the desired force for the given displacement: a CasADi "
+        "collocation NLP on the model's own equations, checked by a free run. Reports where the desired "
+        "force is unreachable and why (command at a limit, rate limit, or a force that would supply "
+        "power: an MR damper can only dissipate). Exit 1 when no usable command was found.",
+    )
     s.add_argument("fit", help="FIT.json of a command-driven model (duffsym fit --model mr-damper-current --out ...)")
     s.add_argument("--displacement", required=True, help="CSV with columns time, displacement (optional velocity)")
     s.add_argument("--force", required=True, help="CSV with columns time, force: the desired force at the same times")
     s.add_argument("--limits", default="0,1", help="command range LO,HI in the command's units (default 0,1)")
     s.add_argument("--rate", type=float, default=None, help="largest |d command/dt| in command units per second")
-    s.add_argument("--name", choices=("current", "voltage"), default="current",
-                   help="column name of the command in the output (default current)")
+    s.add_argument(
+        "--name",
+        choices=("current", "voltage"),
+        default="current",
+        help="column name of the command in the output (default current)",
+    )
     s.add_argument("--out", required=True, help="CSV to write: time, command, force_desired, force_model, unreachable")
     s.add_argument("--force-fit", dest="force_fit", action="store_true", help="use a fit marked success: false")
     s.add_argument("--json", action="store_true", help="print one JSON object")

@@ -1,4 +1,5 @@
 """``duffsym models``: the model library (names, parameters, inputs, output)."""
+
 from __future__ import annotations
 
 from duffsym.cli.common import emit_json
@@ -10,8 +11,16 @@ def cmd_models(args) -> int:
     rows = []
     for name in MODELS:
         m = get_model(name)
-        rows.append({"model": name, "name": name, "description": m.description, "params": list(m.param_names),
-                     "inputs": [c.name for c in m.inputs], "output": m.output_name})
+        rows.append(
+            {
+                "model": name,
+                "name": name,
+                "description": m.description,
+                "params": list(m.param_names),
+                "inputs": [c.name for c in m.inputs],
+                "output": m.output_name,
+            }
+        )
     if args.json:
         emit_json({"models": rows})
     else:

@@ -1,4 +1,5 @@
 """``duffsym sample``: emcee posterior of a saved fit on its record (``docs/contract.md``)."""
+
 from __future__ import annotations
 
 import sys
@@ -33,8 +34,11 @@ def run_sample(args):
         raise CLIError(f"--thin must be >= 1; got {args.thin}")
     from duffsym.cli.common import check_outputs, require_success
 
-    check_outputs(args, [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
-                   options=("out", "chains", "corner", "bands"))
+    check_outputs(
+        args,
+        [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
+        options=("out", "chains", "corner", "bands"),
+    )
     result = load_result(args.fit)
     require_success(result, args)
     record = read_record(args, args.data)
@@ -44,11 +48,15 @@ def run_sample(args):
 
         mask, _ = mask_from_args(args.mask, record)
     if args.mask in (None, "fit") and result.mask and np.size(result.mask[0]) != record.n_times:
-        raise CLIError(f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
-                       f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE")
+        raise CLIError(
+            f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
+            f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE"
+        )
     if not args.quiet:  # stderr: --json keeps stdout to the one JSON object
-        err(f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
-             f"{args.steps} steps")
+        err(
+            f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
+            f"{args.steps} steps"
+        )
     pool = None
     if (args.workers and args.workers > 1) or args.scheduler:
         from duffsym.engine import Engine  # emcee's pool: local worker processes or a Dask cluster
@@ -58,11 +66,24 @@ def run_sample(args):
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConvergenceWarning)
-            chains = sample(result, record, n_walkers=args.walkers, n_steps=args.steps, burn=args.burn, thin=args.thin,
-                            noise="ar1" if args.ar1 else "gaussian", mask=mask, rng=args.seed, pool=pool,
-                            progress=not args.quiet, on_short="raise" if args.strict else "warn",
-                            threads=args.threads, moves="stretch" if args.moves == "stretch" else None,
-                            checkpoint=partial, checkpoint_every=args.checkpoint_every)
+            chains = sample(
+                result,
+                record,
+                n_walkers=args.walkers,
+                n_steps=args.steps,
+                burn=args.burn,
+                thin=args.thin,
+                noise="ar1" if args.ar1 else "gaussian",
+                mask=mask,
+                rng=args.seed,
+                pool=pool,
+                progress=not args.quiet,
+                on_short="raise" if args.strict else "warn",
+                threads=args.threads,
+                moves="stretch" if args.moves == "stretch" else None,
+                checkpoint=partial,
+                checkpoint_every=args.checkpoint_every,
+            )
     except KeyboardInterrupt:
         if partial is not None and partial.exists():
             err(f"interrupted: the steps run so far are in {partial} (duffsym.uncertainty.load_partial_chain)")
@@ -108,6 +129,7 @@ def run_sample(args):
 
         write_json_atomic(args.out, jsonable(out))
         written.append(args.out)
+
     def text() -> str:
         return chains.summary() + (f"\n{out['identifiability']['text']}" if args.identifiability else "")
 
@@ -126,38 +148,79 @@ def _partial_path(chains) -> Path:
 def register(sub) -> None:
     from duffsym.cli.common import add_file_arguments
 
-    s = sub.add_parser("sample", help="emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, "
-                       "tau, ESS, Laplace comparison)")
+    s = sub.add_parser(
+        "sample",
+        help="emcee posterior of a saved fit's free parameters (medians, 90 %% intervals, "
+        "tau, ESS, Laplace comparison)",
+    )
     s.add_argument("data", help="the CSV record the fit was made on")
     s.add_argument("--fit", required=True, help="FIT.json written by `duffsym fit --out`")
-    s.add_argument("--walkers", type=int, default=32, help="number of walkers (default 32; at least 2x the free "
-                   "parameters)")
-    s.add_argument("--steps", type=int, default=8000, help="steps per walker (default 8000; emcee wants >= 50 tau "
-                   "after burn-in, and tau is typically 60-150 steps for a 5-parameter damper fit)")
+    s.add_argument(
+        "--walkers", type=int, default=32, help="number of walkers (default 32; at least 2x the free parameters)"
+    )
+    s.add_argument(
+        "--steps",
+        type=int,
+        default=8000,
+        help="steps per walker (default 8000; emcee wants >= 50 tau "
+        "after burn-in, and tau is typically 60-150 steps for a 5-parameter damper fit)",
+    )
     s.add_argument("--burn", type=int, default=None, help="steps discarded (default 3 tau, at most a third)")
-    s.add_argument("--moves", choices=("de", "stretch"), default="de", help="emcee moves: differential evolution + "
-                   "snooker (default; shorter tau on correlated posteriors) or the stretch move")
+    s.add_argument(
+        "--moves",
+        choices=("de", "stretch"),
+        default="de",
+        help="emcee moves: differential evolution + "
+        "snooker (default; shorter tau on correlated posteriors) or the stretch move",
+    )
     s.add_argument("--thin", type=int, default=None, help="thinning of the kept chain (default 1)")
     s.add_argument("--seed", type=int, default=0, help="seed of the walker starts and moves")
     s.add_argument("--ar1", action="store_true", help="AR(1) noise instead of white (samples its coefficient)")
-    s.add_argument("--mask", default="fit", help="fit (default: the mask FIT.json stores, if the fit had one), none, auto "
-                   "(deadzone, as fit --mask auto) or a file of 0/1 per sample")
-    s.add_argument("--workers", type=int, default=None, help="evaluate walkers in this many processes (default: all "
-                   "walkers in one compiled batch call, usually faster)")
-    s.add_argument("--scheduler", metavar="ADDRESS", help="evaluate walkers on the workers of this Dask scheduler "
-                   "(for expensive likelihoods: each evaluation is a task)")
-    s.add_argument("--threads", type=int, default=1, help="numba threads of the batch call (default 1: on a busy "
-                   "machine waking threads costs more than the work)")
+    s.add_argument(
+        "--mask",
+        default="fit",
+        help="fit (default: the mask FIT.json stores, if the fit had one), none, auto "
+        "(deadzone, as fit --mask auto) or a file of 0/1 per sample",
+    )
+    s.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="evaluate walkers in this many processes (default: all "
+        "walkers in one compiled batch call, usually faster)",
+    )
+    s.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="evaluate walkers on the workers of this Dask scheduler "
+        "(for expensive likelihoods: each evaluation is a task)",
+    )
+    s.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="numba threads of the batch call (default 1: on a busy machine waking threads costs more than the work)",
+    )
     s.add_argument("--strict", action="store_true", help="fail (exit 2) when the chain is shorter than 50 tau")
-    s.add_argument("--chains", help="save the chains (.npz; reload with duffsym.uncertainty.load_chains); while "
-                   "sampling, the steps so far are kept in NAME.partial.npz, which an interrupt leaves behind")
-    s.add_argument("--checkpoint-every", type=float, default=30.0, help="seconds between saves of the partial "
-                   "chain (with --chains; default 30)")
+    s.add_argument(
+        "--chains",
+        help="save the chains (.npz; reload with duffsym.uncertainty.load_chains); while "
+        "sampling, the steps so far are kept in NAME.partial.npz, which an interrupt leaves behind",
+    )
+    s.add_argument(
+        "--checkpoint-every",
+        type=float,
+        default=30.0,
+        help="seconds between saves of the partial chain (with --chains; default 30)",
+    )
     s.add_argument("--force", action="store_true", help="sample around a fit marked success: false")
     s.add_argument("--corner", help="corner plot file (PNG/PDF)")
     s.add_argument("--bands", help="posterior predictive bands on the loops and the time series (PNG/PDF)")
-    s.add_argument("--identifiability", action="store_true", help="add the identifiability report (symmetry, "
-                   "Fisher spectrum, posterior correlations)")
+    s.add_argument(
+        "--identifiability",
+        action="store_true",
+        help="add the identifiability report (symmetry, Fisher spectrum, posterior correlations)",
+    )
     add_file_arguments(s)
     s.add_argument("--out", help="write the JSON summary to this file")
     s.add_argument("--json", action="store_true", help="print one JSON object on stdout")

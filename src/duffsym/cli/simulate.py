@@ -1,4 +1,5 @@
 """``duffsym simulate``: simulate a model under an excitation (beside :mod:`duffsym.simulate`, which it drives)."""
+
 from __future__ import annotations
 
 import math
@@ -7,9 +8,9 @@ import sys
 from duffsym.cli.common import (
     CLIError,
     add_model_arguments,
+    check_outputs,
     emit_json,
     err,
-    check_outputs,
     parse_assignments,
 )
 
@@ -50,16 +51,19 @@ def _check_excitation_options(args) -> None:
     for opt in ("amplitude", "frequency", "f_max", "duration"):
         v = getattr(args, opt)
         if not math.isfinite(v) or (opt != "amplitude" and v <= 0):
-            raise CLIError(f"--{opt.replace('_', '-')} must be a {'finite' if opt == 'amplitude' else 'positive'} "
-                           f"number; got {v}")
+            raise CLIError(
+                f"--{opt.replace('_', '-')} must be a {'finite' if opt == 'amplitude' else 'positive'} number; got {v}"
+            )
     if args.periods is not None and not (math.isfinite(args.periods) and args.periods > 0):
         raise CLIError(f"--periods must be a positive number; got {args.periods}")
     if args.excitation == "multisine":
         if not 1 <= args.lines <= 100_000:
             raise CLIError(f"--lines must be between 1 and 100000; got {args.lines}")
         if args.f_max < args.frequency:
-            raise CLIError(f"--f-max ({args.f_max:g} Hz) must be at least --frequency ({args.frequency:g} Hz), the "
-                           "lowest line of the multisine")
+            raise CLIError(
+                f"--f-max ({args.f_max:g} Hz) must be at least --frequency ({args.frequency:g} Hz), the "
+                "lowest line of the multisine"
+            )
     if args.substeps != "auto":
         try:
             sub = int(args.substeps)
@@ -78,12 +82,16 @@ def _command_signal(args, model, t):
 
     if "command" not in model.signals:
         if args.command_input is not None:
-            raise CLIError(f"--command drives the command-driven models (mr-damper-current...); model {model.name} "
-                           "has no command input: drop --command")
+            raise CLIError(
+                f"--command drives the command-driven models (mr-damper-current...); model {model.name} "
+                "has no command input: drop --command"
+            )
         return None
     if args.command_input is None:
-        raise CLIError(f"model {model.name} is driven by a command (coil current or voltage): give --command VALUE "
-                       "(held) or --command FILE.csv (columns time and current or voltage)")
+        raise CLIError(
+            f"model {model.name} is driven by a command (coil current or voltage): give --command VALUE "
+            "(held) or --command FILE.csv (columns time and current or voltage)"
+        )
     try:
         level = float(args.command_input)
     except ValueError:
@@ -98,8 +106,9 @@ def _command_file(path, t):
 
     from duffsym._io import read_columns
 
-    cols = read_columns(path, {"time": ("time", "t"), "current": ("current",), "voltage": ("voltage",)},
-                        optional=("current", "voltage"))
+    cols = read_columns(
+        path, {"time": ("time", "t"), "current": ("current",), "voltage": ("voltage",)}, optional=("current", "voltage")
+    )
     name = next((n for n in ("current", "voltage") if n in cols), None)
     if name is None:
         raise CLIError(f"{path}: the command file needs a 'current' or a 'voltage' column beside 'time'")
@@ -107,8 +116,10 @@ def _command_file(path, t):
     if tc.size < 2 or np.any(np.diff(tc) <= 0):
         raise CLIError(f"{path}: the 'time' column must increase strictly and have at least two rows")
     if t[-1] > tc[-1] + 1e-12 or t[0] < tc[0] - 1e-12:
-        raise CLIError(f"{path}: the command covers {tc[0]:g}..{tc[-1]:g} s but the simulation runs "
-                       f"{t[0]:g}..{t[-1]:g} s; shorten --duration or extend the file")
+        raise CLIError(
+            f"{path}: the command covers {tc[0]:g}..{tc[-1]:g} s but the simulation runs "
+            f"{t[0]:g}..{t[-1]:g} s; shorten --duration or extend the file"
+        )
     return name, np.interp(t, tc, c)
 
 
@@ -138,15 +149,19 @@ def cmd_simulate(args) -> int:
         raise CLIError(f"the duration must be positive; got {duration}")
     n_samples = duration / args.dt
     if n_samples > MAX_SIMULATE_SAMPLES:
-        raise CLIError(f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
-                       f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration")
+        raise CLIError(
+            f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
+            f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration"
+        )
     t = np.arange(int(round(n_samples)) + 1) * args.dt
     exc = _excitation(args, next(s for s in model.signals if s != "command"))
     command = _command_signal(args, model, t)
     inputs = exc if command is None else _with_command(model, t, exc, command[1])
     if command is not None and not any(pvec[i] for i, n in enumerate(model.param_names) if n.endswith("_u")):
-        err(f"note: every field coefficient of {model.name} (the *_u parameters) is 0 at its defaults, so the command "
-             "changes nothing; set them with --param (e.g. c1_u=-4,k2_u=-200,A_f_u=0.8) or fit a record")
+        err(
+            f"note: every field coefficient of {model.name} (the *_u parameters) is 0 at its defaults, so the command "
+            "changes nothing; set them with --param (e.g. c1_u=-4,k2_u=-200,A_f_u=0.8) or fit a record"
+        )
     traj = simulate(model, pvec, t, inputs, substeps=args.substeps if args.substeps == "auto" else int(args.substeps))
     in_cols, out_col = _simulation_columns(model)
     if command is not None:
@@ -166,15 +181,27 @@ def cmd_simulate(args) -> int:
         period = 1.0 / args.frequency if args.excitation == "sine" else None
         what = f"{args.voltage:g} V row of Table 2" if args.voltage is not None else "given parameters"
         shown = f"last of {duration * args.frequency:.3g} cycles" if period else "whole run"
-        fig = plot_loops(traj, period=period, labels=[f"{model.name}"],
-                         title=f"{model.name}, {what}: {args.excitation} {args.amplitude:g} at "
-                               f"{args.frequency:g} Hz, {shown} (normalised units)")
+        fig = plot_loops(
+            traj,
+            period=period,
+            labels=[f"{model.name}"],
+            title=f"{model.name}, {what}: {args.excitation} {args.amplitude:g} at "
+            f"{args.frequency:g} Hz, {shown} (normalised units)",
+        )
         save_figure(fig, args.plot)
         written.append(str(args.plot))
-    summary = {"model": model.name, "params": traj.params, "n_samples": int(t.size), "dt": args.dt,
-               "excitation": args.excitation, "status": traj.status, "success": traj.success,
-               "max_abs_output": float(np.max(np.abs(traj.y))), "substeps_total": int(traj.substeps.sum()),
-               "files": written}
+    summary = {
+        "model": model.name,
+        "params": traj.params,
+        "n_samples": int(t.size),
+        "dt": args.dt,
+        "excitation": args.excitation,
+        "status": traj.status,
+        "success": traj.success,
+        "max_abs_output": float(np.max(np.abs(traj.y))),
+        "substeps_total": int(traj.substeps.sum()),
+        "files": written,
+    }
     if args.json:
         emit_json(summary)
     else:
@@ -186,25 +213,40 @@ def cmd_simulate(args) -> int:
 
 
 def register(sub) -> None:
-    s = sub.add_parser("simulate", help="simulate a model under an excitation; CSV (time, displacement, velocity, "
-                       "force) and an optional loop plot")
+    s = sub.add_parser(
+        "simulate",
+        help="simulate a model under an excitation; CSV (time, displacement, velocity, "
+        "force) and an optional loop plot",
+    )
     add_model_arguments(s)
     s.add_argument("--voltage", type=float, default=None, help="use the Table 2 row of this voltage (V)")
-    s.add_argument("--param", action="append", metavar="NAME=VALUE", help="set parameters (repeat or comma-separate); "
-                   "others keep their defaults")
+    s.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="set parameters (repeat or comma-separate); others keep their defaults",
+    )
     s.add_argument("--excitation", choices=("sine", "multisine", "random"), default="sine")
     s.add_argument("--amplitude", type=float, default=1.0, help="sine amplitude (peak) of d; default 1")
-    s.add_argument("--frequency", type=float, default=2.0, help="sine frequency in Hz (lowest line of a multisine); "
-                   "default 2")
+    s.add_argument(
+        "--frequency", type=float, default=2.0, help="sine frequency in Hz (lowest line of a multisine); default 2"
+    )
     s.add_argument("--f-max", type=float, default=5.0, help="highest frequency of multisine/random, Hz")
     s.add_argument("--lines", type=int, default=10, help="multisine lines")
     s.add_argument("--seed", type=int, default=0, help="seed of random phases/signals")
     s.add_argument("--dt", type=float, default=0.005, help="sampling time, s (paper: 0.005)")
     s.add_argument("--duration", type=float, default=5.0, help="duration, s")
-    s.add_argument("--periods", type=float, default=None, help="duration in periods of --frequency (overrides --duration)")
-    s.add_argument("--command", dest="command_input", default=None, metavar="VALUE|FILE.csv",
-                   help="the command of a command-driven model (mr-damper-current...): a held value (A or V) or a "
-                        "CSV with columns time and current (or voltage)")
+    s.add_argument(
+        "--periods", type=float, default=None, help="duration in periods of --frequency (overrides --duration)"
+    )
+    s.add_argument(
+        "--command",
+        dest="command_input",
+        default=None,
+        metavar="VALUE|FILE.csv",
+        help="the command of a command-driven model (mr-damper-current...): a held value (A or V) or a "
+        "CSV with columns time and current (or voltage)",
+    )
     s.add_argument("--substeps", default="auto", help="RK4 substeps per sample: auto (from the local stiffness) or N")
     s.add_argument("--out", help="CSV file to write (default: stdout)")
     s.add_argument("--plot", help="loop plot file (PNG/PDF)")

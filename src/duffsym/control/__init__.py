@@ -4,6 +4,7 @@
 IPOPT) and reports where the desired force is unreachable; :func:`clipped_on_off` is the classic
 closed-loop clipped-optimal law (Dyke et al. 1996) it is compared with.
 """
+
 from duffsym.control.baseline import clipped_on_off
 from duffsym.control.inverse import InverseOptions, InverseResult, command_index, invert
 

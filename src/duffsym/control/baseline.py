@@ -5,6 +5,7 @@ switched to its upper limit when the damper should push harder in the same direc
 ((f_c - f) f > 0), and to its lower limit otherwise, and held until the next sample. It needs only
 the measured force (closed loop), no model.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -46,13 +47,13 @@ def clipped_on_off(model, params, t, inputs: np.ndarray, force_desired, *, limit
     y = np.full(t.size, np.nan)
     for k in range(t.size):
         U[k, jc] = lo
-        y[k] = float(np.asarray(output(x[None, :], U[k:k + 1], p)).ravel()[0])
+        y[k] = float(np.asarray(output(x[None, :], U[k : k + 1], p)).ravel()[0])
         cmd[k] = hi if (f_c[k] - y[k]) * y[k] > 0 else lo
         if k == t.size - 1:
             break
-        seg = U[k:k + 2].copy()
+        seg = U[k : k + 2].copy()
         seg[:, jc] = cmd[k]
-        tr = simulate(model, p, t[k:k + 2], seg, x0=x, on_failure="return")
+        tr = simulate(model, p, t[k : k + 2], seg, x0=x, on_failure="return")
         if not tr.success:
             return OnOffRun(t, cmd, y, False, tr.message)
         x = tr.x[-1]

@@ -10,12 +10,13 @@ command (the compiled simulator, not the NLP's discretisation); where that run m
 force the sample is reported unreachable, with the reason: the command at its upper or lower limit,
 at its rate limit, or a desired force that would supply power (an MR damper can only dissipate).
 """
+
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -35,8 +36,10 @@ def command_index(model) -> int:
     for j, ch in enumerate(model.inputs):
         if ch.signal == "command" and ch.order == 0:
             return j
-    raise ModelError(f"model {model.name} has no command input (channels {[c.name for c in model.inputs]}); the "
-                     "inverse needs a command-driven model, e.g. mr-damper-current (duffsym models lists them)")
+    raise ModelError(
+        f"model {model.name} has no command input (channels {[c.name for c in model.inputs]}); the "
+        "inverse needs a command-driven model, e.g. mr-damper-current (duffsym models lists them)"
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,24 +84,44 @@ class InverseResult:
         """Command effort: mean level (in command units), RMS and total variation per second."""
         c = self.command
         dur = float(self.t[-1] - self.t[0]) or 1.0
-        return {"mean": float(np.mean(c)), "rms": float(np.sqrt(np.mean(c**2))),
-                "variation_per_s": float(np.sum(np.abs(np.diff(c))) / dur)}
+        return {
+            "mean": float(np.mean(c)),
+            "rms": float(np.sqrt(np.mean(c**2))),
+            "variation_per_s": float(np.sum(np.abs(np.diff(c))) / dur),
+        }
 
     def to_dict(self) -> dict:
-        return {"model": self.model, "success": bool(self.success), "status": self.status, "message": self.message,
-                "limits": [float(v) for v in self.limits], "rate": None if self.rate is None else finite_or_none(self.rate),
-                "rmse": finite_or_none(self.rmse), "nrmse": finite_or_none(self.nrmse),
-                "n_samples": int(self.t.size), "fraction_unreachable": self.fraction_unreachable,
-                "unreachable_reasons": dict(self.reasons), "unreachable_segments": list(self.segments),
-                "effort": self.effort(), "seconds": dict(self.seconds), "x0": [float(v) for v in self.x0],
-                "command_name": self.command_name}
+        return {
+            "model": self.model,
+            "success": bool(self.success),
+            "status": self.status,
+            "message": self.message,
+            "limits": [float(v) for v in self.limits],
+            "rate": None if self.rate is None else finite_or_none(self.rate),
+            "rmse": finite_or_none(self.rmse),
+            "nrmse": finite_or_none(self.nrmse),
+            "n_samples": int(self.t.size),
+            "fraction_unreachable": self.fraction_unreachable,
+            "unreachable_reasons": dict(self.reasons),
+            "unreachable_segments": list(self.segments),
+            "effort": self.effort(),
+            "seconds": dict(self.seconds),
+            "x0": [float(v) for v in self.x0],
+            "command_name": self.command_name,
+        }
 
     def summary(self) -> str:
-        head = (f"inverse of {self.model}: {self.status}" + ("" if self.success else f" (FAILED: {self.message})")
-                + f"; command within [{self.limits[0]:g}, {self.limits[1]:g}]"
-                + (f", rate <= {self.rate:g}/s" if self.rate else ""))
-        lines = [head, f"  tracking by the model's free run: RMSE {self.rmse:.4g}, NRMSE {self.nrmse:.4g} over "
-                       f"{self.t.size} samples; solved in {self.seconds.get('solve', math.nan):.2f} s"]
+        head = (
+            f"inverse of {self.model}: {self.status}"
+            + ("" if self.success else f" (FAILED: {self.message})")
+            + f"; command within [{self.limits[0]:g}, {self.limits[1]:g}]"
+            + (f", rate <= {self.rate:g}/s" if self.rate else "")
+        )
+        lines = [
+            head,
+            f"  tracking by the model's free run: RMSE {self.rmse:.4g}, NRMSE {self.nrmse:.4g} over "
+            f"{self.t.size} samples; solved in {self.seconds.get('solve', math.nan):.2f} s",
+        ]
         if self.unreachable.any():
             why = ", ".join(f"{k}: {v}" for k, v in self.reasons.items())
             lines.append(f"  unreachable: {self.fraction_unreachable:.1%} of the samples ({why})")
@@ -109,7 +132,9 @@ class InverseResult:
         else:
             lines.append("  the desired force is reachable throughout")
         e = self.effort()
-        lines.append(f"  command effort: mean {e['mean']:.4g}, RMS {e['rms']:.4g}, variation {e['variation_per_s']:.4g}/s")
+        lines.append(
+            f"  command effort: mean {e['mean']:.4g}, RMS {e['rms']:.4g}, variation {e['variation_per_s']:.4g}/s"
+        )
         return "\n".join(lines)
 
 
@@ -186,8 +211,15 @@ class InverseOptions:
     command_name: str = "command"
 
 
-def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.ndarray, force,
-           options: InverseOptions | None = None, **settings) -> InverseResult:
+def invert(
+    model,
+    params: Mapping[str, float] | Sequence[float],
+    t,
+    inputs: np.ndarray,
+    force,
+    options: InverseOptions | None = None,
+    **settings,
+) -> InverseResult:
     """The command history within ``limits`` (and ``|dc/dt| <= rate``) that makes ``model`` produce ``force``.
 
     The settings (``limits`` to ``command_name``) are the fields of :class:`InverseOptions`, given as an
@@ -223,7 +255,9 @@ def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.n
     N = t.size - 1
     n = model.n_states
     scale = float(np.sqrt(np.mean(y_star**2))) or 1.0
-    c0 = np.full(t.size, 0.5 * (lo + hi)) if command_guess is None else np.clip(np.asarray(command_guess, float), lo, hi)
+    c0 = (
+        np.full(t.size, 0.5 * (lo + hi)) if command_guess is None else np.clip(np.asarray(command_guess, float), lo, hi)
+    )
     U[:, jc] = c0
     tic = time.perf_counter()
     guess = simulate(model, p, t, U, x0=x0, on_failure="return")
@@ -237,10 +271,26 @@ def invert(model, params: Mapping[str, float] | Sequence[float], t, inputs: np.n
     status = str(stats.get("return_status", "unknown"))
     wopt = np.asarray(sol["x"]).ravel()
     X_opt = wopt[: n * (N + 1)].reshape((N + 1, n))
-    c_opt = np.clip(wopt[-(N + 1):], lo, hi)
-    return _checked(model, p, t, U, jc, c_opt, X_opt[0], y_star, lo, hi, rate, o.tolerance, scale, status,
-                    bool(stats.get("success")) or status == "Solved_To_Acceptable_Level",
-                    {"build": build, "solve": solve}, o.command_name)
+    c_opt = np.clip(wopt[-(N + 1) :], lo, hi)
+    return _checked(
+        model,
+        p,
+        t,
+        U,
+        jc,
+        c_opt,
+        X_opt[0],
+        y_star,
+        lo,
+        hi,
+        rate,
+        o.tolerance,
+        scale,
+        status,
+        bool(stats.get("success")) or status == "Solved_To_Acceptable_Level",
+        {"build": build, "solve": solve},
+        o.command_name,
+    )
 
 
 def _inverse_nlp(model, p, t, U, jc: int, y_star, scale: float, lo: float, hi: float, o: InverseOptions, Xg, c0):
@@ -268,9 +318,11 @@ def _inverse_nlp(model, p, t, U, jc: int, y_star, scale: float, lo: float, hi: f
     res, xend = F(X[:, :N], Xc, Um[:, :N], Um[:, 1:], P, h)
     y = out.map(N + 1)(X, Um, ca.repmat(ca.DM(p), 1, N + 1))
     rng = max(hi - lo, 1e-12)
-    J = (ca.sumsqr((y.T - ca.DM(y_star)) / scale) / (N + 1)
-         + effort_weight * ca.sumsqr((c - lo) / rng) / (N + 1)
-         + smooth_weight * ca.sumsqr((c[1:] - c[:-1]) / rng) / N)
+    J = (
+        ca.sumsqr((y.T - ca.DM(y_star)) / scale) / (N + 1)
+        + effort_weight * ca.sumsqr((c - lo) / rng) / (N + 1)
+        + smooth_weight * ca.sumsqr((c[1:] - c[:-1]) / rng) / N
+    )
     g = [ca.vec(res), ca.vec(xend - X[:, 1:])]
     lbg = [np.zeros(n * DEGREE * N), np.zeros(n * N)]
     ubg = [np.zeros(n * DEGREE * N), np.zeros(n * N)]
@@ -294,20 +346,30 @@ def _inverse_nlp(model, p, t, U, jc: int, y_star, scale: float, lo: float, hi: f
     w0 = np.concatenate([Xg.T.ravel(order="F"), Xc_guess.ravel(order="F"), c0])
     lbx = np.concatenate([lbx_X.ravel(order="F"), -np.inf * np.ones(n * DEGREE * N), np.full(N + 1, lo)])
     ubx = np.concatenate([ubx_X.ravel(order="F"), np.inf * np.ones(n * DEGREE * N), np.full(N + 1, hi)])
-    solver = ca.nlpsol("inverse", "ipopt", {"x": w, "f": J, "g": ca.vertcat(*g)},
-                       {"print_time": False, "ipopt": {"print_level": 0, "sb": "yes", "max_iter": int(max_iter),
-                                                       "tol": 1e-8, "acceptable_tol": 1e-5}})
+    solver = ca.nlpsol(
+        "inverse",
+        "ipopt",
+        {"x": w, "f": J, "g": ca.vertcat(*g)},
+        {
+            "print_time": False,
+            "ipopt": {"print_level": 0, "sb": "yes", "max_iter": int(max_iter), "tol": 1e-8, "acceptable_tol": 1e-5},
+        },
+    )
     return solver, w0, (lbx, ubx, np.concatenate(lbg), np.concatenate(ubg))
 
 
 def _check(model, t, U, y_star, lo, hi, rate) -> None:
     if U.shape != (t.size, model.n_inputs):
-        raise DataError(f"inputs must have shape ({t.size}, {model.n_inputs}) for channels "
-                        f"{[c.name for c in model.inputs]}; got {U.shape}")
+        raise DataError(
+            f"inputs must have shape ({t.size}, {model.n_inputs}) for channels "
+            f"{[c.name for c in model.inputs]}; got {U.shape}"
+        )
     if y_star.shape != t.shape or not np.all(np.isfinite(y_star)):
         bad = np.flatnonzero(~np.isfinite(y_star))
-        raise DataError(f"the desired force must be {t.size} finite values like t; got shape {y_star.shape}"
-                        + (f", non-finite at index {bad[0]}" if bad.size else ""))
+        raise DataError(
+            f"the desired force must be {t.size} finite values like t; got shape {y_star.shape}"
+            + (f", non-finite at index {bad[0]}" if bad.size else "")
+        )
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise DataError(f"command limits must be finite with LO < HI; got {lo}, {hi}")
     if rate is not None and not (math.isfinite(rate) and rate > 0):
@@ -333,12 +395,31 @@ def _checked(model, p, t, U, jc, c, x0, y_star, lo, hi, rate, tolerance, scale, 
     counts: dict[str, int] = {}
     for r in reason[miss]:
         counts[r] = counts.get(r, 0) + 1
-    message = tr.message if not tr.success else (
-        "ok" if not miss.any() else f"{np.mean(miss):.1%} of the samples unreachable within the command limits")
-    return InverseResult(model=model.name, t=t, command=c, force_desired=y_star, force_model=y, limits=(lo, hi),
-                         rate=rate, rmse=rmse, nrmse=rmse / scale, unreachable=miss, reasons=counts,
-                         segments=_segments(t, miss, reason), success=bool(ok and tr.success), status=status,
-                         message=message, seconds=seconds, x0=tuple(map(float, x0)), command_name=command_name)
+    message = (
+        tr.message
+        if not tr.success
+        else ("ok" if not miss.any() else f"{np.mean(miss):.1%} of the samples unreachable within the command limits")
+    )
+    return InverseResult(
+        model=model.name,
+        t=t,
+        command=c,
+        force_desired=y_star,
+        force_model=y,
+        limits=(lo, hi),
+        rate=rate,
+        rmse=rmse,
+        nrmse=rmse / scale,
+        unreachable=miss,
+        reasons=counts,
+        segments=_segments(t, miss, reason),
+        success=bool(ok and tr.success),
+        status=status,
+        message=message,
+        seconds=seconds,
+        x0=tuple(map(float, x0)),
+        command_name=command_name,
+    )
 
 
 def _reasons(model, U, jc, c, y, y_star, lo, hi, rate, t, miss) -> np.ndarray:

@@ -12,11 +12,12 @@ Examples of files it reads (both ship in ``data/``):
 - a ``.mat`` matrix ``data`` with displacement and force and no time column:
   ``fmt="mat", variable="data", columns={"displacement": "1", "force": "2"}, dt=0.005``.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -33,8 +34,9 @@ def guess_format(path: Path) -> str:
     """``txt``, ``csv`` or ``mat`` from the file's suffix."""
     fmt = _SUFFIX.get(path.suffix.lower())
     if fmt is None:
-        raise DataError(f"{path}: cannot tell the format from the suffix {path.suffix!r}; give --format "
-                        f"{'|'.join(FORMATS)}")
+        raise DataError(
+            f"{path}: cannot tell the format from the suffix {path.suffix!r}; give --format {'|'.join(FORMATS)}"
+        )
     return fmt
 
 
@@ -76,14 +78,18 @@ def _read_text(path: Path, fmt: str) -> tuple[list[str] | None, np.ndarray, dict
             header = fields
             continue
         if bad and len(bad) == len(values):
-            raise DataError(f"{path}: line {number}: cannot read {text[:60]!r} as numbers; fix or remove the "
-                            "line (comment lines start with # or %)")
+            raise DataError(
+                f"{path}: line {number}: cannot read {text[:60]!r} as numbers; fix or remove the "
+                "line (comment lines start with # or %)"
+            )
         for j in bad:
             text_cols.setdefault(j, (number, fields[j]))
         rows.append([math.nan if v is None else v for v in values])
         if len(rows[-1]) != len(rows[0]):
-            raise DataError(f"{path}: line {number} has {len(rows[-1])} fields, the first data line "
-                            f"{len(rows[0])}; fix the row or remove it")
+            raise DataError(
+                f"{path}: line {number} has {len(rows[-1])} fields, the first data line "
+                f"{len(rows[0])}; fix the row or remove it"
+            )
     if not rows:
         raise DataError(f"{path}: no numeric rows; give a file with one row of numbers per sample")
     return header, np.array(rows, dtype=float), text_cols
@@ -95,10 +101,15 @@ def _read_mat(path: Path, variable: str | None) -> np.ndarray:
     try:
         mat = loadmat(str(path))
     except Exception as exc:  # scipy raises several types for a bad or v7.3 (HDF5) file
-        raise DataError(f"{path}: not a readable MATLAB v4-v7.2 file ({type(exc).__name__}: {exc}); save it with "
-                        "save(..., '-v7') or export a text file") from None
-    arrays = {k: v for k, v in mat.items() if not k.startswith("__") and isinstance(v, np.ndarray)
-              and v.dtype.kind in "fiu" and v.ndim == 2}
+        raise DataError(
+            f"{path}: not a readable MATLAB v4-v7.2 file ({type(exc).__name__}: {exc}); save it with "
+            "save(..., '-v7') or export a text file"
+        ) from None
+    arrays = {
+        k: v
+        for k, v in mat.items()
+        if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.kind in "fiu" and v.ndim == 2
+    }
     if variable is None:
         if len(arrays) != 1:
             raise DataError(f"{path}: give --variable, one of {sorted(arrays) or 'none (no numeric matrix found)'}")
@@ -115,8 +126,9 @@ def _column(path: Path, spec: str, role: str, header: list[str] | None, n_cols: 
     if spec.isdigit():
         k = int(spec)
         if not 1 <= k <= n_cols:
-            raise DataError(f"{path}: column {k} for {role} is out of range; the file has {n_cols} columns "
-                            "(positions count from 1)")
+            raise DataError(
+                f"{path}: column {k} for {role} is out of range; the file has {n_cols} columns (positions count from 1)"
+            )
         return k - 1
     names = [h.strip().strip('"') for h in header or []]
     lower = [h.lower() for h in names]
@@ -131,8 +143,9 @@ def _roles(path: Path, columns: Mapping[str, str]) -> dict[str, str]:
     for key, spec in columns.items():
         role = ROLE_KEYS.get(str(key).strip().lower())
         if role is None:
-            raise DataError(f"{path}: unknown role {key!r} in --columns; use time, displacement (input), force "
-                            "(output), velocity")
+            raise DataError(
+                f"{path}: unknown role {key!r} in --columns; use time, displacement (input), force (output), velocity"
+            )
         if role in ("current", "voltage"):
             raise DataError(f"{path}: give the coil {role} of the test as --{role} VALUE, not as a column")
         if role in out:
@@ -141,8 +154,16 @@ def _roles(path: Path, columns: Mapping[str, str]) -> dict[str, str]:
     return out
 
 
-def read_table(path, *, fmt: str | None = None, columns: Mapping[str, str], dt: float | None = None,
-               variable: str | None = None, current: float | None = None, voltage: float | None = None) -> Record:
+def read_table(
+    path,
+    *,
+    fmt: str | None = None,
+    columns: Mapping[str, str],
+    dt: float | None = None,
+    variable: str | None = None,
+    current: float | None = None,
+    voltage: float | None = None,
+) -> Record:
     """A record from a text, CSV or ``.mat`` file with columns chosen by position or name.
 
     Parameters
@@ -169,16 +190,19 @@ def read_table(path, *, fmt: str | None = None, columns: Mapping[str, str], dt: 
     roles = _roles(path, columns)
     for need in ("input", "output"):
         if need not in roles:
-            raise DataError(f"{path}: --columns must name the {'displacement' if need == 'input' else 'force'} "
-                            f"column (e.g. --columns time=1,displacement=2,force=3)")
+            raise DataError(
+                f"{path}: --columns must name the {'displacement' if need == 'input' else 'force'} "
+                f"column (e.g. --columns time=1,displacement=2,force=3)"
+            )
     header, data, text_cols = (None, _read_mat(path, variable), {}) if fmt == "mat" else _read_text(path, fmt)
     index = {role: _column(path, spec, role, header, data.shape[1]) for role, spec in roles.items()}
     for role, j in index.items():
         if j in text_cols:
             line, field = text_cols[j]
-            raise DataError(f"{path}: line {line}: cannot read {field[:40]!r} in the {role} column ({j + 1}) as a "
-                            "number; fix the column" + (" or give --dt SECONDS instead of a time column"
-                                                        if role == "time" else ""))
+            raise DataError(
+                f"{path}: line {line}: cannot read {field[:40]!r} in the {role} column ({j + 1}) as a "
+                "number; fix the column" + (" or give --dt SECONDS instead of a time column" if role == "time" else "")
+            )
     if "time" in index:
         if dt is not None:
             raise DataError(f"{path}: give either a time column or --dt, not both")
@@ -187,10 +211,16 @@ def read_table(path, *, fmt: str | None = None, columns: Mapping[str, str], dt: 
         raise DataError(f"{path}: no time column; give --dt SECONDS (a positive sampling step) or map time=N")
     else:
         t = np.arange(data.shape[0]) * float(dt)
-    return Record(t=t, d=data[:, index["input"]], y=data[:, index["output"]],
-                  d_dot=data[:, index["velocity"]] if "velocity" in index else None, current=current,
-                  voltage=voltage, source=str(path),
-                  metadata={"format": fmt, "columns": {r: i + 1 for r, i in index.items()}})
+    return Record(
+        t=t,
+        d=data[:, index["input"]],
+        y=data[:, index["output"]],
+        d_dot=data[:, index["velocity"]] if "velocity" in index else None,
+        current=current,
+        voltage=voltage,
+        source=str(path),
+        metadata={"format": fmt, "columns": {r: i + 1 for r, i in index.items()}},
+    )
 
 
 def convert(path, out, **options) -> Record:

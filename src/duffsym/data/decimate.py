@@ -39,6 +39,7 @@ the others but does not set the rate (the field's first-order lag smooths its st
 This module moved here from ``duffsym.diagnose.prepare`` (which re-exports it) so that the data layer,
 identification and the command line can use it.
 """
+
 from __future__ import annotations
 
 import math
@@ -88,17 +89,29 @@ class Preparation:
     reason: str
 
     def to_dict(self) -> dict:
-        return dict(factor=self.factor, rate=self.rate, rate_in=self.rate_in, bandwidth=self.bandwidth,
-                    input_bandwidth=self.input_bandwidth, main_frequency=self.main_frequency, n_in=self.n_in,
-                    n_out=self.n_out, reason=self.reason)
+        return dict(
+            factor=self.factor,
+            rate=self.rate,
+            rate_in=self.rate_in,
+            bandwidth=self.bandwidth,
+            input_bandwidth=self.input_bandwidth,
+            main_frequency=self.main_frequency,
+            n_in=self.n_in,
+            n_out=self.n_out,
+            reason=self.reason,
+        )
 
     def summary(self) -> str:
         if self.factor == 1:
-            return (f"fits on the record at its own rate ({self.rate_in:.4g} Hz, {self.n_in} fitting samples): "
-                    f"{self.reason}")
-        return (f"fits on the record decimated by {self.factor} ({self.rate_in:.4g} -> {self.rate:.4g} Hz, "
-                f"{self.n_in} -> {self.n_out} fitting samples; output bandwidth {self.bandwidth:.3g} Hz, input "
-                f"{self.input_bandwidth:.3g} Hz): {self.reason}")
+            return (
+                f"fits on the record at its own rate ({self.rate_in:.4g} Hz, {self.n_in} fitting samples): "
+                f"{self.reason}"
+            )
+        return (
+            f"fits on the record decimated by {self.factor} ({self.rate_in:.4g} -> {self.rate:.4g} Hz, "
+            f"{self.n_in} -> {self.n_out} fitting samples; output bandwidth {self.bandwidth:.3g} Hz, input "
+            f"{self.input_bandwidth:.3g} Hz): {self.reason}"
+        )
 
 
 def bandwidth(x, dt: float) -> tuple[float, float]:
@@ -110,7 +123,7 @@ def bandwidth(x, dt: float) -> tuple[float, float]:
     peak = float(np.max(a))
     if not peak > 0 or not np.isfinite(peak):
         return 0.0, 0.0
-    floor = float(np.median(a[a.size // 2:]))
+    floor = float(np.median(a[a.size // 2 :]))
     sig = np.nonzero(a > max(REL * peak, FLOOR_FACTOR * floor))[0]
     return float(f[sig.max()]), float(f[int(np.argmax(a))])
 
@@ -129,9 +142,15 @@ def energy_bandwidth(x, dt: float, energy: float) -> tuple[float, float]:
     return float(f[min(k, f.size - 1)]), float(f[int(np.argmax(p))])
 
 
-def choose_decimation(record: Record, *, n_fit: int | None = None, max_factor: int | None = None,
-                      energy: float | None = None, min_per_cycle: int | None = None,
-                      min_samples: int | None = None) -> Preparation:
+def choose_decimation(
+    record: Record,
+    *,
+    n_fit: int | None = None,
+    max_factor: int | None = None,
+    energy: float | None = None,
+    min_per_cycle: int | None = None,
+    min_samples: int | None = None,
+) -> Preparation:
     """The decimation factor for ``record`` (see the module docstring); ``n_fit`` samples will be fitted
     (default: all); ``max_factor`` caps q (1: no decimation); ``energy`` switches to the variance rule
     of ``duffsym fit`` (the new Nyquist frequency above the frequency keeping ``1 - energy`` of each
@@ -142,23 +161,36 @@ def choose_decimation(record: Record, *, n_fit: int | None = None, max_factor: i
     n = record.n_times
     n_fit = n if n_fit is None else int(n_fit)
     if not record.is_uniform():
-        return Preparation(1, math.nan, math.nan, math.nan, math.nan, math.nan, n_fit, n_fit,
-                           "the sampling is not uniform, so the record is not decimated")
+        return Preparation(
+            1,
+            math.nan,
+            math.nan,
+            math.nan,
+            math.nan,
+            math.nan,
+            n_fit,
+            n_fit,
+            "the sampling is not uniform, so the record is not decimated",
+        )
     dt = record.dt
     fs = 1.0 / dt
     if energy is None:
         fb_y, _ = bandwidth(record.y, dt)
         fb_d, f0 = bandwidth(record.d, dt)
         need = max(OVERSAMPLE * max(fb_y, fb_d), per_cycle * f0)
-        why = (f"the new rate is at least {OVERSAMPLE:g}x the bandwidth and {per_cycle} samples per input "
-               f"period ({f0:.3g} Hz)")
+        why = (
+            f"the new rate is at least {OVERSAMPLE:g}x the bandwidth and {per_cycle} samples per input "
+            f"period ({f0:.3g} Hz)"
+        )
     else:
         fb_y, _ = energy_bandwidth(record.y, dt, energy)
         fb_d, _ = energy_bandwidth(record.d, dt, energy)
         _, f0 = bandwidth(record.d, dt)
         need = max(2.0 * max(fb_y, fb_d), per_cycle * f0)
-        why = (f"the new Nyquist frequency keeps {1 - energy:.4g} of the force's and the input's variance below "
-               f"it, and at least {per_cycle} samples per input period ({f0:.3g} Hz)")
+        why = (
+            f"the new Nyquist frequency keeps {1 - energy:.4g} of the force's and the input's variance below "
+            f"it, and at least {per_cycle} samples per input period ({f0:.3g} Hz)"
+        )
     q = int(math.floor(fs / need)) if need > 0 else 1
     if n_fit // max(q, 1) < fewest:
         q = min(q, max(1, n_fit // fewest))
@@ -176,7 +208,7 @@ def _lowpass(x: np.ndarray, taps: np.ndarray) -> np.ndarray:
     m = taps.size // 2
     m_pad = min(m, x.size - 1)
     head = 2 * x[0] - x[m_pad:0:-1]
-    tail = 2 * x[-1] - x[-2:-m_pad - 2:-1]
+    tail = 2 * x[-1] - x[-2 : -m_pad - 2 : -1]
     xp = np.concatenate([np.full(m - m_pad, head[0]), head, x, tail, np.full(m - m_pad, tail[-1])])
     return np.convolve(xp, taps, mode="valid")
 
@@ -190,17 +222,25 @@ def decimate_record(record: Record, q: int) -> Record:
     if q == 1:
         return record
     from scipy.signal import firwin
+
     record.require_uniform("decimation")
     taps = firwin(20 * q + 1, 1.0 / q, window="hamming")
     keep = slice(0, None, q)
     d, y = np.asarray(record.d, dtype=float), np.asarray(record.y, dtype=float)
     v = np.asarray(record.velocity(), dtype=float)
     meta = dict(record.metadata)
-    meta["decimated"] = {"factor": q,
-                         "filter": f"zero-phase FIR, {taps.size} taps, Hamming, cut-off at the new Nyquist"}
-    return record.replace(t=np.asarray(record.t)[keep], d=_lowpass(d, taps)[keep], y=_lowpass(y, taps)[keep],
-                          d_dot=_lowpass(v, taps)[keep], metadata=meta,
-                          command=None if record.command is None else _lowpass(np.asarray(record.command), taps)[keep])
+    meta["decimated"] = {
+        "factor": q,
+        "filter": f"zero-phase FIR, {taps.size} taps, Hamming, cut-off at the new Nyquist",
+    }
+    return record.replace(
+        t=np.asarray(record.t)[keep],
+        d=_lowpass(d, taps)[keep],
+        y=_lowpass(y, taps)[keep],
+        d_dot=_lowpass(v, taps)[keep],
+        metadata=meta,
+        command=None if record.command is None else _lowpass(np.asarray(record.command), taps)[keep],
+    )
 
 
 def decimate_mask(mask, q: int, n_out: int):
@@ -212,7 +252,7 @@ def decimate_mask(mask, q: int, n_out: int):
     out = np.zeros(n_out, dtype=bool)
     h = q // 2
     for j in range(n_out):
-        out[j] = m[max(0, j * q - h): j * q + h + 1].any()
+        out[j] = m[max(0, j * q - h) : j * q + h + 1].any()
     return out
 
 
@@ -228,6 +268,4 @@ def prepare_record(record: Record, decimate: bool | int = True, *, n_fit: int | 
 def prepare_for_fit(record: Record, decimate: bool | int = True, *, energy: float = FIT_ENERGY):
     """(preparation, record to fit) by the variance rule of ``duffsym fit`` (module docstring):
     ``decimate`` True (the spectrum's factor), an int (a cap on it) or False (none)."""
-    return prepare_record(record, decimate, energy=energy, min_per_cycle=FIT_MIN_PER_CYCLE,
-                          min_samples=FIT_MIN_SAMPLES)
-
+    return prepare_record(record, decimate, energy=energy, min_per_cycle=FIT_MIN_PER_CYCLE, min_samples=FIT_MIN_SAMPLES)

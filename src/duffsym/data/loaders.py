@@ -3,14 +3,15 @@
 Third-party data is never copied into the repository; loaders take a path, and
 :func:`external_data_dir` finds the shared folder through one setting.
 """
+
 from __future__ import annotations
 
 import csv
 import math
 import os
 import re
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 
@@ -28,11 +29,18 @@ ROLES: dict[str, tuple[str, ...]] = {
 }
 #: Names a user may use as keys of ``columns`` for each role.
 ROLE_KEYS: dict[str, str] = {
-    "time": "time", "t": "time",
-    "input": "input", "displacement": "input", "d": "input",
-    "output": "output", "force": "output", "y": "output",
-    "velocity": "velocity", "d_dot": "velocity",
-    "current": "current", "voltage": "voltage",
+    "time": "time",
+    "t": "time",
+    "input": "input",
+    "displacement": "input",
+    "d": "input",
+    "output": "output",
+    "force": "output",
+    "y": "output",
+    "velocity": "velocity",
+    "d_dot": "velocity",
+    "current": "current",
+    "voltage": "voltage",
 }
 REQUIRED_ROLES = ("time", "input", "output")
 #: Record field of each role, used for units.
@@ -105,7 +113,7 @@ def _check_file(path: Path) -> bytes:
     except UnicodeDecodeError as exc:
         # a multi-byte character cut at the 8 kB boundary is fine; anything earlier is not text
         if exc.start < len(head) - 4:
-            line = head[:exc.start].count(b"\n") + 1
+            line = head[: exc.start].count(b"\n") + 1
             raise DataError(f"{path}: row {line}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
     return head
 
@@ -156,8 +164,15 @@ def _resolve_columns(path: Path, header: list[str], columns: Mapping[str, str] |
     return index
 
 
-def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str, str] | None = None, *,
-             nan_policy: str = "raise", delimiter: str | None = None, sampling: str = "strict") -> Record:
+def read_csv(
+    path,
+    columns: Mapping[str, str] | None = None,
+    units: Mapping[str, str] | None = None,
+    *,
+    nan_policy: str = "raise",
+    delimiter: str | None = None,
+    sampling: str = "strict",
+) -> Record:
     """Read a record from a CSV file with a header row (the format of ``docs/contract.md``).
 
     Parameters
@@ -196,8 +211,9 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
     try:
         header, index, data = _read_table(path, columns, delimiter)
     except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start} of a row); save the file as "
-                        "UTF-8") from None
+        raise DataError(
+            f"{path}: not UTF-8 text ({exc.reason} at byte {exc.start} of a row); save the file as UTF-8"
+        ) from None
     arr = np.array(data, dtype=float)
     roles = list(index)
     sig = {r: arr[:, i] for i, r in enumerate(roles)}
@@ -209,12 +225,22 @@ def read_csv(path, columns: Mapping[str, str] | None = None, units: Mapping[str,
             raise DataError(f"unknown role {key!r} in units; use one of {{{', '.join(sorted(set(ROLE_KEYS)))}}}")
         unit_map[_FIELD[role]] = str(u)
     rec = Record(
-        t=sig["time"], d=sig["input"], y=sig["output"], d_dot=sig.get("velocity"),
-        current=scalars.get("current"), voltage=scalars.get("voltage"), units=unit_map,
-        command=command[1] if command else None, command_name=command[0] if command else "",
-        metadata={"columns": {r: header[i] for r, i in index.items()}, "format": "csv",
-                  **({"sampling": {"keep_stamps": True}} if sampling == "as-given" else {})},
-        source=str(path), nan_policy=nan_policy,
+        t=sig["time"],
+        d=sig["input"],
+        y=sig["output"],
+        d_dot=sig.get("velocity"),
+        current=scalars.get("current"),
+        voltage=scalars.get("voltage"),
+        units=unit_map,
+        command=command[1] if command else None,
+        command_name=command[0] if command else "",
+        metadata={
+            "columns": {r: header[i] for r, i in index.items()},
+            "format": "csv",
+            **({"sampling": {"keep_stamps": True}} if sampling == "as-given" else {}),
+        },
+        source=str(path),
+        nan_policy=nan_policy,
     )
     return _apply_sampling(rec, sampling, path)
 
@@ -229,8 +255,10 @@ def _command_columns(path: Path, sig: dict, header: list[str], index: dict[str, 
     command = None
     present = [r for r in ("current", "voltage") if r in sig]
     if len(present) == 2:
-        raise DataError(f"{path}: both a current column {header[index['current']]!r} and a voltage column "
-                        f"{header[index['voltage']]!r}; a damper has one command: drop or rename one of them")
+        raise DataError(
+            f"{path}: both a current column {header[index['current']]!r} and a voltage column "
+            f"{header[index['voltage']]!r}; a damper has one command: drop or rename one of them"
+        )
     for r in present:
         col = sig[r]
         bad = np.flatnonzero(~np.isfinite(col))
@@ -257,8 +285,10 @@ def _read_table(path: Path, columns, delimiter: str) -> tuple[list[str], dict[st
             header, index = _read_header(path, reader, columns)
             return header, index, _read_rows(path, reader, header, index)
         except csv.Error as exc:
-            raise DataError(f"{path}: row {max(reader.line_num, 1)}: not a readable CSV row ({_show(exc, 80)}); fix the "
-                            "row (an unclosed quote, a NUL byte, a field longer than 128 kB)") from None
+            raise DataError(
+                f"{path}: row {max(reader.line_num, 1)}: not a readable CSV row ({_show(exc, 80)}); fix the "
+                "row (an unclosed quote, a NUL byte, a field longer than 128 kB)"
+            ) from None
 
 
 def _read_header(path: Path, reader, columns) -> tuple[list[str], dict[str, int]]:
@@ -286,8 +316,10 @@ def _read_header(path: Path, reader, columns) -> tuple[list[str], dict[str, int]
     seen: dict[str, int] = {}
     for j, h in enumerate(header):
         if h.lower() in seen:
-            raise DataError(f"{path}: row 1, columns {seen[h.lower()] + 1} and {j + 1}: duplicate column name "
-                            f"{_show(h)}; give every column its own name")
+            raise DataError(
+                f"{path}: row 1, columns {seen[h.lower()] + 1} and {j + 1}: duplicate column name "
+                f"{_show(h)}; give every column its own name"
+            )
         seen[h.lower()] = j
     return header, _resolve_columns(path, header, columns)
 
@@ -304,12 +336,10 @@ def _read_rows(path: Path, reader, header: list[str], index: dict[str, int]) -> 
             row = row[:-1]  # trailing delimiter
         if len(row) != width:
             hint = ""
-            if len(row) > width and any(_DECIMAL_COMMA.match(f"{a.strip()},{b.strip()}")
-                                        for a, b in zip(row, row[1:])):
+            if len(row) > width and any(_DECIMAL_COMMA.match(f"{a.strip()},{b.strip()}") for a, b in zip(row, row[1:])):
                 hint = " (a decimal comma? use '.' as the decimal point)"
             raise DataError(
-                f"{path}: row {line} has {len(row)} field(s) but the header has {width}{hint}; fix the row or "
-                "remove it"
+                f"{path}: row {line} has {len(row)} field(s) but the header has {width}{hint}; fix the row or remove it"
             )
         vals = []
         for c in cols:
@@ -322,15 +352,20 @@ def _read_rows(path: Path, reader, header: list[str], index: dict[str, int]) -> 
                     raise ValueError
                 vals.append(float(f))
             except ValueError:
-                hint = "a decimal comma: use '.' as the decimal point" if _DECIMAL_COMMA.match(f) else (
-                    "fix the value (use '.' as decimal point) or remove the row")
+                hint = (
+                    "a decimal comma: use '.' as the decimal point"
+                    if _DECIMAL_COMMA.match(f)
+                    else ("fix the value (use '.' as decimal point) or remove the row")
+                )
                 raise DataError(
                     f"{path}: row {line}, column {header[c]!r}: cannot read {_show(f, 40)} as a number; {hint}"
                 ) from None
         data.append(vals)
         if len(data) > MAX_ROWS:
-            raise DataError(f"{path}: more than {MAX_ROWS} data rows; split or decimate the record (a fit of "
-                            "that many samples does not fit in memory)")
+            raise DataError(
+                f"{path}: more than {MAX_ROWS} data rows; split or decimate the record (a fit of "
+                "that many samples does not fit in memory)"
+            )
     if not data:
         raise DataError(f"{path}: the file has a header but no data rows; add one row per sample")
     return data
@@ -347,8 +382,10 @@ def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
     whole = np.round(steps / dt)
     if policy == "strict" and np.all(np.abs(steps - whole * dt) <= 1e-6 * dt):
         # a uniform grid with missing samples (omitted NaN rows, dropped frames): the stamps are exact
-        info["rule"] = (f"uniform grid at {dt:.9g} s ({1.0 / dt:.8g} Hz) with {int(np.sum(whole - 1))} missing "
-                        f"sample(s) in {int(np.sum(whole > 1))} gap(s), kept as given")
+        info["rule"] = (
+            f"uniform grid at {dt:.9g} s ({1.0 / dt:.8g} Hz) with {int(np.sum(whole - 1))} missing "
+            f"sample(s) in {int(np.sum(whole > 1))} gap(s), kept as given"
+        )
         return rec.replace(metadata={**rec.metadata, "sampling": info})
     if policy == "strict":
         raise DataError(
@@ -362,11 +399,23 @@ def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
     def on(x):
         return None if x is None else np.interp(grid, t, np.asarray(x))
 
-    info = {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": True, "resampled": True,
-            "rule": f"resampled (--sampling resample): {info['rule']}; signals interpolated linearly onto "
-                    f"t = {t[0]:.9g} + k * {dt:.9g} s ({1.0 / dt:.8g} Hz), {n} samples"}
-    return rec.replace(t=grid, d=on(rec.d), y=on(rec.y), d_dot=on(rec.d_dot), command=on(rec.command),
-                       metadata={**rec.metadata, "sampling": info})
+    info = {
+        "rate_hz": 1.0 / dt,
+        "dt": dt,
+        "uniform": True,
+        "rebuilt": True,
+        "resampled": True,
+        "rule": f"resampled (--sampling resample): {info['rule']}; signals interpolated linearly onto "
+        f"t = {t[0]:.9g} + k * {dt:.9g} s ({1.0 / dt:.8g} Hz), {n} samples",
+    }
+    return rec.replace(
+        t=grid,
+        d=on(rec.d),
+        y=on(rec.y),
+        d_dot=on(rec.d_dot),
+        command=on(rec.command),
+        metadata={**rec.metadata, "sampling": info},
+    )
 
 
 def write_csv(record: Record, path) -> Path:
@@ -462,10 +511,19 @@ def load_mr_damper_utfsm(path, *, current: float | None = None, velocity: str = 
         data = np.asarray(mat["data"], dtype=float)
         t = np.arange(data.shape[0]) * UTFSM_VALIDATION_DT
         return Record(
-            t=t, d=data[:, 0], y=data[:, j], current=float(current), units=units,
-            metadata={"dataset": "mr_damper_utfsm_quiroz2022", "kind": "earthquake", "column": j,
-                      "smoothing": "0.3 s moving average on displacement and force (authors' preprocessing)"},
-            source=str(path), name=f"validacion_{float(current):g}A",
+            t=t,
+            d=data[:, 0],
+            y=data[:, j],
+            current=float(current),
+            units=units,
+            metadata={
+                "dataset": "mr_damper_utfsm_quiroz2022",
+                "kind": "earthquake",
+                "column": j,
+                "smoothing": "0.3 s moving average on displacement and force (authors' preprocessing)",
+            },
+            source=str(path),
+            name=f"validacion_{float(current):g}A",
         )
     info = parse_utfsm_name(path.name)
     if current is not None and abs(float(current) - info["current_a"]) > 1e-9:
@@ -473,24 +531,38 @@ def load_mr_damper_utfsm(path, *, current: float | None = None, velocity: str = 
     try:
         raw = np.loadtxt(path, ndmin=2)
     except ValueError as exc:
-        raise DataError(f"{path}: cannot read the numeric columns ({exc}); expected time, displacement, velocity, "
-                        "force separated by spaces") from None
+        raise DataError(
+            f"{path}: cannot read the numeric columns ({exc}); expected time, displacement, velocity, "
+            "force separated by spaces"
+        ) from None
     if raw.shape[1] != 4:
         raise DataError(f"{path}: expected 4 columns (time, displacement, velocity, force); found {raw.shape[1]}")
     return Record(
-        t=raw[:, 0], d=raw[:, 1], y=raw[:, 3], d_dot=raw[:, 2] if velocity == "file" else None,
-        current=info["current_a"], units=units,
-        metadata={"dataset": "mr_damper_utfsm_quiroz2022", "kind": "sine", **info,
-                  "velocity": "file: one-sided difference of d (half-sample lag)" if velocity == "file"
-                  else "derived: centred Savitzky-Golay"},
+        t=raw[:, 0],
+        d=raw[:, 1],
+        y=raw[:, 3],
+        d_dot=raw[:, 2] if velocity == "file" else None,
+        current=info["current_a"],
+        units=units,
+        metadata={
+            "dataset": "mr_damper_utfsm_quiroz2022",
+            "kind": "sine",
+            **info,
+            "velocity": "file: one-sided difference of d (half-sample lag)"
+            if velocity == "file"
+            else "derived: centred Savitzky-Golay",
+        },
         source=str(path),
     )
 
 
 def utfsm_sine_files(folder=None) -> list[Path]:
     """The 30 ``sinusoidal_preprocessed`` files, sorted (default folder: under :func:`external_data_dir`)."""
-    folder = Path(folder) if folder is not None else (
-        external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed")
+    folder = (
+        Path(folder)
+        if folder is not None
+        else (external_data_dir() / "mr_damper_utfsm_quiroz2022" / "sinusoidal_preprocessed")
+    )
     files = sorted(p for p in folder.glob("*.txt") if _UTFSM_NAME.match(p.stem))
     if not files:
         raise DataError(f"{folder}: no <amp>mm<freq>Hz<current>A.txt files; {_OBTAIN}")
@@ -533,9 +605,13 @@ def load_silverbox(path, *, part: str | None = None) -> Record:
         a, b = SILVERBOX_PARTS[part]
         arr, k = arr[a:b], k[a:b]
     return Record(
-        t=k / SILVERBOX_FS, d=arr[:, 0], y=arr[:, 1], units={"t": "s", "d": "V", "y": "V"},
+        t=k / SILVERBOX_FS,
+        d=arr[:, 0],
+        y=arr[:, 1],
+        units={"t": "s", "d": "V", "y": "V"},
         metadata={"dataset": "silverbox", "part": part, "fs": SILVERBOX_FS, "first_row": int(k[0])},
-        source=str(path), name=f"{path.stem}" + (f"[{part}]" if part else ""),
+        source=str(path),
+        name=f"{path.stem}" + (f"[{part}]" if part else ""),
     )
 
 
@@ -579,13 +655,20 @@ def load_bouc_wen(folder=None, *, part: str = "multisine", unit: str = "m") -> R
             u = np.asarray(h[group]["u"], dtype=float).reshape(-1)
             y = np.asarray(h[group]["y"], dtype=float).reshape(-1)
     except (OSError, KeyError) as exc:
-        raise DataError(f"{path}: not a Bouc-Wen benchmark file with group {group!r} ({exc}); get it as its "
-                        "SOURCE.md says") from None
+        raise DataError(
+            f"{path}: not a Bouc-Wen benchmark file with group {group!r} ({exc}); get it as its SOURCE.md says"
+        ) from None
     scale = 1e3 if unit == "mm" else 1.0
     k = np.arange(u.size)
-    return Record(t=k / BOUC_WEN_FS, d=u, y=y * scale, units={"t": "s", "d": "N", "y": unit},
-                  metadata={"dataset": "bouc_wen", "part": part, "fs": BOUC_WEN_FS},
-                  source=str(path), name=f"bouc_wen[{part}]")
+    return Record(
+        t=k / BOUC_WEN_FS,
+        d=u,
+        y=y * scale,
+        units={"t": "s", "d": "N", "y": unit},
+        metadata={"dataset": "bouc_wen", "part": part, "fs": BOUC_WEN_FS},
+        source=str(path),
+        name=f"bouc_wen[{part}]",
+    )
 
 
 # ---------------------------------------------------------------------------- friction damper (JSON)
@@ -612,11 +695,26 @@ def load_friction_damper_json(path) -> Record:
     except (TypeError, ValueError):
         arr = np.empty((0, 0))
     if arr.ndim != 2 or arr.shape[0] < 2 or arr.shape[1] < 4:
-        raise DataError(f"{path}: expected a JSON object whose 'data' is a list of rows [time, displacement, "
-                        "friction force, velocity, ...]; give the friction damper's JSON or a CSV")
-    units = {"t": str(doc.get("time units", "s")), "d": str(doc.get("displacement units", "")),
-             "y": str(doc.get("friction force units", ""))}
-    return Record(t=arr[:, 0], d=arr[:, 1], y=arr[:, 2], d_dot=arr[:, 3], units={k: v for k, v in units.items() if v},
-                  metadata={"dataset": "friction_damper_brfd_artslab", "format": "json",
-                            "columns": dict(zip(("time", "input", "output", "velocity"), BRFD_COLUMNS))},
-                  source=str(path), name=path.stem)
+        raise DataError(
+            f"{path}: expected a JSON object whose 'data' is a list of rows [time, displacement, "
+            "friction force, velocity, ...]; give the friction damper's JSON or a CSV"
+        )
+    units = {
+        "t": str(doc.get("time units", "s")),
+        "d": str(doc.get("displacement units", "")),
+        "y": str(doc.get("friction force units", "")),
+    }
+    return Record(
+        t=arr[:, 0],
+        d=arr[:, 1],
+        y=arr[:, 2],
+        d_dot=arr[:, 3],
+        units={k: v for k, v in units.items() if v},
+        metadata={
+            "dataset": "friction_damper_brfd_artslab",
+            "format": "json",
+            "columns": dict(zip(("time", "input", "output", "velocity"), BRFD_COLUMNS)),
+        },
+        source=str(path),
+        name=path.stem,
+    )

@@ -15,13 +15,15 @@ Time stamps printed with rounding (a 3004.8 Hz grid stamped to 0.1 ms steps by 0
 are recognised in the constructor and replaced by the uniform grid they round
 (:func:`rebuild_rounded_grid`); ``metadata["sampling"]`` says what was done (rate, rule).
 """
+
 from __future__ import annotations
 
 import math
 import types
 import warnings
+from collections.abc import Mapping
 from dataclasses import InitVar, dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -62,11 +64,15 @@ def _check_magnitude(name: str, a: np.ndarray, where: str) -> None:
     peak = float(np.max(np.abs(a))) if a.size else 0.0
     lo, hi = MAGNITUDE_RANGE
     if peak > hi:
-        raise DataError(f"{where}: signal {name} is too large (max |{name}| = {peak:.3g} > {hi:g}); rescale it "
-                        "(e.g. change its units)")
+        raise DataError(
+            f"{where}: signal {name} is too large (max |{name}| = {peak:.3g} > {hi:g}); rescale it "
+            "(e.g. change its units)"
+        )
     if 0.0 < peak < lo:
-        raise DataError(f"{where}: signal {name} is too small (max |{name}| = {peak:.3g} < {lo:g}); rescale it "
-                        "(e.g. change its units)")
+        raise DataError(
+            f"{where}: signal {name} is too small (max |{name}| = {peak:.3g} < {lo:g}); rescale it "
+            "(e.g. change its units)"
+        )
 
 
 def zero_crossings(d: np.ndarray) -> np.ndarray:
@@ -104,7 +110,7 @@ def printed_quantum(values: np.ndarray, max_digits: int = 15) -> np.ndarray:
     which the value is an integer multiple of ``10**-d`` (to double precision). ``24.6496`` -> 1e-4,
     ``0.0003328`` -> 1e-7; a value computed in double precision (``k / fs``) gets ``10**-max_digits``."""
     v = np.abs(np.asarray(values, dtype=float))
-    q = np.full(v.shape, 10.0 ** -max_digits)
+    q = np.full(v.shape, 10.0**-max_digits)
     todo = np.ones(v.shape, dtype=bool)
     for d in range(max_digits + 1):
         scaled = v[todo] * 10.0**d
@@ -180,14 +186,24 @@ def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.
     dt_med = float(np.median(steps))
     if np.all(np.abs(steps - dt_med) <= rtol * dt_med):
         dt = float((t[-1] - t[0]) / (t.size - 1))
-        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": False,
-                   "rule": "uniform as given (steps equal within 1e-6 relative)"}
+        return t, {
+            "rate_hz": 1.0 / dt,
+            "dt": dt,
+            "uniform": True,
+            "rebuilt": False,
+            "rule": "uniform as given (steps equal within 1e-6 relative)",
+        }
     resolution = ULP_STEPS * float(np.spacing(np.max(np.abs(t))))
     if np.all(np.abs(steps - dt_med) <= resolution) and resolution < 0.01 * dt_med:
         dt = float((t[-1] - t[0]) / (t.size - 1))
-        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": True, "rebuilt": False,
-                   "rule": f"uniform as given (steps equal within the float64 resolution of the stamps, "
-                           f"{resolution:.2g} s at t = {float(np.max(np.abs(t))):.6g} s)"}
+        return t, {
+            "rate_hz": 1.0 / dt,
+            "dt": dt,
+            "uniform": True,
+            "rebuilt": False,
+            "rule": f"uniform as given (steps equal within the float64 resolution of the stamps, "
+            f"{resolution:.2g} s at t = {float(np.max(np.abs(t))):.6g} s)",
+        }
     q = _grid_precision(t)
     k = np.arange(t.size, dtype=float)
     n_off = int(np.count_nonzero(np.abs(steps - dt_med) > rtol * dt_med))
@@ -201,17 +217,27 @@ def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.
             t0, dt, ratio = _chebyshev_line(t, 1.0 / q)
         feasible = ratio <= (0.5 + DOUBLE_ROUNDING) * (1 + 1e-9)
     if not feasible:
-        return t, {"rate_hz": 1.0 / dt_med, "dt": dt_med, "uniform": False, "rebuilt": False,
-                   "rule": "non-uniform: the steps vary by more than the printed digits explain "
-                           f"(from {steps.min():.6g} to {steps.max():.6g} s)"}
+        return t, {
+            "rate_hz": 1.0 / dt_med,
+            "dt": dt_med,
+            "uniform": False,
+            "rebuilt": False,
+            "rule": "non-uniform: the steps vary by more than the printed digits explain "
+            f"(from {steps.min():.6g} to {steps.max():.6g} s)",
+        }
     digits = sorted({f"{v:g}" for v in np.unique(q)})
     rebuilt = t0 + k * dt
     return rebuilt, {
-        "rate_hz": 1.0 / float(dt), "dt": float(dt), "uniform": True, "rebuilt": True,
+        "rate_hz": 1.0 / float(dt),
+        "dt": float(dt),
+        "uniform": True,
+        "rebuilt": True,
         "max_change_s": float(np.max(np.abs(rebuilt - t))),
-        "rule": (f"rebuilt: time stamps printed to {', '.join(digits)} s (steps from {steps.min():.6g} to "
-                 f"{steps.max():.6g} s) are all within half a printed digit{' (plus a first rounding to finer digits)' if ratio > 0.5 + 1e-9 else ''} of t0 + k*dt; t = {float(t0) + 0.0:.9g} + "
-                 f"k * {float(dt):.9g} s ({1.0 / float(dt):.8g} Hz)"),
+        "rule": (
+            f"rebuilt: time stamps printed to {', '.join(digits)} s (steps from {steps.min():.6g} to "
+            f"{steps.max():.6g} s) are all within half a printed digit{' (plus a first rounding to finer digits)' if ratio > 0.5 + 1e-9 else ''} of t0 + k*dt; t = {float(t0) + 0.0:.9g} + "
+            f"k * {float(dt):.9g} s ({1.0 / float(dt):.8g} Hz)"
+        ),
     }
 
 
@@ -229,9 +255,11 @@ def time_unit_note(t) -> str | None:
     dt = float(np.median(np.diff(t)))
     if not dt >= MS_LIKE_STEP:
         return None
-    return (f"the sampling step is {dt:g} s ({1.0 / dt:.3g} Hz) over {float(t[-1] - t[0]):g} s: if the time column "
-            f"is in milliseconds, divide it by 1000 (convert: --dt {dt / 1000:g} without the time column); rates and "
-            "fitted parameters depend on the time unit")
+    return (
+        f"the sampling step is {dt:g} s ({1.0 / dt:.3g} Hz) over {float(t[-1] - t[0]):g} s: if the time column "
+        f"is in milliseconds, divide it by 1000 (convert: --dt {dt / 1000:g} without the time column); rates and "
+        "fitted parameters depend on the time unit"
+    )
 
 
 def _sampling(t: np.ndarray, previous: Mapping[str, Any] | None) -> tuple[np.ndarray, dict[str, Any]]:
@@ -241,13 +269,23 @@ def _sampling(t: np.ndarray, previous: Mapping[str, Any] | None) -> tuple[np.nda
         steps = np.diff(t)
         dt = float(np.median(steps))
         uniform = bool(np.all(np.abs(steps - dt) <= UNIFORM_RTOL * dt))
-        return t, {"rate_hz": 1.0 / dt, "dt": dt, "uniform": uniform, "rebuilt": False, "keep_stamps": True,
-                   "rule": "as given (sampling='as-given'): " + ("uniform" if uniform else
-                           f"non-uniform, steps from {steps.min():.6g} to {steps.max():.6g} s")}
+        return t, {
+            "rate_hz": 1.0 / dt,
+            "dt": dt,
+            "uniform": uniform,
+            "rebuilt": False,
+            "keep_stamps": True,
+            "rule": "as given (sampling='as-given'): "
+            + ("uniform" if uniform else f"non-uniform, steps from {steps.min():.6g} to {steps.max():.6g} s"),
+        }
     t, info = rebuild_rounded_grid(t)
     try:
-        same = (bool(previous["uniform"]) == info["uniform"] and not info["rebuilt"]
-                and abs(info["dt"] - float(previous["dt"])) <= 1e-9 * info["dt"] and isinstance(previous["rule"], str))
+        same = (
+            bool(previous["uniform"]) == info["uniform"]
+            and not info["rebuilt"]
+            and abs(info["dt"] - float(previous["dt"])) <= 1e-9 * info["dt"]
+            and isinstance(previous["rule"], str)
+        )
     except (KeyError, TypeError, ValueError):
         same = False
     if same:
@@ -308,8 +346,10 @@ class Record:
             cols["d_dot"] = self.d_dot
         if self.command is not None:
             if self.command_name not in COMMAND_NAMES:
-                raise DataError(f"{where}: command_name must be one of {COMMAND_NAMES} for a command history; "
-                                f"got {self.command_name!r}")
+                raise DataError(
+                    f"{where}: command_name must be one of {COMMAND_NAMES} for a command history; "
+                    f"got {self.command_name!r}"
+                )
             cols["command"] = self.command
         arrays = {k: _as_vector(k, v, where) for k, v in cols.items()}
         sizes = {k: a.size for k, a in arrays.items()}
@@ -331,14 +371,13 @@ class Record:
                 )
             warnings.warn(
                 f"{where}: dropped {int(bad_rows.sum())} of {bad_rows.size} samples with NaN/inf ({text})",
-                UserWarning, stacklevel=3,
+                UserWarning,
+                stacklevel=3,
             )
             arrays = {k: a[~bad_rows] for k, a in arrays.items()}
         n = arrays["t"].size
         if n < MIN_SAMPLES:
-            raise DataError(
-                f"{where}: too few samples: {n} (need at least {MIN_SAMPLES}); record a longer test"
-            )
+            raise DataError(f"{where}: too few samples: {n} (need at least {MIN_SAMPLES}); record a longer test")
         require_increasing(arrays["t"], f"{where}: time")
         arrays["t"], sampling = _sampling(arrays["t"], self.metadata.get("sampling"))
         object.__setattr__(self, "metadata", {**dict(self.metadata), "sampling": sampling})
@@ -456,8 +495,7 @@ class Record:
         if self.d_dot is not None:
             return self.d_dot
         dt = self.require_uniform("deriving the velocity from d")
-        w = self._check_window("velocity", self.default_velocity_window() if window is None else int(window),
-                               polyorder)
+        w = self._check_window("velocity", self.default_velocity_window() if window is None else int(window), polyorder)
         out = savgol_derivative(np.asarray(self.d), dt, w, polyorder)
         out.flags.writeable = False
         return out
@@ -486,15 +524,17 @@ class Record:
             If the sampling is not uniform or the window is invalid.
         """
         dt = self.require_uniform("deriving the acceleration")
-        w = self._check_window("acceleration",
-                               self.default_acceleration_window() if window is None else int(window), polyorder)
+        w = self._check_window(
+            "acceleration", self.default_acceleration_window() if window is None else int(window), polyorder
+        )
         if self.d_dot is not None:
             out = savgol_derivative(np.asarray(self.d_dot), dt, w, polyorder)
         else:
             from scipy.signal import savgol_filter
 
-            out = savgol_filter(np.asarray(self.d), window_length=w, polyorder=polyorder, deriv=2, delta=dt,
-                                mode="interp")
+            out = savgol_filter(
+                np.asarray(self.d), window_length=w, polyorder=polyorder, deriv=2, delta=dt, mode="interp"
+            )
         out.flags.writeable = False
         return out
 
@@ -517,8 +557,10 @@ class Record:
         for ch in model.inputs:
             if ch.signal == "command":
                 if ch.order != 0:
-                    raise DataError(f"model {model.name} needs the derivative {ch.name} of the command; a record "
-                                    "provides the command itself only")
+                    raise DataError(
+                        f"model {model.name} needs the derivative {ch.name} of the command; a record "
+                        "provides the command itself only"
+                    )
                 out[ch.name] = self.command_signal(model.name)
             elif ch.signal in DRIFT_SIGNALS:
                 out[ch.name] = self.drift_signal(ch.signal)
@@ -573,20 +615,35 @@ class Record:
         c = self.command
         return c is not None and bool(np.ptp(c) > 1e-9 * max(1.0, float(np.max(np.abs(c)))))
 
-    def replace(self, **changes) -> "Record":
+    def replace(self, **changes) -> Record:
         """A new (re-validated) record with some fields changed."""
-        fields = dict(t=self.t, d=self.d, y=self.y, d_dot=self.d_dot, current=self.current, voltage=self.voltage,
-                      units=dict(self.units), metadata=dict(self.metadata), source=self.source, name=self.name,
-                      command=self.command, command_name=self.command_name)
+        fields = dict(
+            t=self.t,
+            d=self.d,
+            y=self.y,
+            d_dot=self.d_dot,
+            current=self.current,
+            voltage=self.voltage,
+            units=dict(self.units),
+            metadata=dict(self.metadata),
+            source=self.source,
+            name=self.name,
+            command=self.command,
+            command_name=self.command_name,
+        )
         fields.update(changes)
         return Record(**fields)
 
-    def slice(self, start: int | None = None, stop: int | None = None) -> "Record":
+    def slice(self, start: int | None = None, stop: int | None = None) -> Record:
         """A record of samples ``start:stop`` (re-validated)."""
         s = slice(start, stop)
-        return self.replace(t=self.t[s], d=self.d[s], y=self.y[s],
-                            d_dot=None if self.d_dot is None else self.d_dot[s],
-                            command=None if self.command is None else self.command[s])
+        return self.replace(
+            t=self.t[s],
+            d=self.d[s],
+            y=self.y[s],
+            d_dot=None if self.d_dot is None else self.d_dot[s],
+            command=None if self.command is None else self.command[s],
+        )
 
     def summary(self) -> str:
         u = dict(self.units)
@@ -597,7 +654,9 @@ class Record:
             extra.append(f"voltage {self.voltage:g} V")
         if self.command is not None:
             c = np.asarray(self.command)
-            extra.append(f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {'A' if self.command_name == 'current' else 'V'}")
+            extra.append(
+                f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {'A' if self.command_name == 'current' else 'V'}"
+            )
         vel = "given" if self.d_dot is not None else "derived (Savitzky-Golay)"
         return (
             f"record {self.name or '(unnamed)'}: {self.n_times} samples over {self.duration:g} {u.get('t', 's')}, "

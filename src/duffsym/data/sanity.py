@@ -33,6 +33,7 @@ The command channel is not checked: a held command is an ordinary test condition
 amplitude, the input's frequency band) and :func:`range_notes` says in words when another record lies
 outside them by more than ``RANGE_TOL`` (10 %) of the range's upper end (2 % for the command, of its span).
 """
+
 from __future__ import annotations
 
 import math
@@ -83,12 +84,22 @@ class Stretch:
         return self.stop - self.start
 
     def to_dict(self) -> dict:
-        return dict(signal=self.signal, kind=self.kind, start=self.start, stop=self.stop, n=self.n,
-                    t_start=self.t_start, t_stop=self.t_stop, value=self.value)
+        return dict(
+            signal=self.signal,
+            kind=self.kind,
+            start=self.start,
+            stop=self.stop,
+            n=self.n,
+            t_start=self.t_start,
+            t_stop=self.t_stop,
+            value=self.value,
+        )
 
     def describe(self) -> str:
-        return (f"{self.signal} {self.kind} at {self.value:.6g} for {self.t_stop - self.t_start:.3g} s "
-                f"(t {self.t_start:.4g}-{self.t_stop:.4g} s, {self.n} samples)")
+        return (
+            f"{self.signal} {self.kind} at {self.value:.6g} for {self.t_stop - self.t_start:.3g} s "
+            f"(t {self.t_start:.4g}-{self.t_stop:.4g} s, {self.n} samples)"
+        )
 
 
 @dataclass(frozen=True)
@@ -109,7 +120,7 @@ class SanityReport:
         """(n_times,) True on every sample of an invalid stretch."""
         m = np.zeros(self.n_times, dtype=bool)
         for s in self.stretches:
-            m[s.start:s.stop] = True
+            m[s.start : s.stop] = True
         return m
 
     @property
@@ -120,16 +131,23 @@ class SanityReport:
         """One line for a person."""
         if self.ok:
             return f"data check of {self.record}: no clipped or frozen stretch"
-        return (f"data check of {self.record}: {self.n_invalid} of {self.n_times} samples invalid: "
-                + "; ".join(s.describe() for s in self.stretches))
+        return f"data check of {self.record}: {self.n_invalid} of {self.n_times} samples invalid: " + "; ".join(
+            s.describe() for s in self.stretches
+        )
 
     def to_dict(self) -> dict:
-        return dict(record=self.record, n_times=self.n_times, n_invalid=self.n_invalid, ok=self.ok,
-                    stretches=[s.to_dict() for s in self.stretches], quantum=dict(self.quantum),
-                    rule=f"runs of >= {MIN_RUN} equal samples under motion (slope next to them > {SLOPE_FACTOR:g} x a "
-                         f"turning point's) and > {RUN_FACTOR:g} x the signal's longest plateau elsewhere: at the "
-                         f"channel's extreme = clipped; elsewhere, >= {MIN_SECONDS:g} s while the other channel moves "
-                         "= frozen")
+        return dict(
+            record=self.record,
+            n_times=self.n_times,
+            n_invalid=self.n_invalid,
+            ok=self.ok,
+            stretches=[s.to_dict() for s in self.stretches],
+            quantum=dict(self.quantum),
+            rule=f"runs of >= {MIN_RUN} equal samples under motion (slope next to them > {SLOPE_FACTOR:g} x a "
+            f"turning point's) and > {RUN_FACTOR:g} x the signal's longest plateau elsewhere: at the "
+            f"channel's extreme = clipped; elsewhere, >= {MIN_SECONDS:g} s while the other channel moves "
+            "= frozen",
+        )
 
 
 def quantum(x: np.ndarray) -> float:
@@ -163,8 +181,7 @@ def _moves(x: np.ndarray, a: int, b: int, q: float) -> list[bool]:
 
 def _longest_elsewhere(x, moving_runs, skip, extremes, q) -> int:
     """The longest run under motion of ``x`` other than ``skip``, away from the extremes (1 when none)."""
-    lengths = [b - a for a, b in moving_runs
-               if (a, b) != skip and not any(abs(x[a] - e) <= 0.5 * q for e in extremes)]
+    lengths = [b - a for a, b in moving_runs if (a, b) != skip and not any(abs(x[a] - e) <= 0.5 * q for e in extremes)]
     return max(lengths, default=1)
 
 
@@ -200,8 +217,7 @@ def check_record(record: Record) -> SanityReport:
                 a, b = run
                 found.append(Stretch(label, kind, a, b, float(t[a]), float(t[b - 1]), float(x[a])))
     found.sort(key=lambda s: (s.start, s.signal))
-    return SanityReport(record.name or "(unnamed)", record.n_times, tuple(found),
-                        {label: q[k] for k, label in SIGNALS})
+    return SanityReport(record.name or "(unnamed)", record.n_times, tuple(found), {label: q[k] for k, label in SIGNALS})
 
 
 @dataclass(frozen=True)
@@ -230,8 +246,10 @@ def valid_part(record: Record, report: SanityReport | None = None) -> ValidPart:
     if stop - start < 2 * MIN_RUN:
         from duffsym.errors import DataError
 
-        raise DataError(f"record {report.record}: almost every sample is clipped or frozen ({report.summary()}); "
-                        "check the sensors, or pass --keep-invalid to use it as it is")
+        raise DataError(
+            f"record {report.record}: almost every sample is clipped or frozen ({report.summary()}); "
+            "check the sensors, or pass --keep-invalid to use it as it is"
+        )
     cut = record if (start, stop) == (0, record.n_times) else record.slice(start, stop)
     return ValidPart(cut, bad[start:stop].copy(), start, stop, report)
 

@@ -3,10 +3,11 @@
 The truth (model, parameters, excitation, noise level, backlash, seed) is kept in the record's
 metadata, so a fit can be scored against it.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -116,13 +117,25 @@ def synthetic_record(
     clean = y_clean.copy()
     clean.flags.writeable = False
     return Record(
-        t=t_all[n_settle:] - t_all[n_settle], d=d_sig[n_settle:], y=y, d_dot=d_dot_sig[n_settle:],
+        t=t_all[n_settle:] - t_all[n_settle],
+        d=d_sig[n_settle:],
+        y=y,
+        d_dot=d_dot_sig[n_settle:],
         units={"t": "s", "d": "1", "y": "1"},
         metadata={
-            "synthetic": True, "model": model.name, "effects": list(model.effects), "truth": truth,
-            "structural": {k: int(v) for k, v in model.structural}, "excitation": repr(excitation),
-            "noise": float(noise), "noise_std": sigma, "backlash": float(backlash),
-            "x0": traj.x[n_settle].tolist(), "clean_y": clean, "h_lambda": h_lambda,
+            "synthetic": True,
+            "model": model.name,
+            "effects": list(model.effects),
+            "truth": truth,
+            "structural": {k: int(v) for k, v in model.structural},
+            "excitation": repr(excitation),
+            "noise": float(noise),
+            "noise_std": sigma,
+            "backlash": float(backlash),
+            "x0": traj.x[n_settle].tolist(),
+            "clean_y": clean,
+            "h_lambda": h_lambda,
         },
-        source=f"synthetic:{model.name}", name=name or f"synthetic-{model.name}",
+        source=f"synthetic:{model.name}",
+        name=name or f"synthetic-{model.name}",
     )

@@ -11,6 +11,7 @@ with :math:`R(x) = -a(x, 0, 0, 0)` (restoring force), :math:`D = -(a(x, \\dot x,
 (dissipative force, zero at rest), :math:`F = a - a|_{\\mathbf u = 0}` (forcing by the inputs) and
 :math:`K = a|_{\\mathbf u=0} - a|_{\\mathbf u = 0, \\mathbf z = 0}` (coupling to extra states).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -82,12 +83,16 @@ def mechanics(model: SymbolicModel) -> Mechanics:
     base = unforced.xreplace(zero_z)
     at_rest = base.xreplace({v: sp.Integer(0)})
     return Mechanics(
-        model=model, x=x, v=v, acceleration=acc,
+        model=model,
+        x=x,
+        v=v,
+        acceleration=acc,
         restoring=tidy(-at_rest),
         dissipative=tidy(-(base - at_rest)),
         forcing=tidy(acc - unforced),
         coupling=tidy(unforced - base),
-        extra_states=extra, inputs=inputs,
+        extra_states=extra,
+        inputs=inputs,
     )
 
 

@@ -32,11 +32,12 @@ Computed from the composed model (:mod:`duffsym.model.structure`), nothing typed
    :math:`\oint H\,dq = \tfrac{A_f}{c_1}\bigl(\oint W_e\,dt + k_1\oint x\dot q\,dt\bigr)`,
    :math:`W_e = (c_1+c_2)\dot x^2 + c_3\dot x^{n+1}`.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
@@ -44,7 +45,7 @@ import sympy as sp
 from duffsym.derive.lyapunov import energy_lyapunov
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
-from duffsym.model.structure import FORCE_SYMBOL, H, Q, Q_DDOT, Q_DOT, composition
+from duffsym.model.structure import FORCE_SYMBOL, Q_DDOT, Q_DOT, H, Q, composition
 
 
 @dataclass(frozen=True)
@@ -69,10 +70,15 @@ class CoupledAnalysis:
     path_rate: sp.Expr | None = None  # rho = sqrt(q'^2/L^2 + eps^2) of a path-time element, else None
 
     def summary(self) -> str:
-        lines = [f"coupled stability of {self.model}",
-                 f"  E_s = {self.E_structure}", f"  E_e = {self.E_element}", f"  weight a = {self.weight}",
-                 f"  V = a E_s + E_e = {self.V}", f"  dV/dt (F = 0) = {self.V_dot}",
-                 f"  = -W + remainder, W = {self.dissipation}, remainder = {self.remainder}"]
+        lines = [
+            f"coupled stability of {self.model}",
+            f"  E_s = {self.E_structure}",
+            f"  E_e = {self.E_element}",
+            f"  weight a = {self.weight}",
+            f"  V = a E_s + E_e = {self.V}",
+            f"  dV/dt (F = 0) = {self.V_dot}",
+            f"  = -W + remainder, W = {self.dissipation}, remainder = {self.remainder}",
+        ]
         lines += [f"  condition {n}: {c}" for n, c in self.conditions]
         lines.append(f"  characteristic polynomial: {self.char_poly}")
         lines += [f"  Hurwitz {i + 1}: {h} > 0" for i, h in enumerate(self.hurwitz)]
@@ -84,21 +90,37 @@ class CoupledAnalysis:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"model": self.model, "E_structure": str(self.E_structure), "E_element": str(self.E_element),
-                "weight": str(self.weight), "V": str(self.V), "V_dot": str(self.V_dot),
-                "dissipation": str(self.dissipation), "remainder": str(self.remainder),
-                "conditions": {n: str(c) for n, c in self.conditions}, "char_poly": str(self.char_poly),
-                "hurwitz": [str(h) for h in self.hurwitz], "structure_cycle": str(self.structure_cycle),
-                "element_cycle": str(self.element_cycle), "conclusion": self.conclusion,
-                "path_rate": None if self.path_rate is None else str(self.path_rate)}
+        return {
+            "model": self.model,
+            "E_structure": str(self.E_structure),
+            "E_element": str(self.E_element),
+            "weight": str(self.weight),
+            "V": str(self.V),
+            "V_dot": str(self.V_dot),
+            "dissipation": str(self.dissipation),
+            "remainder": str(self.remainder),
+            "conditions": {n: str(c) for n, c in self.conditions},
+            "char_poly": str(self.char_poly),
+            "hurwitz": [str(h) for h in self.hurwitz],
+            "structure_cycle": str(self.structure_cycle),
+            "element_cycle": str(self.element_cycle),
+            "conclusion": self.conclusion,
+            "path_rate": None if self.path_rate is None else str(self.path_rate),
+        }
 
 
 def _structure_energy(comp) -> sp.Expr:
     eq = comp["equation"]
     expr = sp.expand(eq.lhs - eq.rhs)
     mass = expr.coeff(Q_DDOT)
-    restoring = sum((t for t in sp.Add.make_args(expr) if t.free_symbols & {Q} and
-                     not t.free_symbols & {Q_DOT, Q_DDOT, H, FORCE_SYMBOL}), sp.Integer(0))
+    restoring = sum(
+        (
+            t
+            for t in sp.Add.make_args(expr)
+            if t.free_symbols & {Q} and not t.free_symbols & {Q_DOT, Q_DDOT, H, FORCE_SYMBOL}
+        ),
+        sp.Integer(0),
+    )
     s = sp.Dummy("s", real=True)
     q1, q2 = comp["structure_states"]
     pot = sp.integrate(restoring.xreplace({Q: s}), (s, 0, q1))
@@ -113,7 +135,9 @@ def _path_rate(model, q2) -> sp.Expr | None:
     """The path rate sqrt(q2^2/L^2 + eps^2) in a composed model's equations (a path-time element), else None."""
     found = {p for e in model.rhs for p in e.atoms(sp.Pow) if p.exp == sp.Rational(1, 2) and q2 in p.base.free_symbols}
     if len(found) > 1:
-        raise ModelError(f"model {model.name}: the coupled argument covers one path rate; found {sorted(map(str, found))}")
+        raise ModelError(
+            f"model {model.name}: the coupled argument covers one path rate; found {sorted(map(str, found))}"
+        )
     return next(iter(found), None)
 
 
@@ -123,8 +147,9 @@ def _element_in_own_time(el) -> SymbolicModel:
 
     from duffsym.model.library import D_DOT
 
-    found = {p for e in el.rhs for p in e.atoms(sp.Pow) if p.exp == sp.Rational(1, 2)
-             and D_DOT.symbol in p.base.free_symbols}
+    found = {
+        p for e in el.rhs for p in e.atoms(sp.Pow) if p.exp == sp.Rational(1, 2) and D_DOT.symbol in p.base.free_symbols
+    }
     return replace(el, rhs=tuple(e.xreplace({p: sp.Integer(1) for p in found}) for e in el.rhs)) if found else el
 
 
@@ -140,8 +165,10 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
     if comp is None:
         raise ModelError(f"model {model.name} is not a composed structure model; use lyapunov_analysis")
     if len(model.states) != 4:
-        raise ModelError(f"model {model.name}: the coupled argument covers a structure and its element "
-                         f"(4 states); effects added {len(model.states) - 4} state(s)")
+        raise ModelError(
+            f"model {model.name}: the coupled argument covers a structure and its element "
+            f"(4 states); effects added {len(model.states) - 4} state(s)"
+        )
     el = comp["element_model"]
     q1, q2 = comp["structure_states"]
     x1, x2 = el.position, el.velocity
@@ -170,29 +197,48 @@ def coupled_analysis(model: SymbolicModel) -> CoupledAnalysis:
             rem += term
     conds = _conditions(weight, Es, Ee, diss, rem, (q1, q2, x1, x2), model)
     lam = sp.Symbol("lambda")
-    A = sp.Matrix(rhs).jacobian(sp.Matrix(model.states)).xreplace({s: 0 for s in model.states})
+    A = sp.Matrix(rhs).jacobian(sp.Matrix(model.states)).xreplace(dict.fromkeys(model.states, 0))
     poly = sp.Poly(sp.expand((lam * sp.eye(4) - A).det() * _mass(comp)), lam)
     hurwitz = _hurwitz(poly)
     s_cyc, e_cyc = _cycle_identities(model, comp, el, diss, weight)
     if rem == 0 and rho is not None:
-        concl = ("dV/dt = -W <= 0 with no remainder; the element's dissipation carries the path rate rho >= eps > 0, "
-                 "so for eps > 0 the coupled system is globally asymptotically stable under the conditions (LaSalle: "
-                 "dq/dt = dx/ds = 0 leaves only the origin); as eps -> 0 the element freezes at rest (rho = 0) and "
-                 "the argument gives stability only, not convergence to the origin")
+        concl = (
+            "dV/dt = -W <= 0 with no remainder; the element's dissipation carries the path rate rho >= eps > 0, "
+            "so for eps > 0 the coupled system is globally asymptotically stable under the conditions (LaSalle: "
+            "dq/dt = dx/ds = 0 leaves only the origin); as eps -> 0 the element freezes at rest (rho = 0) and "
+            "the argument gives stability only, not convergence to the origin"
+        )
     elif rem == 0:
-        concl = ("dV/dt = -W <= 0 with no remainder: under the conditions the coupled system is globally "
-                 "asymptotically stable (LaSalle: dq/dt = dx/dt = 0 leaves only the origin)")
+        concl = (
+            "dV/dt = -W <= 0 with no remainder: under the conditions the coupled system is globally "
+            "asymptotically stable (LaSalle: dq/dt = dx/dt = 0 leaves only the origin)"
+        )
     else:
-        concl = (f"the energy argument does not close: the remainder {rem} has no sign (k1 terms: the element is "
-                 "driven through its spring by the structure's displacement, but its force A_f x' does not act back "
-                 "through that spring; dir_c terms: a direction-dependent damping, x' times the drive's velocity, "
-                 "which adds or removes energy); it closes when the remainder vanishes, otherwise stability of the "
-                 "origin is local, by the Hurwitz conditions of the linearization")
-    return CoupledAnalysis(model=model.name, E_structure=Es, E_element=sp.expand(Ee), weight=weight, V=V,
-                           V_dot=Vd, dissipation=sp.expand(diss), remainder=sp.expand(rem),
-                           conditions=conds, char_poly=poly.as_expr(), hurwitz=hurwitz,
-                           structure_cycle=s_cyc, element_cycle=e_cyc, conclusion=concl,
-                           states=(q1, q2, x1, x2), path_rate=None if rho is None else sp.Eq(RHO, rho))
+        concl = (
+            f"the energy argument does not close: the remainder {rem} has no sign (k1 terms: the element is "
+            "driven through its spring by the structure's displacement, but its force A_f x' does not act back "
+            "through that spring; dir_c terms: a direction-dependent damping, x' times the drive's velocity, "
+            "which adds or removes energy); it closes when the remainder vanishes, otherwise stability of the "
+            "origin is local, by the Hurwitz conditions of the linearization"
+        )
+    return CoupledAnalysis(
+        model=model.name,
+        E_structure=Es,
+        E_element=sp.expand(Ee),
+        weight=weight,
+        V=V,
+        V_dot=Vd,
+        dissipation=sp.expand(diss),
+        remainder=sp.expand(rem),
+        conditions=conds,
+        char_poly=poly.as_expr(),
+        hurwitz=hurwitz,
+        structure_cycle=s_cyc,
+        element_cycle=e_cyc,
+        conclusion=concl,
+        states=(q1, q2, x1, x2),
+        path_rate=None if rho is None else sp.Eq(RHO, rho),
+    )
 
 
 def _mass(comp) -> sp.Expr:
@@ -203,8 +249,12 @@ def _mass(comp) -> sp.Expr:
 def _conditions(weight, Es, Ee, diss, rem, states, model) -> tuple:
     q1, q2, x1, x2 = states
     out = [("weight positive", sp.simplify(weight > 0))]
-    for name, expr, var in (("structure kinetic", Es, q2), ("structure stiffness", Es, q1),
-                            ("element kinetic", Ee, x2), ("element stiffness", Ee, x1)):
+    for name, expr, var in (
+        ("structure kinetic", Es, q2),
+        ("structure stiffness", Es, q1),
+        ("element kinetic", Ee, x2),
+        ("element stiffness", Ee, x1),
+    ):
         c = sp.expand(expr).coeff(var, 2)
         out.append((f"{name} positive", c > 0))
     for var in (q2, x2):
@@ -237,8 +287,16 @@ def _cycle_identities(model, comp, el, diss, weight):
     cyc = lambda e: sp.Integral(e, (t, 0, T))  # noqa: E731
     s_eq = sp.Eq(cyc(F * q2), cyc(c * q2**2) + cyc(force * q2))
     x1, x2 = el.position, el.velocity
-    W_e = sp.expand(sum((tm for tm in sp.Add.make_args(sp.expand(diss)) if tm.free_symbols & {x2}
-                         and not tm.free_symbols & {q1, q2}), sp.Integer(0)))
+    W_e = sp.expand(
+        sum(
+            (
+                tm
+                for tm in sp.Add.make_args(sp.expand(diss))
+                if tm.free_symbols & {x2} and not tm.free_symbols & {q1, q2}
+            ),
+            sp.Integer(0),
+        )
+    )
     k1 = [p.symbol for p in el.params if p.name == "k1"]
     gain = sp.simplify(force / x2) if x2 in force.free_symbols else sp.Integer(0)
     c1 = sp.simplify(weight * gain)  # the element's input damper: a = c1 / A_f cancels the cross term
@@ -260,15 +318,23 @@ class CoupledCertificate:
         return self.holds_local
 
     def summary(self) -> str:
-        kind = "global (energy argument)" if self.holds_global else ("local (linearization)" if self.holds_local
-                                                                    else "none")
+        kind = (
+            "global (energy argument)"
+            if self.holds_global
+            else ("local (linearization)" if self.holds_local else "none")
+        )
         eig = ", ".join(f"{complex(e).real:.4g}{complex(e).imag:+.4g}j" for e in self.eigenvalues)
         return f"coupled stability certificate: {kind}; linearization eigenvalues {eig}" + (
-            f"; failed: {', '.join(self.failed)}" if self.failed else "")
+            f"; failed: {', '.join(self.failed)}" if self.failed else ""
+        )
 
     def to_dict(self) -> dict:
-        return {"holds_global": self.holds_global, "holds_local": self.holds_local, "failed": list(self.failed),
-                "eigenvalues": [[complex(e).real, complex(e).imag] for e in self.eigenvalues]}
+        return {
+            "holds_global": self.holds_global,
+            "holds_local": self.holds_local,
+            "failed": list(self.failed),
+            "eigenvalues": [[complex(e).real, complex(e).imag] for e in self.eigenvalues],
+        }
 
 
 def coupled_certificate(model: SymbolicModel, params: Mapping[str, float]) -> CoupledCertificate:
@@ -283,8 +349,7 @@ def coupled_certificate(model: SymbolicModel, params: Mapping[str, float]) -> Co
     hur = [float(h.xreplace(vals)) for h in an.hurwitz]
     local = all(h > 0 for h in hur)
     rhs = [e.xreplace(vals) for e in _free_rhs(model)]
-    A = np.array(sp.Matrix(rhs).jacobian(sp.Matrix(model.states)).xreplace({s: 0 for s in model.states}),
-                 dtype=float)
+    A = np.array(sp.Matrix(rhs).jacobian(sp.Matrix(model.states)).xreplace(dict.fromkeys(model.states, 0)), dtype=float)
     eig = tuple(np.linalg.eigvals(A))
     if not local:
         failed.append("Hurwitz")
@@ -302,38 +367,70 @@ def coupled_report_items(model: SymbolicModel) -> list:
     ss = state_space(model)
     eq = comp["equation"]
     items = [
-        ReportItem("equation", "structure and element", "Eq. 11/12 inside a structure",
-                   f"{eq.lhs} = {eq.rhs},  H = {comp['force']}\n" + "\n".join(
-                       f"d{s}/dt = {e}" for s, e in zip(model.states, model.rhs)),
-                   " \\\\ ".join(f"\\dot{{{tex(s)}}} = {tex(e)}" for s, e in zip(model.states, model.rhs)),
-                   note=f"the element ({comp['element']}) is driven by the structure's own (q, q'); its force H acts "
-                        "on the mass", data={"force": str(comp["force"])}),
-        ReportItem("state_space", "state-space form of the coupled system", "Eq. 4/13",
-                   f"A = {ss.A.tolist()}\nf = {ss.f.T.tolist()}\nB = {ss.B.tolist()}\nC = {ss.C.tolist()}",
-                   f"A = {sp.latex(ss.A)}", data={"A": str(ss.A), "f": str(ss.f), "B": str(ss.B)}),
-        ReportItem("coupled_lyapunov", "coupled Lyapunov function V = a E_s + E_e", "Eq. 8 for the coupled system",
-                   f"E_s = {an.E_structure}\nE_e = {an.E_element}\na = {an.weight}\nV = {an.V}",
-                   f"V = {tex(an.V)}", note="a is solved so that the q'x' cross term of dV/dt cancels",
-                   data={"V": str(an.V), "weight": str(an.weight)}),
-        ReportItem("coupled_lyapunov_derivative", "its time derivative along the free coupled dynamics",
-                   "Eq. 9 for the coupled system",
-                   f"dV/dt = {an.V_dot}\n  = -W + remainder\nW = {an.dissipation}\nremainder = {an.remainder}"
-                   + ("" if an.path_rate is None else f"\n{an.path_rate.lhs} = {an.path_rate.rhs} (path rate, >= eps > 0)"),
-                   f"\\dot V = {tex(an.V_dot)}", note=an.conclusion,
-                   data={"V_dot": str(an.V_dot), "W": str(an.dissipation), "remainder": str(an.remainder)}),
-        ReportItem("coupled_conditions", "conditions of the energy argument", "",
-                   "\n".join(f"{n}: {c}" for n, c in an.conditions), "",
-                   data={n: str(c) for n, c in an.conditions}),
-        ReportItem("coupled_linearization", "linearization: characteristic polynomial and Hurwitz conditions", "",
-                   f"p(lambda) = {an.char_poly}\n" + "\n".join(f"H{i + 1} > 0: {h}" for i, h in enumerate(an.hurwitz)),
-                   f"p(\\lambda) = {sp.latex(an.char_poly)}",
-                   note="all Hurwitz determinants positive <=> the origin is locally asymptotically stable",
-                   data={"char_poly": str(an.char_poly), "hurwitz": [str(h) for h in an.hurwitz]}),
-        ReportItem("coupled_energy", "energy per cycle of a periodic steady state", "",
-                   f"{an.structure_cycle}\n{an.element_cycle}",
-                   f"{sp.latex(an.structure_cycle)} \\\\ {sp.latex(an.element_cycle)}",
-                   note="the input's work = the structure's viscous loss + the energy the element dissipates; "
-                        "the element's share from its own balance with d = q",
-                   data={"structure": str(an.structure_cycle), "element": str(an.element_cycle)}),
+        ReportItem(
+            "equation",
+            "structure and element",
+            "Eq. 11/12 inside a structure",
+            f"{eq.lhs} = {eq.rhs},  H = {comp['force']}\n"
+            + "\n".join(f"d{s}/dt = {e}" for s, e in zip(model.states, model.rhs)),
+            " \\\\ ".join(f"\\dot{{{tex(s)}}} = {tex(e)}" for s, e in zip(model.states, model.rhs)),
+            note=f"the element ({comp['element']}) is driven by the structure's own (q, q'); its force H acts "
+            "on the mass",
+            data={"force": str(comp["force"])},
+        ),
+        ReportItem(
+            "state_space",
+            "state-space form of the coupled system",
+            "Eq. 4/13",
+            f"A = {ss.A.tolist()}\nf = {ss.f.T.tolist()}\nB = {ss.B.tolist()}\nC = {ss.C.tolist()}",
+            f"A = {sp.latex(ss.A)}",
+            data={"A": str(ss.A), "f": str(ss.f), "B": str(ss.B)},
+        ),
+        ReportItem(
+            "coupled_lyapunov",
+            "coupled Lyapunov function V = a E_s + E_e",
+            "Eq. 8 for the coupled system",
+            f"E_s = {an.E_structure}\nE_e = {an.E_element}\na = {an.weight}\nV = {an.V}",
+            f"V = {tex(an.V)}",
+            note="a is solved so that the q'x' cross term of dV/dt cancels",
+            data={"V": str(an.V), "weight": str(an.weight)},
+        ),
+        ReportItem(
+            "coupled_lyapunov_derivative",
+            "its time derivative along the free coupled dynamics",
+            "Eq. 9 for the coupled system",
+            f"dV/dt = {an.V_dot}\n  = -W + remainder\nW = {an.dissipation}\nremainder = {an.remainder}"
+            + ("" if an.path_rate is None else f"\n{an.path_rate.lhs} = {an.path_rate.rhs} (path rate, >= eps > 0)"),
+            f"\\dot V = {tex(an.V_dot)}",
+            note=an.conclusion,
+            data={"V_dot": str(an.V_dot), "W": str(an.dissipation), "remainder": str(an.remainder)},
+        ),
+        ReportItem(
+            "coupled_conditions",
+            "conditions of the energy argument",
+            "",
+            "\n".join(f"{n}: {c}" for n, c in an.conditions),
+            "",
+            data={n: str(c) for n, c in an.conditions},
+        ),
+        ReportItem(
+            "coupled_linearization",
+            "linearization: characteristic polynomial and Hurwitz conditions",
+            "",
+            f"p(lambda) = {an.char_poly}\n" + "\n".join(f"H{i + 1} > 0: {h}" for i, h in enumerate(an.hurwitz)),
+            f"p(\\lambda) = {sp.latex(an.char_poly)}",
+            note="all Hurwitz determinants positive <=> the origin is locally asymptotically stable",
+            data={"char_poly": str(an.char_poly), "hurwitz": [str(h) for h in an.hurwitz]},
+        ),
+        ReportItem(
+            "coupled_energy",
+            "energy per cycle of a periodic steady state",
+            "",
+            f"{an.structure_cycle}\n{an.element_cycle}",
+            f"{sp.latex(an.structure_cycle)} \\\\ {sp.latex(an.element_cycle)}",
+            note="the input's work = the structure's viscous loss + the energy the element dissipates; "
+            "the element's share from its own balance with d = q",
+            data={"structure": str(an.structure_cycle), "element": str(an.element_cycle)},
+        ),
     ]
     return items

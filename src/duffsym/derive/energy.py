@@ -17,10 +17,11 @@ Derived from the model (see :func:`energy_balance`):
    :math:`H(s) = (c_1 s + k_1)/(s^2 + \gamma s + \alpha)`, the transfer function d -> x of the
    state-space form.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
@@ -29,9 +30,9 @@ from duffsym._checks import require_increasing
 from duffsym.derive._mechanics import mechanics, split_terms, tidy
 from duffsym.derive.lyapunov import lyapunov_analysis
 from duffsym.errors import DataError, ModelError
-from duffsym.plot.loops import cycle_integral
 from duffsym.model.core import SymbolicModel
 from duffsym.model.statespace import state_space
+from duffsym.plot.loops import cycle_integral
 
 TIME = sp.Symbol("t", real=True)
 PERIOD = sp.Symbol("T", positive=True)
@@ -70,13 +71,16 @@ class EnergyBalance:
     loop_area_equation: sp.Eq | None
 
     def summary(self) -> str:
-        lines = [f"energy per cycle of the periodic steady state, model {self.model.name}",
-                 f"  dV/dt = -W + F x',  W = {sp.sstr(self.dissipation)},  F x' = {sp.sstr(self.input_power)}",
-                 f"  cycle balance:   {sp.sstr(self.balance.lhs)} = {sp.sstr(self.balance.rhs)}",
-                 f"  by parts:        {sp.sstr(self.by_parts_equation.lhs)} = {sp.sstr(self.by_parts_equation.rhs)}"]
+        lines = [
+            f"energy per cycle of the periodic steady state, model {self.model.name}",
+            f"  dV/dt = -W + F x',  W = {sp.sstr(self.dissipation)},  F x' = {sp.sstr(self.input_power)}",
+            f"  cycle balance:   {sp.sstr(self.balance.lhs)} = {sp.sstr(self.balance.rhs)}",
+            f"  by parts:        {sp.sstr(self.by_parts_equation.lhs)} = {sp.sstr(self.by_parts_equation.rhs)}",
+        ]
         if self.loop_area_equation is not None:
-            lines.append(f"  loop area:       {sp.sstr(self.loop_area_equation.lhs)} = "
-                         f"{sp.sstr(self.loop_area_equation.rhs)}")
+            lines.append(
+                f"  loop area:       {sp.sstr(self.loop_area_equation.lhs)} = {sp.sstr(self.loop_area_equation.rhs)}"
+            )
         return "\n".join(lines)
 
 
@@ -142,12 +146,18 @@ def energy_balance(model: SymbolicModel) -> EnergyBalance:
             ratio = sp.simplify(loop_integrand / g)
             if not ratio.has(TIME) and ratio != 0:
                 others = sum((c2 * _cycle(g2) for c2, g2 in by_parts if g2 is not g), sp.Integer(0))
-                loop_eq = sp.Eq(_cycle(loop_integrand),
-                                ratio / c * (_cycle(W_t) - others))
+                loop_eq = sp.Eq(_cycle(loop_integrand), ratio / c * (_cycle(W_t) - others))
                 break
-    return EnergyBalance(model=model, input_power=Fv, dissipation=W, balance=balance, by_parts=by_parts,
-                         by_parts_equation=by_parts_eq, loop_area_integrand=loop_integrand,
-                         loop_area_equation=loop_eq)
+    return EnergyBalance(
+        model=model,
+        input_power=Fv,
+        dissipation=W,
+        balance=balance,
+        by_parts=by_parts,
+        by_parts_equation=by_parts_eq,
+        loop_area_integrand=loop_integrand,
+        loop_area_equation=loop_eq,
+    )
 
 
 @dataclass(frozen=True)
@@ -170,9 +180,11 @@ class LinearLoopArea:
     equal: bool
 
     def summary(self) -> str:
-        return (f"linear limit, d = a sin(omega t): H(s) = {sp.sstr(self.transfer)}\n"
-                f"  loop area = {sp.sstr(self.loop_area)}\n"
-                f"  A_f pi a^2 omega Re H(j omega) = {sp.sstr(self.closed_form)}  (equal: {self.equal})")
+        return (
+            f"linear limit, d = a sin(omega t): H(s) = {sp.sstr(self.transfer)}\n"
+            f"  loop area = {sp.sstr(self.loop_area)}\n"
+            f"  A_f pi a^2 omega Re H(j omega) = {sp.sstr(self.closed_form)}  (equal: {self.equal})"
+        )
 
 
 def linear_loop_area(model: SymbolicModel) -> LinearLoopArea:
@@ -204,8 +216,9 @@ def linear_loop_area(model: SymbolicModel) -> LinearLoopArea:
     gain = sp.simplify((ss.C * ss.x)[0].coeff(mech.v))  # A_f
     closed = gain * sp.pi * a**2 * w * sp.re(sp.expand_complex(H.subs(s, sp.I * w)))
     equal = sp.simplify(area - closed) == 0
-    return LinearLoopArea(transfer=H, steady_state=sp.simplify(x_ss), loop_area=area, closed_form=sp.simplify(closed),
-                          equal=bool(equal))
+    return LinearLoopArea(
+        transfer=H, steady_state=sp.simplify(x_ss), loop_area=area, closed_form=sp.simplify(closed), equal=bool(equal)
+    )
 
 
 # ----------------------------------------------------------------------------- numeric functions
@@ -267,13 +280,15 @@ class CycleEnergy:
     integrals: dict[str, float]
 
     def summary(self) -> str:
-        lines = [f"cycle energy over T = {self.period:g} s:",
-                 f"  input work   {self.input_work:.6g}",
-                 f"  dissipated   {self.dissipated:.6g}",
-                 f"  V(T) - V(0)  {self.delta_v:.3g}",
-                 f"  residual     {self.balance_residual:.3g}",
-                 f"  by parts     {self.by_parts:.6g}",
-                 f"  loop area    {self.loop_area:.6g}"]
+        lines = [
+            f"cycle energy over T = {self.period:g} s:",
+            f"  input work   {self.input_work:.6g}",
+            f"  dissipated   {self.dissipated:.6g}",
+            f"  V(T) - V(0)  {self.delta_v:.3g}",
+            f"  residual     {self.balance_residual:.3g}",
+            f"  by parts     {self.by_parts:.6g}",
+            f"  loop area    {self.loop_area:.6g}",
+        ]
         if self.loop_area_predicted is not None:
             lines.append(f"  loop area from the identity {self.loop_area_predicted:.6g}")
         return "\n".join(lines)
@@ -299,11 +314,14 @@ def cycle_energy(traj, period: float, model: SymbolicModel) -> CycleEnergy:
     if not (np.isfinite(period) and period > 0):
         raise DataError(f"period must be a positive finite number of seconds; got {period!r}")
     if traj.t[-1] - traj.t[0] < period * (1 - 1e-9):
-        raise DataError(f"the trajectory spans {traj.t[-1] - traj.t[0]:g} s, less than one period ({period:g} s); "
-                        "simulate longer")
+        raise DataError(
+            f"the trajectory spans {traj.t[-1] - traj.t[0]:g} s, less than one period ({period:g} s); simulate longer"
+        )
     if traj.x.shape[1] != model.n_states:
-        raise DataError(f"traj has {traj.x.shape[1]} states, model {model.name} has {model.n_states}; "
-                        "pass the model that produced the trajectory")
+        raise DataError(
+            f"traj has {traj.x.shape[1]} states, model {model.name} has {model.n_states}; "
+            "pass the model that produced the trajectory"
+        )
     eb = energy_balance(model)
     lya = lyapunov_analysis(model)
     sl = steady_cycle(traj, period)
@@ -343,13 +361,22 @@ def cycle_energy(traj, period: float, model: SymbolicModel) -> CycleEnergy:
         for integral in rhs.atoms(sp.Integral):
             vals[integral] = _periodic_integral(t, evaluate(to_signals(integral.function)))
         predicted = float(rhs.xreplace(vals).subs(dict(zip(model.param_symbols, p))))
-    return CycleEnergy(period=float(period), input_work=input_work, dissipated=dissipated, delta_v=delta_v,
-                       balance_residual=input_work - dissipated - delta_v, by_parts=by_parts, loop_area=area,
-                       loop_area_predicted=predicted, integrals=integrals)
+    return CycleEnergy(
+        period=float(period),
+        input_work=input_work,
+        dissipated=dissipated,
+        delta_v=delta_v,
+        balance_residual=input_work - dissipated - delta_v,
+        by_parts=by_parts,
+        loop_area=area,
+        loop_area_predicted=predicted,
+        integrals=integrals,
+    )
 
 
-def linear_loop_area_value(params: Mapping[str, float], model: SymbolicModel, amplitude: float,
-                           frequency: float) -> float:
+def linear_loop_area_value(
+    params: Mapping[str, float], model: SymbolicModel, amplitude: float, frequency: float
+) -> float:
     """The closed-form loop area of the linear limit for numeric parameters (``d = a sin(2 pi f t)``)."""
     lla = linear_loop_area(model)
     vals = {p.symbol: float(v) for p, v in zip(model.params, model.param_vector(dict(params), fill_defaults=True))}

@@ -13,6 +13,7 @@ Two routes give the paper's function, and both are computed here from the symbol
 
 The time derivative along the model's own right-hand side (chain rule) gives Eq. 7/9.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -144,7 +145,7 @@ def state_based_lyapunov(model: SymbolicModel) -> tuple[sp.Expr, sp.Matrix]:
     sol = sp.solve(eqs, [p11, p12], dict=True)
     P = P.subs(sol[0]) if sol else P
     # the conservative nonlinear part: f at rest (no velocity, inputs, extra states)
-    rest = {mech.v: 0, **{u: 0 for u in mech.inputs}, **{z: 0 for z in mech.extra_states}}
+    rest = {mech.v: 0, **dict.fromkeys(mech.inputs, 0), **dict.fromkeys(mech.extra_states, 0)}
     f2 = ss.f[j].xreplace(rest)
     xv = sp.Matrix([mech.x, mech.v])
     V = (xv.T * P * xv)[0] / 2 - _integrate_from_zero(f2, mech.x)
@@ -186,14 +187,18 @@ def _classify(mech: Mechanics, term: sp.Expr) -> DissipationTerm:
         if at_pos.is_nonnegative and at_neg.is_nonnegative:
             decided = True
             break
-        if (at_pos.is_negative or at_neg.is_negative) and not (at_pos.is_nonnegative is None):
+        if (at_pos.is_negative or at_neg.is_negative) and at_pos.is_nonnegative is not None:
             decided = False
             break
     if decided is not True:
         assumed = ()
     return DissipationTerm(
-        force=term, contribution=sp.Mul(-1, coeff, power), coefficient=coeff, shape_nonnegative=decided,
-        assumptions=assumed, condition=(coeff >= 0) if decided else None,
+        force=term,
+        contribution=sp.Mul(-1, coeff, power),
+        coefficient=coeff,
+        shape_nonnegative=decided,
+        assumptions=assumed,
+        condition=(coeff >= 0) if decided else None,
     )
 
 
@@ -212,7 +217,18 @@ def lyapunov_analysis(model: SymbolicModel) -> LyapunovAnalysis:
     v_dot_forced = time_derivative(model, v_energy, forced=True)
     terms = tuple(_classify(mech, c * m) for m, c in split_terms(mech.dissipative, mech.signals).items())
     return LyapunovAnalysis(
-        model=model, x=mech.x, v=mech.v, restoring=mech.restoring, dissipative=mech.dissipative,
-        forcing=mech.forcing, coupling=mech.coupling, P=P, v_state=v_state, v_energy=v_energy,
-        identical=bool(identical), v_dot=v_dot, v_dot_forced=v_dot_forced, dissipation_terms=terms,
+        model=model,
+        x=mech.x,
+        v=mech.v,
+        restoring=mech.restoring,
+        dissipative=mech.dissipative,
+        forcing=mech.forcing,
+        coupling=mech.coupling,
+        P=P,
+        v_state=v_state,
+        v_energy=v_energy,
+        identical=bool(identical),
+        v_dot=v_dot,
+        v_dot_forced=v_dot_forced,
+        dissipation_terms=terms,
     )

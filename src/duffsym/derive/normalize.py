@@ -6,17 +6,18 @@ monomial in :math:`\ddot x, \dot x, x, x^n, \dot x^n, d, \dot d`, against the Du
 braces under Eq. 12 (with m = 1): :math:`\gamma = c_1 + c_2`, :math:`\alpha = k_1 + k_2`,
 :math:`\beta = k_3`, :math:`\delta = c_3`, and :math:`k_1, c_1` unchanged.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import sympy as sp
 
 from duffsym.derive._mechanics import split_terms
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
-from duffsym.model.library import D, D_DOT, X, X_DDOT, X_DOT, duffing_like, mr_damper, mr_damper_equation
+from duffsym.model.library import D_DOT, X_DDOT, X_DOT, D, X, duffing_like, mr_damper, mr_damper_equation
 from duffsym.model.symbols import param_symbol
 
 
@@ -77,10 +78,22 @@ def derive_normalization(n: int | sp.Symbol = 5) -> Normalization:
     physical["A_f"] = sol_af[af_new]
     mapping = {k: sp.factor_terms(e.subs(m, 1)) for k, e in physical.items()}
     eq12 = sp.Eq(
-        sum((e * mono for mono, e in split_terms(lhs11.subs(m, 1), signals).items()
-             if not mono.has(D.symbol) and not mono.has(D_DOT.symbol)), sp.Integer(0)),
-        -sum((e * mono for mono, e in split_terms(lhs11.subs(m, 1), signals).items()
-              if mono.has(D.symbol) or mono.has(D_DOT.symbol)), sp.Integer(0)),
+        sum(
+            (
+                e * mono
+                for mono, e in split_terms(lhs11.subs(m, 1), signals).items()
+                if not mono.has(D.symbol) and not mono.has(D_DOT.symbol)
+            ),
+            sp.Integer(0),
+        ),
+        -sum(
+            (
+                e * mono
+                for mono, e in split_terms(lhs11.subs(m, 1), signals).items()
+                if mono.has(D.symbol) or mono.has(D_DOT.symbol)
+            ),
+            sp.Integer(0),
+        ),
     )
     return Normalization(n=n, physical=physical, mapping=mapping, equation_11=eq11, equation_12=eq12)
 

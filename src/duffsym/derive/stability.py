@@ -19,11 +19,12 @@ References
 H. K. Khalil, *Nonlinear Systems*, 3rd ed., Prentice Hall, 2002, Sect. 4.1–4.2 (Lyapunov's
 direct method, radial unboundedness, LaSalle's invariance principle).
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
@@ -59,7 +60,7 @@ def _monomials(expr: sp.Expr, var: sp.Symbol, structural=()) -> MonomialSum:
         exps.append(e)
         coeffs.append(c)
     # order: symbolic powers (n) are ordered as for n = 3, the smallest odd power with distinct terms
-    probe = {s: 3 for s in structural}
+    probe = dict.fromkeys(structural, 3)
     order = sorted(range(len(exps)), key=lambda i: float(sp.sympify(exps[i]).subs(probe)))
     return MonomialSum(var, tuple(exps[i] for i in order), tuple(coeffs[i] for i in order), poly)
 
@@ -100,13 +101,17 @@ def _definite(ms: MonomialSum, *, strict: bool) -> tuple[sp.Basic, bool, list[st
     exact = True
     # strip odd powers at the ends: they change sign with var, so they must vanish
     while exps and sp.sympify(exps[-1]).is_odd:
-        reasons.append(f"{ms.var}^{exps[-1]} has an odd exponent: it changes sign with {ms.var} and dominates "
-                       f"for large |{ms.var}|, so its coefficient {cs[-1]} must vanish")
+        reasons.append(
+            f"{ms.var}^{exps[-1]} has an odd exponent: it changes sign with {ms.var} and dominates "
+            f"for large |{ms.var}|, so its coefficient {cs[-1]} must vanish"
+        )
         conds.append(_eq0(cs[-1]))
         exps.pop(), cs.pop()
     while exps and sp.sympify(exps[0]).is_odd:
-        reasons.append(f"{ms.var}^{exps[0]} has an odd exponent: it changes sign with {ms.var} and dominates "
-                       f"near {ms.var} = 0, so its coefficient {cs[0]} must vanish")
+        reasons.append(
+            f"{ms.var}^{exps[0]} has an odd exponent: it changes sign with {ms.var} and dominates "
+            f"near {ms.var} = 0, so its coefficient {cs[0]} must vanish"
+        )
         conds.append(_eq0(cs[0]))
         exps.pop(0), cs.pop(0)
     if not exps:
@@ -118,6 +123,7 @@ def _definite(ms: MonomialSum, *, strict: bool) -> tuple[sp.Basic, bool, list[st
         conds += [_eq0(c) for e, c in zip(exps, cs) if not sp.sympify(e).is_even]
         keep = [(e, c) for e, c in zip(exps, cs) if sp.sympify(e).is_even]
         exps, cs = [e for e, _ in keep], [c for _, c in keep]
+
     def rel(c, zero):
         return _gt(c, strict)
 
@@ -129,15 +135,17 @@ def _definite(ms: MonomialSum, *, strict: bool) -> tuple[sp.Basic, bool, list[st
         reasons.append(
             f"even powers {ms.var}^{exps[0]} and {ms.var}^{exps[1]} are |{ms.var}|^k: near 0 the lower dominates "
             f"(needs {lo} >= 0), for large |{ms.var}| the higher (needs {hi} >= 0); two non-negative terms "
-            + ("are positive unless both coefficients vanish" if strict else "give a non-negative sum"))
+            + ("are positive unless both coefficients vanish" if strict else "give a non-negative sum")
+        )
         if strict:
             conds.append(sp.Or(sp.And(_gt(lo), _gt(hi, False)), sp.And(_gt(lo, False), _gt(hi))))
         else:
             conds.append(sp.And(_gt(lo, False), _gt(hi, False)))
     else:
         exact = False
-        reasons.append("more than two even powers: all coefficients >= 0 is sufficient (lowest and highest >= 0 "
-                       "necessary)")
+        reasons.append(
+            "more than two even powers: all coefficients >= 0 is sufficient (lowest and highest >= 0 necessary)"
+        )
         conds += [_gt(c, False) for c in cs]
         if strict:
             conds.append(sp.Or(*[_gt(c) for c in cs]))
@@ -186,8 +194,9 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
     q_exps = [tidy(e - e0) for e in ms.exponents]
     cs = ms.coefficients
     if len(cs) == 1:
-        return RootAnalysis(_ne0(cs[0]), (), sp.false,
-                            f"{ms.var}^{e0} times a constant: only {x} = 0 unless {cs[0]} = 0")
+        return RootAnalysis(
+            _ne0(cs[0]), (), sp.false, f"{ms.var}^{e0} times a constant: only {x} = 0 unless {cs[0]} = 0"
+        )
     if len(cs) != 2:
         return RootAnalysis(None, (), None, "more than two powers: roots found numerically only")
     c0, ce = cs
@@ -199,14 +208,18 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
         t_star = next(iter(sol))
     num, den = sp.fraction(sp.together(t_star))
     sign = sp.factor(num * den)  # sign(t*) = sign(num * den)
-    head = (f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
-            f"t* = {sp.sstr(t_star)}")
+    head = (
+        f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
+        f"t* = {sp.sstr(t_star)}"
+    )
     both_zero = sp.And(_eq0(c0), _eq0(ce))
     if sp.sympify(e).is_even:
         root = sp.Pow(t_star, 1 / sp.sympify(e))
         exists = sp.And(_ne0(ce), _gt(sign))
-        text = (head + f"; {x}^{sp.sstr(e)} >= 0 (even exponent), so real roots +-(t*)^(1/{sp.sstr(e)}) exist "
-                       f"iff t* > 0, i.e. {sp.sstr(sign)} > 0")
+        text = (
+            head + f"; {x}^{sp.sstr(e)} >= 0 (even exponent), so real roots +-(t*)^(1/{sp.sstr(e)}) exist "
+            f"iff t* > 0, i.e. {sp.sstr(sign)} > 0"
+        )
         return RootAnalysis(sp.And(sp.Not(exists), sp.Not(both_zero)).to_nnf(), (root, -root), exists, text)
     if sp.sympify(e).is_odd:
         root = sp.sign(t_star) * sp.Pow(sp.Abs(t_star), 1 / sp.sympify(e))
@@ -258,21 +271,27 @@ class StabilityConditions:
         return sp.And(*parts)
 
     def summary(self) -> str:
-        lines = [f"stability conditions for model {self.lyapunov.model.name}",
-                 f"  V  = {sp.sstr(self.lyapunov.v_energy)}",
-                 f"  dV/dt = -W,  W = {sp.sstr(self.dissipation)}"]
+        lines = [
+            f"stability conditions for model {self.lyapunov.model.name}",
+            f"  V  = {sp.sstr(self.lyapunov.v_energy)}",
+            f"  dV/dt = -W,  W = {sp.sstr(self.dissipation)}",
+        ]
         for key, cond in self.named().items():
             tag = "iff" if self.exact.get(key, False) else "if"
             lines.append(f"  {key}: {tag} {sp.sstr(cond)}")
         if self.equilibria:
-            lines.append(f"  other equilibria x* = {', '.join(map(sp.sstr, self.equilibria))} when "
-                         f"{sp.sstr(self.equilibria_exist)}")
+            lines.append(
+                f"  other equilibria x* = {', '.join(map(sp.sstr, self.equilibria))} when "
+                f"{sp.sstr(self.equilibria_exist)}"
+            )
         return "\n".join(lines)
 
     def named(self) -> dict[str, sp.Basic]:
-        out = {"V positive definite": self.v_positive_definite,
-               "V radially unbounded": self.v_radially_unbounded,
-               "dV/dt negative semi-definite": self.v_dot_nsd}
+        out = {
+            "V positive definite": self.v_positive_definite,
+            "V radially unbounded": self.v_radially_unbounded,
+            "dV/dt negative semi-definite": self.v_dot_nsd,
+        }
         if self.v_dot_zero_set is not None:
             out["dV/dt = 0 only at x' = 0"] = self.v_dot_zero_set
         if self.only_origin is not None:
@@ -295,9 +314,12 @@ def stability_conditions(model: SymbolicModel) -> StabilityConditions:
     pot = _monomials(potential, x, structural)
     pd, pd_exact, pd_why = _definite(pot, strict=True)
     ru = _radially_unbounded(pot)
-    reasons = {"V positive definite": ["V = x'^2/2 + P(x); x'^2/2 is positive definite in x'"] + pd_why,
-               "V radially unbounded": ["needs P(x) -> +inf as |x| -> inf: the highest even power's coefficient "
-                                        "> 0, odd highest powers absent"]}
+    reasons = {
+        "V positive definite": ["V = x'^2/2 + P(x); x'^2/2 is positive definite in x'"] + pd_why,
+        "V radially unbounded": [
+            "needs P(x) -> +inf as |x| -> inf: the highest even power's coefficient > 0, odd highest powers absent"
+        ],
+    }
     exact = {"V positive definite": pd_exact and pot.polynomial, "V radially unbounded": pot.polynomial}
     # dissipation: a sum of powers of x' (the paper's models), else per-term sufficient conditions
     w = _monomials(dissipation, v, structural) if not dissipation.has(x) else None
@@ -318,17 +340,29 @@ def stability_conditions(model: SymbolicModel) -> StabilityConditions:
     if lya.coupling != 0:
         reasons["dV/dt negative semi-definite"].append(
             f"the coupling to extra states adds {sp.sstr(tidy(v * lya.coupling))} to dV/dt, which is not "
-            "sign-definite: this V does not certify the extended model")
+            "sign-definite: this V does not certify the extended model"
+        )
         nsd = sp.false
     rest = _monomials(lya.restoring, x, structural)
     roots_r = _roots(rest)
     reasons["R(x) = 0 only at x = 0 (LaSalle)"] = [
-        "on x' = 0 (where dV/dt = 0) invariance needs x'' = -R(x) = 0 (Eq. 10)", roots_r.text]
+        "on x' = 0 (where dV/dt = 0) invariance needs x'' = -R(x) = 0 (Eq. 10)",
+        roots_r.text,
+    ]
     exact["R(x) = 0 only at x = 0 (LaSalle)"] = roots_r.only_zero is not None
     return StabilityConditions(
-        lyapunov=lya, potential=potential, dissipation=dissipation, v_positive_definite=pd,
-        v_radially_unbounded=ru, v_dot_nsd=nsd, v_dot_zero_set=zero_set, only_origin=roots_r.only_zero,
-        equilibria=roots_r.extra_roots, equilibria_exist=roots_r.exists, exact=exact, reasons=reasons,
+        lyapunov=lya,
+        potential=potential,
+        dissipation=dissipation,
+        v_positive_definite=pd,
+        v_radially_unbounded=ru,
+        v_dot_nsd=nsd,
+        v_dot_zero_set=zero_set,
+        only_origin=roots_r.only_zero,
+        equilibria=roots_r.extra_roots,
+        equilibria_exist=roots_r.exists,
+        exact=exact,
+        reasons=reasons,
     )
 
 
@@ -443,14 +477,16 @@ def stability_certificate(model: SymbolicModel, params: Mapping[str, float]) -> 
         holds = _truth(cond, values)
         detail = _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_eq, lin)
         tag = "" if sc.exact.get(name, False) else " (sufficient)"
-        conds.append(Condition(name=name, statement=condition_text(cond) + tag, latex=latex(cond), holds=holds,
-                               detail=detail))
+        conds.append(
+            Condition(name=name, statement=condition_text(cond) + tag, latex=latex(cond), holds=holds, detail=detail)
+        )
     if conds_zero is not None:
         conds.insert(3, conds_zero)
     ok = all(c.holds for c in conds)
     conclusion = _conclusion(ok, conds, lin, extra_eq)
-    return StabilityCertificate(model=model.name, params=named_values, holds=ok, conditions=tuple(conds),
-                                conclusion=conclusion)
+    return StabilityCertificate(
+        model=model.name, params=named_values, holds=ok, conditions=tuple(conds), conclusion=conclusion
+    )
 
 
 def _numeric_zero_set(W_num: sp.Expr, v: sp.Symbol) -> Condition:
@@ -460,15 +496,18 @@ def _numeric_zero_set(W_num: sp.Expr, v: sp.Symbol) -> Condition:
     vals = np.concatenate([np.broadcast_to(f(grid), grid.shape), np.broadcast_to(f(-grid), grid.shape)])
     holds = bool(np.all(vals > 0))
     return Condition(
-        name="dV/dt = 0 only at x' = 0", statement="W(x') > 0 for x' != 0 (checked numerically, 1e-6 <= |x'| <= 1e4)",
-        latex=r"W(\dot x) > 0 \ \text{for}\ \dot x \ne 0", holds=holds,
-        detail="non-polynomial dissipation: checked on a grid of velocities, not proved")
+        name="dV/dt = 0 only at x' = 0",
+        statement="W(x') > 0 for x' != 0 (checked numerically, 1e-6 <= |x'| <= 1e4)",
+        latex=r"W(\dot x) > 0 \ \text{for}\ \dot x \ne 0",
+        holds=holds,
+        detail="non-polynomial dissipation: checked on a grid of velocities, not proved",
+    )
 
 
 def _linearization(model: SymbolicModel, values: dict) -> np.ndarray:
     """Eigenvalues of the state Jacobian at the origin (inputs zero)."""
     J = sp.Matrix(model.rhs).jacobian(sp.Matrix(model.states))
-    at = {s: 0 for s in model.states} | {u: 0 for u in model.input_symbols} | values
+    at = dict.fromkeys(model.states, 0) | dict.fromkeys(model.input_symbols, 0) | values
     Jn = np.array(J.subs(at).evalf(), dtype=float)
     return np.linalg.eigvals(Jn)
 
@@ -485,9 +524,11 @@ def _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_
             return base + ": P > 0 for x != 0"
         lo = [_num(c, values) for c in pot.coefficients]
         if lo and lo[0] < 0:
-            return (base + f"; the lowest stiffness term is negative, so V < 0 near x = 0: a double well. "
-                    f"The origin is a saddle (linearization eigenvalues {_eig_text(lin)}); other equilibria at "
-                    f"x = {', '.join(_fmt(r) for r in extra_eq)}, where the motion settles instead")
+            return (
+                base + f"; the lowest stiffness term is negative, so V < 0 near x = 0: a double well. "
+                f"The origin is a saddle (linearization eigenvalues {_eig_text(lin)}); other equilibria at "
+                f"x = {', '.join(_fmt(r) for r in extra_eq)}, where the motion settles instead"
+            )
         if lo and lo[-1] < 0:
             return base + "; the highest stiffness term is negative: V < 0 for large |x| (softening spring)"
         return base + "; P is not positive for every x != 0"
@@ -497,11 +538,15 @@ def _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_
         barrier = ""
         if extra_eq:
             vb = min(float(P_num.subs(x, r)) for r in extra_eq)
-            barrier = (f"; equilibria at x = {', '.join(_fmt(r) for r in extra_eq)} are saddles with energy "
-                       f"V = {_fmt(vb)}: the origin is only locally asymptotically stable, for V < {_fmt(vb)}; "
-                       "larger disturbances or forcing push the motion over the barrier and it diverges")
-        return (f"P(x) = {sp.sstr(sp.N(P_num, 6))} -> -inf for large |x| (softening: negative highest-power "
-                f"stiffness)" + barrier)
+            barrier = (
+                f"; equilibria at x = {', '.join(_fmt(r) for r in extra_eq)} are saddles with energy "
+                f"V = {_fmt(vb)}: the origin is only locally asymptotically stable, for V < {_fmt(vb)}; "
+                "larger disturbances or forcing push the motion over the barrier and it diverges"
+            )
+        return (
+            f"P(x) = {sp.sstr(sp.N(P_num, 6))} -> -inf for large |x| (softening: negative highest-power "
+            f"stiffness)" + barrier
+        )
     if name == "dV/dt negative semi-definite":
         base = f"dV/dt = -({sp.sstr(sp.N(W_num, 6))})"
         if W_num == 0:
@@ -511,43 +556,58 @@ def _detail(name, holds, sc, pot, values, P_num, W_num, R_num, extra_eq, finite_
         w = _monomials(W_num, v)
         cs = [float(c) for c in w.coefficients] if w.polynomial and w.exponents else []
         if cs and cs[0] < 0:
-            txt = (base + "; the linear damping is negative: energy is pumped in at small velocities, so the "
-                   f"origin is unstable (linearization eigenvalues {_eig_text(lin)})")
+            txt = (
+                base + "; the linear damping is negative: energy is pumped in at small velocities, so the "
+                f"origin is unstable (linearization eigenvalues {_eig_text(lin)})"
+            )
             if len(cs) > 1 and cs[-1] > 0:
                 e = float(w.exponents[-1] - w.exponents[0])
                 vb = (-cs[0] / cs[-1]) ** (1 / e)
-                txt += (f"; the higher-power damping removes energy for |x'| > {_fmt(vb)}, so the motion stays "
-                        "bounded and can settle on a limit cycle around the origin (self-excited oscillation)")
+                txt += (
+                    f"; the higher-power damping removes energy for |x'| > {_fmt(vb)}, so the motion stays "
+                    "bounded and can settle on a limit cycle around the origin (self-excited oscillation)"
+                )
             return txt
         if cs and cs[-1] < 0:
-            return base + ("; the highest-power damping is negative: energy is pumped in at large velocities, "
-                           "so fast enough motion grows without bound")
+            return base + (
+                "; the highest-power damping is negative: energy is pumped in at large velocities, "
+                "so fast enough motion grows without bound"
+            )
         return base + "; a term of dV/dt is not sign-definite"
     if name == "dV/dt = 0 only at x' = 0":
         if holds:
             return "W(x') = 0 only at x' = 0: the set {dV/dt = 0} is the x-axis of the phase plane"
         if W_num == 0:
-            return ("no dissipation: dV/dt = 0 identically, V is conserved (conservative system); the origin is "
-                    "at best stable, not asymptotically stable: solutions keep oscillating on level curves of V")
+            return (
+                "no dissipation: dV/dt = 0 identically, V is conserved (conservative system); the origin is "
+                "at best stable, not asymptotically stable: solutions keep oscillating on level curves of V"
+            )
         return "W(x') vanishes at non-zero velocities too (damping terms of opposite sign)"
     if name.startswith("R(x) = 0"):
         if finite_eq is None:
             return "R(x) = 0 for every x: a continuum of equilibria (no restoring force)"
         if holds:
             return f"R(x) = {sp.sstr(sp.N(R_num, 6))} vanishes only at x = 0: the origin is the largest invariant set"
-        return (f"R(x) = {sp.sstr(sp.N(R_num, 6))} also vanishes at x = {', '.join(_fmt(r) for r in extra_eq)}: "
-                "these equilibria are invariant in {x' = 0}, so solutions need not approach the origin")
+        return (
+            f"R(x) = {sp.sstr(sp.N(R_num, 6))} also vanishes at x = {', '.join(_fmt(r) for r in extra_eq)}: "
+            "these equilibria are invariant in {x' = 0}, so solutions need not approach the origin"
+        )
     return ""
 
 
 def _conclusion(ok: bool, conds, lin, extra_eq) -> str:
     if ok:
-        return ("all conditions hold: V is a global Lyapunov function and, by LaSalle's invariance principle "
-                "(Eq. 10), the unforced origin is globally asymptotically stable. With an input, dV/dt = -W + F x': "
-                "the input work is the only energy source, and over a periodic steady-state cycle it equals the "
-                "energy dissipated (duffsym.derive.energy)")
+        return (
+            "all conditions hold: V is a global Lyapunov function and, by LaSalle's invariance principle "
+            "(Eq. 10), the unforced origin is globally asymptotically stable. With an input, dV/dt = -W + F x': "
+            "the input work is the only energy source, and over a periodic steady-state cycle it equals the "
+            "energy dissipated (duffsym.derive.energy)"
+        )
     broken = ", ".join(c.name for c in conds if not c.holds)
     unstable = bool(np.any(lin.real > 1e-12))
-    tail = (" The linearization at the origin has an eigenvalue with positive real part: the origin is unstable."
-            if unstable else "")
+    tail = (
+        " The linearization at the origin has an eigenvalue with positive real part: the origin is unstable."
+        if unstable
+        else ""
+    )
     return f"the Lyapunov argument does not prove global asymptotic stability: {broken} fails.{tail}"

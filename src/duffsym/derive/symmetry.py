@@ -14,12 +14,13 @@ MR damper this gives :math:`c_1' = sc_1`, :math:`c_2' = c_1 + c_2 - sc_1`, :math
 :math:`A_f' = A_f/s`: a one-parameter family of parameter sets with the same input–output
 behaviour, so one parameter must be fixed (the paper fixes :math:`A_f = \max|y|`).
 """
+
 from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import sympy as sp
 
@@ -151,10 +152,16 @@ def find_scaling_symmetry(model: SymbolicModel) -> ScalingSymmetry:
             break
     names = model.param_names
     if sol is None:
-        return ScalingSymmetry(model=model, exists=False, mapping={}, tangent={}, scaled_states=(),
-                               text="no parameter change compensates x -> s*x: some term or the output "
-                                    "fixes the scale of the states (e.g. the output is the state itself, an "
-                                    "input enters without a parameter, or a term like tanh(x'/eps) with fixed eps)")
+        return ScalingSymmetry(
+            model=model,
+            exists=False,
+            mapping={},
+            tangent={},
+            scaled_states=(),
+            text="no parameter change compensates x -> s*x: some term or the output "
+            "fixes the scale of the states (e.g. the output is the state itself, an "
+            "input enters without a parameter, or a term like tanh(x'/eps) with fixed eps)",
+        )
     back = {v: k for k, v in new.items()}
     unknowns = list(new.values())
     mapping: dict[str, sp.Expr] = {}
@@ -166,16 +173,21 @@ def find_scaling_symmetry(model: SymbolicModel) -> ScalingSymmetry:
     tangent = {k: sp.simplify(sp.diff(e, S).subs(S, 1)) for k, e in mapping.items()}
     moved = [k for k in names if tangent[k] != 0]
     fix = "the paper fixes A_f = max|y|" if "A_f" in moved else "fix one of them"
-    text = (f"the output is unchanged along this one-parameter family, so {', '.join(moved)} cannot all be "
-            f"identified from input-output data ({fix})")
+    text = (
+        f"the output is unchanged along this one-parameter family, so {', '.join(moved)} cannot all be "
+        f"identified from input-output data ({fix})"
+    )
     unscaled = [str(x) for x in states if x not in scaled]
     if unscaled:
         text += f"; states {', '.join(unscaled)} are not scaled"
     if free:
-        text += (f"; the solution is not unique ({', '.join(free)} held at their old values): the model has a "
-                 "further symmetry, e.g. the mass scaling of Eq. 11")
-    return ScalingSymmetry(model=model, exists=True, mapping=mapping, tangent=tangent, text=text,
-                           scaled_states=tuple(scaled))
+        text += (
+            f"; the solution is not unique ({', '.join(free)} held at their old values): the model has a "
+            "further symmetry, e.g. the mass scaling of Eq. 11"
+        )
+    return ScalingSymmetry(
+        model=model, exists=True, mapping=mapping, tangent=tangent, text=text, scaled_states=tuple(scaled)
+    )
 
 
 def normalize_af(model: SymbolicModel, params: Mapping[str, float], A_f_target: float) -> dict[str, float]:

@@ -22,12 +22,13 @@ the model's start (:func:`duffsym.identify.initial_guess`), the others random lo
   literature's bound on z (Ikhouane, Manosa, Rodellar 2007, Spencer's sign convention: A > 0, gamma > 0,
   \|beta\| <= gamma) - a boundedness result, not a Lyapunov certificate; otherwise "none derived".
 """
+
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -89,19 +90,28 @@ class Comparison:
 
     def to_dict(self) -> dict:
         best = self.best()
-        return {"split": self.split, "training": list(self.training), "heldout": list(self.heldout),
-                "best": best.model if best else None, "models": [s.to_dict() for s in self.scores],
-                "table": self.summary()}
+        return {
+            "split": self.split,
+            "training": list(self.training),
+            "heldout": list(self.heldout),
+            "best": best.model if best else None,
+            "models": [s.to_dict() for s in self.scores],
+            "table": self.summary(),
+        }
 
     def summary(self) -> str:
-        head = (f"{'model':<26} {'held-out':>8} {'in-sample':>9} {'k':>3} {'BIC':>10} {'fit s':>7} {'starts':>7} "
-                f"{'us/sample':>9} {'substeps':>9}  certificate")
+        head = (
+            f"{'model':<26} {'held-out':>8} {'in-sample':>9} {'k':>3} {'BIC':>10} {'fit s':>7} {'starts':>7} "
+            f"{'us/sample':>9} {'substeps':>9}  certificate"
+        )
         lines = [f"comparison on {len(self.training)} training record(s); held out: {self.split}", head]
         for s in self.scores:
-            lines.append(f"{s.model:<26} {s.heldout_nrmse:>8.4f} {s.insample_nrmse:>9.4f} {s.n_params:>3d} "
-                         f"{s.bic:>10.4g} {s.fit_seconds:>7.1f} {s.starts_at_best:>3d}/{s.starts:<3d} "
-                         f"{s.sim_seconds_per_sample * 1e6:>9.3f} {s.substeps_mean:>5.1f}/{s.substeps_max:<3d} "
-                         f"{s.certificate}" + ("" if s.success else f"  [FAILED: {s.message[:60]}]"))
+            lines.append(
+                f"{s.model:<26} {s.heldout_nrmse:>8.4f} {s.insample_nrmse:>9.4f} {s.n_params:>3d} "
+                f"{s.bic:>10.4g} {s.fit_seconds:>7.1f} {s.starts_at_best:>3d}/{s.starts:<3d} "
+                f"{s.sim_seconds_per_sample * 1e6:>9.3f} {s.substeps_mean:>5.1f}/{s.substeps_max:<3d} "
+                f"{s.certificate}" + ("" if s.success else f"  [FAILED: {s.message[:60]}]")
+            )
         best = self.best()
         if best is not None:
             lines.append(f"best held-out: {best.model} ({best.heldout_nrmse:.4f})")
@@ -121,9 +131,11 @@ def split_records(records: Sequence, holdout: float = HOLDOUT) -> tuple[list, li
     for r in records:
         k = int(round(r.n_times * (1.0 - holdout)))
         if k < 20 or r.n_times - k < 10:
-            raise DataError(f"record {r.name or '(unnamed)'}: {r.n_times} samples are too few to hold out "
-                            f"{holdout:g} of them (need >= 20 to fit and >= 10 held out); give longer records or "
-                            "held-out files (--validate)")
+            raise DataError(
+                f"record {r.name or '(unnamed)'}: {r.n_times} samples are too few to hold out "
+                f"{holdout:g} of them (need >= 20 to fit and >= 10 held out); give longer records or "
+                "held-out files (--validate)"
+            )
         train.append(r.slice(0, k))
         tail.append(k)
     return train, tail
@@ -145,10 +157,20 @@ def resolve_model(spec):
     return get_model(name.strip(), int(value) if value.is_integer() else value)
 
 
-def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = None, holdout: float = HOLDOUT,
-            n_starts: int = 4, start_spread: float = 3.0, rng: int = 0, fixed: Mapping[str, float] | None = None,
-            max_iter: int = 500, starts: Mapping[str, Mapping[str, float]] | None = None,
-            progress: Callable[[str], None] | None = None) -> Comparison:
+def compare(
+    records: Sequence,
+    models: Sequence,
+    *,
+    validate: Sequence | None = None,
+    holdout: float = HOLDOUT,
+    n_starts: int = 4,
+    start_spread: float = 3.0,
+    rng: int = 0,
+    fixed: Mapping[str, float] | None = None,
+    max_iter: int = 500,
+    starts: Mapping[str, Mapping[str, float]] | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Comparison:
     """Fit each of ``models`` on the training records and score it on held-out data (module docstring).
 
     Parameters
@@ -181,14 +203,28 @@ def compare(records: Sequence, models: Sequence, *, validate: Sequence | None = 
     scores, preds = [], {}
     for model in resolved:
         say(f"fitting {model.name} on {len(train)} record(s) from {n_starts} start(s)")
-        score, pred = _score_model(model, train, held, tails, n_starts=n_starts, start_spread=start_spread,
-                                   rng=rng, fixed={k: v for k, v in (fixed or {}).items() if k in model.param_names},
-                                   max_iter=max_iter, x0=dict((starts or {}).get(model.name, {})) or None)
+        score, pred = _score_model(
+            model,
+            train,
+            held,
+            tails,
+            n_starts=n_starts,
+            start_spread=start_spread,
+            rng=rng,
+            fixed={k: v for k, v in (fixed or {}).items() if k in model.param_names},
+            max_iter=max_iter,
+            x0=dict((starts or {}).get(model.name, {})) or None,
+        )
         say(f"  {model.name}: held-out NRMSE {score.heldout_nrmse:.4f}, fit {score.fit_seconds:.1f} s")
         scores.append(score)
         preds[model.name] = pred
-    return Comparison(tuple(scores), split, tuple(r.name or f"record {i}" for i, r in enumerate(train)),
-                      tuple(r.name or f"record {i}" for i, r in enumerate(held)), preds)
+    return Comparison(
+        tuple(scores),
+        split,
+        tuple(r.name or f"record {i}" for i, r in enumerate(train)),
+        tuple(r.name or f"record {i}" for i, r in enumerate(held)),
+        preds,
+    )
 
 
 def _score_model(model, train, held, tails, *, n_starts, start_spread, rng, fixed, max_iter, x0=None):
@@ -197,8 +233,14 @@ def _score_model(model, train, held, tails, *, n_starts, start_spread, rng, fixe
 
     t0 = time.perf_counter()
     try:
-        res = fit(Problem(model, train, fixed=fixed or None), x0, n_starts=n_starts, start_spread=start_spread, rng=rng,
-                  max_iter=max_iter)
+        res = fit(
+            Problem(model, train, fixed=fixed or None),
+            x0,
+            n_starts=n_starts,
+            start_spread=start_spread,
+            rng=rng,
+            max_iter=max_iter,
+        )
     except (ModelError, DataError) as exc:
         return _failed(model, str(exc)), {}
     fit_s = time.perf_counter() - t0
@@ -209,15 +251,48 @@ def _score_model(model, train, held, tails, *, n_starts, start_spread, rng, fixe
     sim_s, sub_mean, sub_max, how = simulation_cost(model, res, train)
     n = res.n_samples
     bic = n * math.log(max(res.cost, 1e-300) / n) + len(res.free) * math.log(n)
-    score = ModelScore(model.name, bool(res.success), len(res.free), pooled, per_rec, float(res.nrmse), bic, fit_s,
-                       n_starts, int(at_best), sim_s, sub_mean, sub_max, how, certificate(model, res),
-                       dict(res.params), res.message)
+    score = ModelScore(
+        model.name,
+        bool(res.success),
+        len(res.free),
+        pooled,
+        per_rec,
+        float(res.nrmse),
+        bic,
+        fit_s,
+        n_starts,
+        int(at_best),
+        sim_s,
+        sub_mean,
+        sub_max,
+        how,
+        certificate(model, res),
+        dict(res.params),
+        res.message,
+    )
     return score, preds
 
 
 def _failed(model, message: str):
-    return ModelScore(model.name, False, 0, math.inf, {}, math.inf, math.inf, 0.0, 0, 0, math.nan, math.nan, 0, "",
-                      "none derived", {}, message)
+    return ModelScore(
+        model.name,
+        False,
+        0,
+        math.inf,
+        {},
+        math.inf,
+        math.inf,
+        0.0,
+        0,
+        0,
+        math.nan,
+        math.nan,
+        0,
+        "",
+        "none derived",
+        {},
+        message,
+    )
 
 
 def _heldout(model, res, train, held, tails) -> tuple[dict, dict]:
@@ -233,8 +308,8 @@ def _heldout(model, res, train, held, tails) -> tuple[dict, dict]:
             y_hat = np.asarray(v.y_sim, dtype=float) if v.success else np.full(rec.n_times, np.nan)
             y = np.asarray(rec.y)
         else:
-            y_hat = _continued_run(model, res, rec, i)[tails[i]:]
-            y = np.asarray(rec.y)[tails[i]:]
+            y_hat = _continued_run(model, res, rec, i)[tails[i] :]
+            y = np.asarray(rec.y)[tails[i] :]
         per[name] = nrmse(y, y_hat) if y_hat.size == y.size else math.inf
         preds[name] = y_hat
     return per, preds
@@ -253,7 +328,7 @@ def _pooled(held, tails, preds) -> float:
     ys, yh = [], []
     for i, rec in enumerate(held):
         name = rec.name or f"record {i}"
-        y = np.asarray(rec.y)[(tails[i] if tails is not None else 0):]
+        y = np.asarray(rec.y)[(tails[i] if tails is not None else 0) :]
         if preds[name].size != y.size:
             return math.inf
         ys.append(y)
@@ -281,17 +356,22 @@ def simulation_cost(model, res, records) -> tuple[float, float, int, str]:
         subs.append(np.asarray(tr.substeps))
         how.add(tr.method + (" (fallback)" if tr.fallback else ""))
     s = np.concatenate(subs) if subs else np.zeros(0)
-    return total / max(n, 1), float(np.mean(s)) if s.size else math.nan, int(s.max()) if s.size else 0, \
-        ", ".join(sorted(how))
+    return (
+        total / max(n, 1),
+        float(np.mean(s)) if s.size else math.nan,
+        int(s.max()) if s.size else 0,
+        ", ".join(sorted(how)),
+    )
 
 
 def certificate(model, res) -> str:
-    """"holds", "fails: ..." (derived Lyapunov conditions), a literature bound, or "none derived"."""
+    """ "holds", "fails: ..." (derived Lyapunov conditions), a literature bound, or "none derived"."""
     derived = _derived_conditions(model)
     if derived:
         bad = [f for f in res.flags if f.get("flag") == "outside-stability-certificate"]
-        return "Lyapunov: fails (" + ", ".join(map(str, bad[0].get("failed", [])))[:60] + ")" if bad \
-            else "Lyapunov: holds"
+        return (
+            "Lyapunov: fails (" + ", ".join(map(str, bad[0].get("failed", [])))[:60] + ")" if bad else "Lyapunov: holds"
+        )
     names = set(model.param_names)
     if {"A", "gamma", "beta"} <= names:
         p = res.params
@@ -346,8 +426,13 @@ def plot_comparison(comparison: Comparison, path) -> None:
     axes[1].set_xlabel("fit time, s (text: starts at the best optimum)")
     axes[2].barh(y, [s.sim_seconds_per_sample * 1e6 for s in scores], color="0.4")
     for j, s in enumerate(scores):
-        axes[2].text(s.sim_seconds_per_sample * 1e6, j, f" {s.substeps_mean:.1f}/{s.substeps_max} substeps",
-                     va="center", fontsize="x-small")
+        axes[2].text(
+            s.sim_seconds_per_sample * 1e6,
+            j,
+            f" {s.substeps_mean:.1f}/{s.substeps_max} substeps",
+            va="center",
+            fontsize="x-small",
+        )
     axes[2].set_xscale("log")
     costs = [s.sim_seconds_per_sample * 1e6 for s in scores if s.sim_seconds_per_sample > 0]
     if costs:

@@ -28,13 +28,14 @@ Delayed copies of the signals are not in the library: an output term must be a f
 model's current states and inputs, and a short delay of ``d`` is ``d - τ d'`` to first order,
 which the library spans.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
@@ -61,8 +62,11 @@ EPS_FRACTIONS = (0.03, 0.1, 0.3)
 
 def signals(record, model: SymbolicModel, states: np.ndarray | None) -> dict[str, np.ndarray]:
     """The library's signals: the record's ``d, d', d''`` and the model's ``x, x'`` (from ``states``)."""
-    cols = {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float),
-            "d_ddot": np.asarray(record.acceleration(), float)}
+    cols = {
+        "d": np.asarray(record.d, float),
+        "d_dot": np.asarray(record.velocity(), float),
+        "d_ddot": np.asarray(record.acceleration(), float),
+    }
     if states is not None:
         for sym, key in ((model.position, "x"), (model.velocity, "x_dot")):
             if sym is not None and sym in model.states:
@@ -97,9 +101,15 @@ def term_library(cols: Mapping[str, np.ndarray]):
     ``positions ⊗ switches(d') ⊗ ...``: ``d²·tanh(d'/ε)`` (friction growing toward the stroke ends),
     ``exp(-(d'/v_s)²)·tanh(d'/ε)`` (a Stribeck peak), ``d·|x'|``, ... Nothing is typed in per term
     (the shared :func:`duffsym.sindy.sparse.switching_library`)."""
-    return sparse.switching_library(cols, positions=POSITIONS, velocities=VELOCITIES, plain_degree=PLAIN_DEGREE,
-                                    position_degree=POSITION_DEGREE, eps_fractions=EPS_FRACTIONS,
-                                    stribeck_fractions=STRIBECK_FRACTIONS)
+    return sparse.switching_library(
+        cols,
+        positions=POSITIONS,
+        velocities=VELOCITIES,
+        plain_degree=PLAIN_DEGREE,
+        position_degree=POSITION_DEGREE,
+        eps_fractions=EPS_FRACTIONS,
+        stribeck_fractions=STRIBECK_FRACTIONS,
+    )
 
 
 def library(cols: Mapping[str, np.ndarray]) -> list[sp.Expr]:
@@ -159,9 +169,27 @@ class Discovery:
     y_ext: np.ndarray | None = None
 
     def to_dict(self) -> dict:
-        keys = ("found", "effect", "term", "latex", "words", "resembles", "nrmse_before", "nrmse_after", "delta_bic",
-                "improvement", "explained", "supported", "needed", "params", "stderr", "success", "message",
-                "selection", "seconds")
+        keys = (
+            "found",
+            "effect",
+            "term",
+            "latex",
+            "words",
+            "resembles",
+            "nrmse_before",
+            "nrmse_after",
+            "delta_bic",
+            "improvement",
+            "explained",
+            "supported",
+            "needed",
+            "params",
+            "stderr",
+            "success",
+            "message",
+            "selection",
+            "seconds",
+        )
         return {k: getattr(self, k) for k in keys}
 
     def summary(self) -> str:
@@ -169,16 +197,36 @@ class Discovery:
             return f"discovery: no term found ({self.message})"
         like = f"; resembles {', '.join(self.resembles)}" if self.resembles else ""
         verdict = "needed" if self.needed else ("supported, partial" if self.supported else "not supported")
-        return (f"discovery: {self.effect}{like}\n  held-out NRMSE {self.nrmse_before:.4g} -> {self.nrmse_after:.4g}, "
-                f"dBIC {self.delta_bic:.1f}, {100 * self.explained:.0f} % of the excess error explained: {verdict}")
+        return (
+            f"discovery: {self.effect}{like}\n  held-out NRMSE {self.nrmse_before:.4g} -> {self.nrmse_after:.4g}, "
+            f"dBIC {self.delta_bic:.1f}, {100 * self.explained:.0f} % of the excess error explained: {verdict}"
+        )
 
 
 def _nothing(message: str, before: float, selection: dict, seconds: float) -> Discovery:
     nan = math.nan
-    return Discovery(found=False, effect="", term="", latex="", words="", resembles=[], nrmse_before=before,
-                     nrmse_after=nan, delta_bic=nan, improvement=nan, explained=nan, supported=False, needed=False,
-                     params={}, stderr={}, all_params={}, success=False, message=message, selection=selection,
-                     seconds=seconds)
+    return Discovery(
+        found=False,
+        effect="",
+        term="",
+        latex="",
+        words="",
+        resembles=[],
+        nrmse_before=before,
+        nrmse_after=nan,
+        delta_bic=nan,
+        improvement=nan,
+        explained=nan,
+        supported=False,
+        needed=False,
+        params={},
+        stderr={},
+        all_params={},
+        success=False,
+        message=message,
+        selection=selection,
+        seconds=seconds,
+    )
 
 
 def _states(model, params, record, x0) -> np.ndarray | None:
@@ -202,14 +250,30 @@ def family(term: sp.Expr) -> str:
     return re.sub(r"\d+\.\d+(e[+-]?\d+)?", "#", sp.sstr(term))
 
 
-def stability(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], terms: list, *,
-              resamples: int = RESAMPLES, max_terms: int = MAX_TERMS, seed: int = 0) -> dict:
+def stability(
+    Theta: np.ndarray,
+    r: np.ndarray,
+    parts: list[np.ndarray],
+    terms: list,
+    *,
+    resamples: int = RESAMPLES,
+    max_terms: int = MAX_TERMS,
+    seed: int = 0,
+) -> dict:
     """Stability selection over resampled cycles: ``resamples`` times, half the blocks (``parts``) train an
     OMP path (:func:`select_terms`, 1..``max_terms`` terms) and the other half choose its size; returns
     the inclusion probability of every family of terms (:func:`family`; any member selected) and of every
     term, and each family's most selected member (:func:`duffsym.sindy.sparse.stability_selection`)."""
-    return sparse.stability_selection(Theta, r, parts, [family(t) for t in terms], resamples=resamples,
-                                      max_terms=max_terms, parsimony=PARSIMONY, seed=seed)
+    return sparse.stability_selection(
+        Theta,
+        r,
+        parts,
+        [family(t) for t in terms],
+        resamples=resamples,
+        max_terms=max_terms,
+        parsimony=PARSIMONY,
+        seed=seed,
+    )
 
 
 def _simpler(terms: list, i: int) -> int:
@@ -234,12 +298,17 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
     stab = stability(Theta[:k], r[:k], blocks(record, k), terms)
     stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
-    selection = {"library": len(terms), "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
-                 f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
-                 "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
-                 "inclusion": {term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3) for f, p in
-                               sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]},
-                 "n_terms": len(stable)}
+    selection = {
+        "library": len(terms),
+        "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
+        f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
+        "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
+        "inclusion": {
+            term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3)
+            for f, p in sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]
+        },
+        "n_terms": len(stable),
+    }
     if not stable:
         return [], selection
     index = 1 + sum(e.startswith("discovered:") for e in model.effects)
@@ -248,16 +317,26 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     if simpler != supports[0] and len(set(simpler)) == len(simpler):
         supports.insert(1, simpler)
     out = []
-    for sup in supports[:max(tries, 1)]:
+    for sup in supports[: max(tries, 1)]:
         coefs, *_ = np.linalg.lstsq(Theta[:k, sup], r[:k], rcond=None)
         out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
     return out, selection
 
 
-def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None, mask=None,
-                  bic_threshold: float | None = None, min_improvement: float | None = None,
-                  min_explained: float | None = None, max_iter: int = 300, tries: int = TRIES,
-                  progress=None) -> Discovery:
+def discover_term(
+    record,
+    model,
+    dg,
+    *,
+    fixed: Mapping[str, float] | None = None,
+    mask=None,
+    bic_threshold: float | None = None,
+    min_improvement: float | None = None,
+    min_explained: float | None = None,
+    max_iter: int = 300,
+    tries: int = TRIES,
+    progress=None,
+) -> Discovery:
     """Discover what ``model`` lacks on ``record`` outside the catalogue, from the diagnosis ``dg`` of it.
 
     First, when the base fit's residual grows or shrinks over the record, a drifting parameter
@@ -278,11 +357,14 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     k = dg.split["n_fit"]
     held = slice(k, None)
     before = _nrmse(np.asarray(record.y, float)[held], dg.y_base[held])
-    rules = dict(bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
-                 min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
-                 min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained)
-    drifted = discover_drift(record, model, dg, fixed=fixed, mask=mask, max_iter=max_iter, rules=rules,
-                             progress=progress)
+    rules = dict(
+        bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
+        min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
+        min_explained=S.MIN_EXPLAINED if min_explained is None else min_explained,
+    )
+    drifted = discover_drift(
+        record, model, dg, fixed=fixed, mask=mask, max_iter=max_iter, rules=rules, progress=progress
+    )
     if drifted is not None and drifted.needed:
         return dataclasses.replace(drifted, seconds=time.perf_counter() - t0)
     say("  discovering a term outside the catalogue")
@@ -293,18 +375,23 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
     tried = ""
     if drifted is not None:
         selection["drift"] = drifted.to_dict()
-        tried = (drifted.message if not drifted.found else
-                 f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})")
+        tried = (
+            drifted.message
+            if not drifted.found
+            else f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})"
+        )
         tried += "; "
     if not effects:
         best = max(selection.get("inclusion", {"": 0}).items(), key=lambda kv: kv[1], default=("", 0))
         what = f"highest inclusion {best[1]:.2f}, {best[0]}" if best[0] else "every resample chose no term"
-        return _nothing(f"{tried}no term is stable over resampled cycles ({what})", before, selection,
-                        time.perf_counter() - t0)
+        return _nothing(
+            f"{tried}no term is stable over resampled cycles ({what})", before, selection, time.perf_counter() - t0
+        )
     fits = [f for f in (_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects) if f]
     if not fits:
-        return _nothing(f"the fit of {effects[0].name} failed or its free run diverged", before, selection,
-                        time.perf_counter() - t0)
+        return _nothing(
+            f"the fit of {effects[0].name} failed or its free run diverged", before, selection, time.perf_counter() - t0
+        )
     fitted = min(fits, key=lambda f: f[3])
     simple = [f for f in fits if not any(t.has(sp.exp) for t in f[0].terms)]
     if simple and fitted[0].terms != simple[0][0].terms and min(f[3] for f in simple) <= fitted[3] + 2.0:
@@ -314,10 +401,22 @@ def discover_term(record, model, dg, *, fixed: Mapping[str, float] | None = None
         fitted = pruned
     final, fr, y_ext, bic_ext = fitted
     expr = final.expression(final.coefs)
-    return _found(final, fr, y_ext, bic_ext, record, model, dg, rules, selection, time.perf_counter() - t0,
-                  term=sp.sstr(expr, full_prec=False), latex=term_latex(expr),
-                  words=f"{term_words(expr)} added to the output",
-                  resembles=[r for r in map(resembles, final.terms) if r])
+    return _found(
+        final,
+        fr,
+        y_ext,
+        bic_ext,
+        record,
+        model,
+        dg,
+        rules,
+        selection,
+        time.perf_counter() - t0,
+        term=sp.sstr(expr, full_prec=False),
+        latex=term_latex(expr),
+        words=f"{term_words(expr)} added to the output",
+        resembles=[r for r in map(resembles, final.terms) if r],
+    )
 
 
 def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seconds, **named) -> Discovery:
@@ -328,14 +427,27 @@ def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seco
     y = np.asarray(record.y, float)
     own = [p.name for p in effect.parameters()]
     return Discovery(
-        found=True, effect=effect.name, nrmse_before=_nrmse(y[k:], dg.y_base[k:]), nrmse_after=_nrmse(y[k:], y_ext[k:]),
-        params={n: float(fr.params[n]) for n in own}, stderr={n: float(fr.stderr.get(n, math.nan)) for n in own},
-        all_params=dict(fr.params), success=True, message=fr.message, selection=selection, seconds=seconds,
-        model=effect.apply(model), y_ext=y_ext, **named, **_evidence(y, dg, y_ext, bic_ext, rules))
+        found=True,
+        effect=effect.name,
+        nrmse_before=_nrmse(y[k:], dg.y_base[k:]),
+        nrmse_after=_nrmse(y[k:], y_ext[k:]),
+        params={n: float(fr.params[n]) for n in own},
+        stderr={n: float(fr.stderr.get(n, math.nan)) for n in own},
+        all_params=dict(fr.params),
+        success=True,
+        message=fr.message,
+        selection=selection,
+        seconds=seconds,
+        model=effect.apply(model),
+        y_ext=y_ext,
+        **named,
+        **_evidence(y, dg, y_ext, bic_ext, rules),
+    )
 
 
-def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 300, rules: dict,
-                   progress=None) -> Discovery | None:
+def discover_drift(
+    record, model, dg, *, fixed=None, mask=None, max_iter: int = 300, rules: dict, progress=None
+) -> Discovery | None:
     """A drifting parameter, when the base fit's residual grows or shrinks over the record
     (:mod:`duffsym.diagnose.drift`): windowed refits name the parameters that change; each follows time or
     the dissipated energy in turn; the lowest BIC on the fitting part is judged. None when nothing trends
@@ -354,23 +466,43 @@ def discover_drift(record, model, dg, *, fixed=None, mask=None, max_iter: int = 
     selection = {"windows": windows.to_dict()}
     if not windows.drifting():
         change = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
-        return _nothing(f"drift: no parameter changes monotonically by more than {100 * D.MIN_CHANGE:.0f} % over "
-                        f"{len(windows.bounds)} windows ({change})", before, selection, 0.0)
+        return _nothing(
+            f"drift: no parameter changes monotonically by more than {100 * D.MIN_CHANGE:.0f} % over "
+            f"{len(windows.bounds)} windows ({change})",
+            before,
+            selection,
+            0.0,
+        )
     fits = _drift_fits(D.candidates(record, dg, windows), windows, record, model, dg, fixed, mask, max_iter, say)
     if fits:  # the best parameter following time instead of the dissipated energy
         best = min(fits, key=lambda f: f[3])[0].parameter
-        fits += _drift_fits(D.candidates(record, dg, windows, "time", [best]), windows, record, model, dg, fixed,
-                            mask, max_iter, say)
+        fits += _drift_fits(
+            D.candidates(record, dg, windows, "time", [best]), windows, record, model, dg, fixed, mask, max_iter, say
+        )
     if not fits:
-        return _nothing("drift: the fits of " + ", ".join(windows.drifting()) + " drifting failed", before,
-                        selection, 0.0)
+        return _nothing(
+            "drift: the fits of " + ", ".join(windows.drifting()) + " drifting failed", before, selection, 0.0
+        )
     eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
     selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}
     a = float(fr.params["drift_a"])
     sentence = eff.sentence(a)
-    return _found(eff, fr, y_ext, bic, record, model, dg, rules, selection, 0.0, term=eff.form, latex=eff.latex(a),
-                  words=sentence, resembles=[f"no catalogued effect: {eff.physics} (e.g. a damper whose fluid warms "
-                                             "and thins)"])
+    return _found(
+        eff,
+        fr,
+        y_ext,
+        bic,
+        record,
+        model,
+        dg,
+        rules,
+        selection,
+        0.0,
+        term=eff.form,
+        latex=eff.latex(a),
+        words=sentence,
+        resembles=[f"no catalogued effect: {eff.physics} (e.g. a damper whose fluid warms and thins)"],
+    )
 
 
 def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
@@ -395,10 +527,21 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     rec_fit = S._part(record, k)
     fixed = S.with_default_af(model, fixed, rec_fit)
     ext = effect.apply(model)
-    problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names},
-                      mask=None if mask is None else np.asarray(mask, bool)[:k])
-    fr = fit_with_effects(problem, [effect], {**dg.base_fit.params, **dict(start or {})}, dg.y_base[:k],
-                          max_iter=max_iter, compute_stderr=True, bound_restart=False)
+    problem = Problem(
+        ext,
+        rec_fit,
+        fixed={n: v for n, v in fixed.items() if n in ext.param_names},
+        mask=None if mask is None else np.asarray(mask, bool)[:k],
+    )
+    fr = fit_with_effects(
+        problem,
+        [effect],
+        {**dg.base_fit.params, **dict(start or {})},
+        dg.y_base[:k],
+        max_iter=max_iter,
+        compute_stderr=True,
+        bound_restart=False,
+    )
     run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
@@ -430,12 +573,14 @@ def _drift_fits(effects, windows, record, model, dg, fixed, mask, max_iter, say)
 def _prune(fitted, record, model, dg, fixed, mask, max_iter, say):
     """Refit without the terms whose fitted coefficient is within 2 standard errors of 0 (None if none is)."""
     effect, fr = fitted[0], fitted[1]
-    keep = [i for i, p in enumerate(effect.parameters())
-            if abs(fr.params[p.name]) > 2 * float(fr.stderr.get(p.name, math.inf) or math.inf)]
+    keep = [
+        i
+        for i, p in enumerate(effect.parameters())
+        if abs(fr.params[p.name]) > 2 * float(fr.stderr.get(p.name, math.inf) or math.inf)
+    ]
     if not keep or len(keep) == len(effect.terms):
         return None
-    smaller = DiscoveredEffect(tuple(effect.terms[i] for i in keep), tuple(effect.coefs[i] for i in keep),
-                               effect.index)
+    smaller = DiscoveredEffect(tuple(effect.terms[i] for i in keep), tuple(effect.coefs[i] for i in keep), effect.index)
     return _fit_effect(smaller, record, model, dg, fixed, mask, max_iter, say)
 
 
@@ -463,8 +608,12 @@ def proposal(residuals, candidates) -> str:
     tr = residuals.trend
     g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
     if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
-        return (f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
-                "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
-                "drifts and tries it following time or the dissipated energy.")
-    return (" Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
-            "regression of the residual on polynomials and switching functions of d, d', x, x'.")
+        return (
+            f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
+            "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
+            "drifts and tries it following time or the dissipated energy."
+        )
+    return (
+        " Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
+        "regression of the residual on polynomials and switching functions of d, d', x, x'."
+    )

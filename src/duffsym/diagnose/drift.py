@@ -11,6 +11,7 @@ fitting part through the normal path and keeps the one with the lowest BIC there
 judges it by the same evidence as a catalogued effect (the caller,
 :func:`duffsym.diagnose.discover.discover_term`, applies the rules).
 """
+
 from __future__ import annotations
 
 import math
@@ -56,12 +57,21 @@ class Windows:
         return sorted(names, key=lambda n: -abs(self.change[n]))
 
     def to_dict(self) -> dict:
-        return dict(bounds=self.bounds, params=self.params, stderr=self.stderr, change=self.change,
-                    monotone=self.monotone, signals=self.signals, drifting=self.drifting())
+        return dict(
+            bounds=self.bounds,
+            params=self.params,
+            stderr=self.stderr,
+            change=self.change,
+            monotone=self.monotone,
+            signals=self.signals,
+            drifting=self.drifting(),
+        )
 
     def summary(self) -> str:
-        rows = [f"  {n}: " + " -> ".join(f"{v:.4g}" for v in self.params[n]) + f" ({100 * self.change[n]:+.0f} %)"
-                for n in self.change]
+        rows = [
+            f"  {n}: " + " -> ".join(f"{v:.4g}" for v in self.params[n]) + f" ({100 * self.change[n]:+.0f} %)"
+            for n in self.change
+        ]
         return "windowed refits of the fitting part:\n" + "\n".join(rows)
 
 
@@ -95,8 +105,13 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     sig = {s: record.drift_signal(s) for s in ("time", "energy")}
     mids = {s: [] for s in sig}
     for a, b in bounds:
-        win = record.replace(t=record.t[a:b], d=record.d[a:b], y=record.y[a:b], d_dot=v[a:b],
-                             command=None if record.command is None else record.command[a:b])
+        win = record.replace(
+            t=record.t[a:b],
+            d=record.d[a:b],
+            y=record.y[a:b],
+            d_dot=v[a:b],
+            command=None if record.command is None else record.command[a:b],
+        )
         try:
             fr = _fit(model, win, fx, dict(dg.base_fit.params))
         except (DataError, ModelError):  # a window the fit cannot use: no values from it

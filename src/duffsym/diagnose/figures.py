@@ -1,4 +1,5 @@
 """Figures of a diagnosis and of a ladder (matplotlib; Agg-safe, nothing shown)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -97,8 +98,12 @@ def plot_where(diag, record: Record, *, title: str | None = None):
     ax.set_ylabel("autocorrelation")
     ax.set_title(f"whiteness ({100 * res.acf_outside:.0f} % of lags outside)", fontsize="medium")
     ax.legend(fontsize="x-small", loc="upper right")
-    fig.suptitle(title or f"where {diag.model}{' + ' + ' + '.join(diag.effects) if diag.effects else ''} fails "
-                 f"(residual RMS {res.excess:.1f}x noise)", fontsize="large")
+    fig.suptitle(
+        title
+        or f"where {diag.model}{' + ' + ' + '.join(diag.effects) if diag.effects else ''} fails "
+        f"(residual RMS {res.excess:.1f}x noise)",
+        fontsize="large",
+    )
     return fig
 
 
@@ -141,37 +146,66 @@ def plot_candidates(diag, record: Record | None = None, *, title: str | None = N
     fig, ax = plt.subplots(figsize=(7.5, 0.42 * max(len(cands), 3) + 1.6), layout="constrained")
     for i, c in enumerate(cands):
         if c not in fitted:
-            ax.text(0.01 * xmax, i, _candidate_note(c), va="center", fontsize="x-small", color="0.35", style="italic",
-                    bbox=dict(facecolor="white", edgecolor="none", pad=1.0), zorder=3)
+            ax.text(
+                0.01 * xmax,
+                i,
+                _candidate_note(c),
+                va="center",
+                fontsize="x-small",
+                color="0.35",
+                style="italic",
+                bbox=dict(facecolor="white", edgecolor="none", pad=1.0),
+                zorder=3,
+            )
             continue
         value = min(c.nrmse_after, xmax)
         diverged = c.nrmse_after > xmax
-        ax.barh(i, value, color=_candidate_colour(c, chosen), hatch="//" if diverged else None,
-                edgecolor="0.3" if diverged else None)
+        ax.barh(
+            i,
+            value,
+            color=_candidate_colour(c, chosen),
+            hatch="//" if diverged else None,
+            edgecolor="0.3" if diverged else None,
+        )
         if diverged:
-            ax.text(0.98 * xmax, i, f"diverged: {c.nrmse_after:.3g} (off the scale)", ha="right", va="center",
-                    fontsize="x-small", color="k")
+            ax.text(
+                0.98 * xmax,
+                i,
+                f"diverged: {c.nrmse_after:.3g} (off the scale)",
+                ha="right",
+                va="center",
+                fontsize="x-small",
+                color="k",
+            )
     ax.set_xlim(0, xmax)
     ax.axvline(base, color="k", lw=1)
     handles = [plt.Line2D([], [], color="k", lw=1, label=f"base model ({base:.3g})")]
     if record is not None:
-        held = np.asarray(record.y)[diag.split["n_fit"]:]
+        held = np.asarray(record.y)[diag.split["n_fit"] :]
         floor = diag.noise / np.std(held)
         if floor < xmax:
             ax.axvline(floor, color="tab:blue", ls=":")
             handles.append(plt.Line2D([], [], color="tab:blue", ls=":", label=f"noise floor ({floor:.2g})"))
     used = {_candidate_colour(c, chosen) for c in fitted}
-    handles += [Patch(color=col, label=text) for col, text in (
-        ("tab:green", "called missing"), ("yellowgreen", "explains it as well"),
-        ("tab:olive", "supported, helps partly"), ("0.65", "no real gain")) if col in used]
+    handles += [
+        Patch(color=col, label=text)
+        for col, text in (
+            ("tab:green", "called missing"),
+            ("yellowgreen", "explains it as well"),
+            ("tab:olive", "supported, helps partly"),
+            ("0.65", "no real gain"),
+        )
+        if col in used
+    ]
     labels = [f"+ {c.effect}" + (f"\n(ΔBIC {c.delta_bic:.0f})" if c in fitted else "") for c in cands]
     ax.set_yticks(range(len(cands)), labels, fontsize="small")
     ax.set_ylim(len(cands) - 0.5, -0.5)
     ax.set_xlabel("held-out free-run NRMSE with the effect added (lower is better)")
     ax.legend(handles=handles, fontsize="small", loc="upper left", bbox_to_anchor=(1.01, 1.0))
     n_other = len(cands) - len(fitted)
-    counted = f"{len(cands)} candidates tried, {len(fitted)} fitted" + (f", {n_other} not (listed, no bar)"
-                                                                        if n_other else "")
+    counted = f"{len(cands)} candidates tried, {len(fitted)} fitted" + (
+        f", {n_other} not (listed, no bar)" if n_other else ""
+    )
     ax.set_title(f"{title}\n{counted}" if title else f"which effect is missing: {counted}", fontsize="medium")
     return fig
 
@@ -180,10 +214,14 @@ def ladder_outcome(lad) -> str:
     """The ladder's result in words, from its numbers: what was added and how the held-out error moved."""
     steps = lad.steps
     if not getattr(lad, "complete", True) or getattr(lad, "final_fit", True) is None:  # stopped, or still running
-        where = "running" if lad.final_fit is None else ("stopped by the time budget" if "time budget" in lad.stopped
-                                                         else "stopped")
-        return (f"{where} after {len(steps)} step(s): held-out NRMSE "
-                + " -> ".join(f"{s.nrmse_heldout:.3g}" for s in steps))
+        where = (
+            "running"
+            if lad.final_fit is None
+            else ("stopped by the time budget" if "time budget" in lad.stopped else "stopped")
+        )
+        return f"{where} after {len(steps)} step(s): held-out NRMSE " + " -> ".join(
+            f"{s.nrmse_heldout:.3g}" for s in steps
+        )
     if len(steps) == 1:
         return f"nothing added: no effect is supported (held-out NRMSE {steps[0].nrmse_heldout:.3g})"
     a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
@@ -219,8 +257,7 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
         ax.set_title("nothing added: base model only", fontsize="medium")
     else:
         a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
-        ax.set_title(f"held-out error {'falls' if b < a else 'does not fall'} ({a:.3g} -> {b:.3g})",
-                     fontsize="medium")
+        ax.set_title(f"held-out error {'falls' if b < a else 'does not fall'} ({a:.3g} -> {b:.3g})", fontsize="medium")
     ax.legend(fontsize="small")
     sl = _steady(record)
     d = np.asarray(record.d)[sl]
@@ -231,8 +268,13 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
         ax.plot(xs, y, ".", color="0.7", ms=1.5, label="measured")
         ax.plot(xs, steps[0].diagnosis.y_base[sl], color="tab:red", lw=0.7, label=f"base (NRMSE {steps[0].nrmse:.3g})")
         if len(steps) > 1:
-            ax.plot(xs, steps[-1].diagnosis.y_base[sl], color="k", lw=0.7,
-                    label=f"+ {' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})")
+            ax.plot(
+                xs,
+                steps[-1].diagnosis.y_base[sl],
+                color="k",
+                lw=0.7,
+                label=f"+ {' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})",
+            )
         ax.set_xlabel(lab + _u(record, key))
         ax.set_ylabel("y" + _u(record, "y"))
         ax.set_title(f"{lab}–y loop, {_steady_label(record, sl)}", fontsize="medium")
@@ -282,6 +324,7 @@ def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | No
     ax.set_title(f"after the reversal at t = {float(record.t[r]):.3g} s: the plateau", fontsize="medium")
     ax.legend(fontsize="x-small")
     se = c.stderr.get("bl_h", float("nan"))
-    fig.suptitle(title or (f"play fitted: half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect),
-                 fontsize="large")
+    fig.suptitle(
+        title or (f"play fitted: half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect), fontsize="large"
+    )
     return fig

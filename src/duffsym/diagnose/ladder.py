@@ -29,13 +29,14 @@ fit: when the final fit on the whole record does not succeed, the last step's fi
 kept and ``final_note`` says so. An added effect whose fitted size is negligible or whose smoothing runs
 off is flagged in its step (``inactive``).
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
@@ -71,10 +72,18 @@ class Step:
     seconds: float = math.nan
 
     def to_dict(self) -> dict:
-        out = dict(effects=list(self.effects), nrmse=self.nrmse, bic=self.bic, nrmse_fit=self.nrmse_fit,
-                   nrmse_heldout=self.nrmse_heldout, params=self.params, stderr=self.stderr,
-                   verdict=self.diagnosis.verdict, needed=list(self.diagnosis.needed),
-                   candidates=[c.to_dict() for c in self.diagnosis.candidates])
+        out = dict(
+            effects=list(self.effects),
+            nrmse=self.nrmse,
+            bic=self.bic,
+            nrmse_fit=self.nrmse_fit,
+            nrmse_heldout=self.nrmse_heldout,
+            params=self.params,
+            stderr=self.stderr,
+            verdict=self.diagnosis.verdict,
+            needed=list(self.diagnosis.needed),
+            candidates=[c.to_dict() for c in self.diagnosis.candidates],
+        )
         if self.discovered is not None:
             out.update(term=self.discovered["term"], latex=self.discovered["latex"], discovered=self.discovered)
         if self.simplified:
@@ -101,23 +110,50 @@ class Ladder:
         return self.steps[-1].effects
 
     def to_dict(self) -> dict:
-        final = None if self.final_fit is None else dict(
-            params=self.final_fit.params, stderr=self.final_fit.stderr, nrmse=self.final_fit.nrmse,
-            success=self.final_fit.success, status=self.final_fit.status, note=self.final_note)
-        return dict(steps=[s.to_dict() for s in self.steps], effects=list(self.effects), stopped=self.stopped,
-                    final=final, timings=self.timings, budget=self.budget, complete=self.complete,
-                    prepare=self.prepare.to_dict() if self.prepare is not None else None)
+        final = (
+            None
+            if self.final_fit is None
+            else dict(
+                params=self.final_fit.params,
+                stderr=self.final_fit.stderr,
+                nrmse=self.final_fit.nrmse,
+                success=self.final_fit.success,
+                status=self.final_fit.status,
+                note=self.final_note,
+            )
+        )
+        return dict(
+            steps=[s.to_dict() for s in self.steps],
+            effects=list(self.effects),
+            stopped=self.stopped,
+            final=final,
+            timings=self.timings,
+            budget=self.budget,
+            complete=self.complete,
+            prepare=self.prepare.to_dict() if self.prepare is not None else None,
+        )
 
     def summary(self) -> str:
         lines = ["ladder (free-run NRMSE over the whole record / held-out tail, BIC on the fitting part):"]
         for i, s in enumerate(self.steps):
-            lines.append(f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
-                         f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}")
-        lines += [f"  step {i} adds a term outside the catalogue (no catalogued effect was needed; it passes the "
-                  f"same held-out evidence): {s.discovered['words']}" for i, s in enumerate(self.steps) if s.discovered]
-        lines += [f"  step {i}: {s.simplified} (as good on the held-out tail, lower BIC)"
-                  for i, s in enumerate(self.steps) if s.simplified]
-        lines += [f"  step {i}: {e} is inactive: {why}" for i, s in enumerate(self.steps) for e, why in s.inactive.items()]
+            lines.append(
+                f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
+                f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}"
+            )
+        lines += [
+            f"  step {i} adds a term outside the catalogue (no catalogued effect was needed; it passes the "
+            f"same held-out evidence): {s.discovered['words']}"
+            for i, s in enumerate(self.steps)
+            if s.discovered
+        ]
+        lines += [
+            f"  step {i}: {s.simplified} (as good on the held-out tail, lower BIC)"
+            for i, s in enumerate(self.steps)
+            if s.simplified
+        ]
+        lines += [
+            f"  step {i}: {e} is inactive: {why}" for i, s in enumerate(self.steps) for e, why in s.inactive.items()
+        ]
         lines.append(f"stopped: {self.stopped}")
         if self.final_fit is None:
             lines.append("no final fit: " + self.final_note)
@@ -171,16 +207,25 @@ def ladder(record: Record, model=None, options: LadderOptions | None = None, **s
         if not run.steps:
             raise
         stopped = f"stopped at step {len(run.steps)}: interrupted (Ctrl-C)"
-        return _finish(record, run.steps, None, stopped, False, run.t0, o.budget, None,
-                       "interrupted before the final fit: the last finished step's fit (on the fitting part) is the "
-                       "result")
+        return _finish(
+            record,
+            run.steps,
+            None,
+            stopped,
+            False,
+            run.t0,
+            o.budget,
+            None,
+            "interrupted before the final fit: the last finished step's fit (on the fitting part) is the result",
+        )
     rules = dict(o.rules)
     kw = dict(fixed=o.fixed, holdout=o.holdout, noise=o.noise, mask=o.mask, progress=o.progress, **rules)
     model = run.model
     if run.complete:
         model = _simplify(record, run.base_model, model, run.steps, run.say, {**kw, "deadline": run.end})
-    return _final(record, model, run.steps, run.stopped, run.complete, run.t0, o.budget, run.end, o.fixed, rules,
-                  run.say)
+    return _final(
+        record, model, run.steps, run.stopped, run.complete, run.t0, o.budget, run.end, o.fixed, rules, run.say
+    )
 
 
 #: the settings of :func:`diagnose` a ladder sets itself for each step (the others may be given as ``rules``)
@@ -231,9 +276,19 @@ def _climb(run: _Run) -> None:
         run.say(f"step {len(run.steps)}: {' + '.join(('base',) + tuple(run.model.effects))}" + _left_text(run.end))
         t_step = time.perf_counter()
         try:
-            dg = diagnose(record, run.model, candidates=o.candidates, fixed=o.fixed, holdout=o.holdout, noise=o.noise,
-                          mask=o.mask, start=run.start, progress=o.progress,
-                          deadline=_step_deadline(run.steps_end, run.steps, o.max_steps), **o.rules)
+            dg = diagnose(
+                record,
+                run.model,
+                candidates=o.candidates,
+                fixed=o.fixed,
+                holdout=o.holdout,
+                noise=o.noise,
+                mask=o.mask,
+                start=run.start,
+                progress=o.progress,
+                deadline=_step_deadline(run.steps_end, run.steps, o.max_steps),
+                **o.rules,
+            )
         except (ModelError, DataError) as exc:
             if not run.steps:
                 raise
@@ -257,8 +312,9 @@ def _discovery_step(run: _Run, dg: Diagnosis) -> tuple[Diagnosis, bool]:
     found or there was no time, True when a discovered term extends the model for the next step)."""
     if run.steps_end is not None and time.monotonic() >= run.steps_end:
         return _with_note(dg, " Term discovery outside the catalogue: not tried, the time budget ran out."), False
-    found, model, start, note = _discovered(run.record, run.model, dg, run.o.fixed, run.o.mask, run.o.progress,
-                                            run.o.rules)
+    found, model, start, note = _discovered(
+        run.record, run.model, dg, run.o.fixed, run.o.mask, run.o.progress, run.o.rules
+    )
     if found is not None:
         run.found, run.model, run.start = found, model, start
         return dg, True
@@ -272,8 +328,11 @@ def _take(run: _Run, dg: Diagnosis, chosen: str | None) -> bool:
 
     o, n = run.o, len(run.steps)
     if chosen is None and _out_of_time(dg):
-        run.stop(f"stopped at step {n - 1}: the time budget ran out before every candidate was fitted "
-                 f"({_out_of_time(dg)}): {dg.verdict}", False)
+        run.stop(
+            f"stopped at step {n - 1}: the time budget ran out before every candidate was fitted "
+            f"({_out_of_time(dg)}): {dg.verdict}",
+            False,
+        )
         return False
     if chosen is None:
         run.stop("no further effect is supported by the evidence: " + dg.verdict)
@@ -285,9 +344,19 @@ def _take(run: _Run, dg: Diagnosis, chosen: str | None) -> bool:
     run.model = apply_effects(run.model, [CATALOGUE[best.effect]])
     run.start = dict(best.all_params)
     if o.joint:
-        run.start, run.jinfo = joint_refit(run.record, run.base_model, run.model, run.steps, run.start, fixed=o.fixed,
-                                           holdout=o.holdout, mask=o.mask, deadline=run.steps_end, say=run.say,
-                                           decimate=o.rules.get("decimate", True))
+        run.start, run.jinfo = joint_refit(
+            run.record,
+            run.base_model,
+            run.model,
+            run.steps,
+            run.start,
+            fixed=o.fixed,
+            holdout=o.holdout,
+            mask=o.mask,
+            deadline=run.steps_end,
+            say=run.say,
+            decimate=o.rules.get("decimate", True),
+        )
     return True
 
 
@@ -304,8 +373,11 @@ def _out_of_time(dg: Diagnosis) -> str:
     """Which candidates of ``dg`` the time budget left unfitted or unconverged, in words ("" when none)."""
     from duffsym.diagnose.search import NOT_TRIED
 
-    missed = [c.effect for c in dg.candidates if not c.success and (c.message.startswith(NOT_TRIED)
-                                                                   or "Time_Exceeded" in c.message)]
+    missed = [
+        c.effect
+        for c in dg.candidates
+        if not c.success and (c.message.startswith(NOT_TRIED) or "Time_Exceeded" in c.message)
+    ]
     return f"{len(missed)} of {len(dg.candidates)} not tried or not converged: {', '.join(missed)}" if missed else ""
 
 
@@ -321,19 +393,36 @@ def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
     y = np.asarray(record.y, dtype=float)
     k = dg.split.n_fit
     params = dict(dg.base_fit.params)
-    return Step(effects=tuple(model.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
-                nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=params, stderr=dict(dg.base_fit.stderr),
-                diagnosis=dg, discovered=found, joint=jinfo,
-                inactive=inactive_effects(model, record, params, dg.base_fit.stderr),
-                seconds=seconds)
+    return Step(
+        effects=tuple(model.effects),
+        nrmse=_nrmse(y, dg.y_base),
+        nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
+        nrmse_heldout=dg.nrmse_heldout,
+        bic=dg.bic_base,
+        params=params,
+        stderr=dict(dg.base_fit.stderr),
+        diagnosis=dg,
+        discovered=found,
+        joint=jinfo,
+        inactive=inactive_effects(model, record, params, dg.base_fit.stderr),
+        seconds=seconds,
+    )
 
 
 def _report(on_step, steps, t0, budget, record) -> None:
     """``on_step`` with the ladder so far (no final fit yet)."""
     if on_step is not None:
-        on_step(Ladder(steps=tuple(steps), final_fit=None, stopped=f"running: {len(steps)} step(s) done",
-                       timings=_timings(t0), budget=budget, complete=False,
-                       final_note="the run has not finished; the last step's fit is on the fitting part"))
+        on_step(
+            Ladder(
+                steps=tuple(steps),
+                final_fit=None,
+                stopped=f"running: {len(steps)} step(s) done",
+                timings=_timings(t0),
+                budget=budget,
+                complete=False,
+                final_note="the run has not finished; the last step's fit is on the fitting part",
+            )
+        )
 
 
 def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say) -> Ladder:
@@ -341,6 +430,7 @@ def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rule
     not succeed, the last step's own fit (a converged fit on the fitting part) is kept and the note says so."""
     from duffsym.diagnose.prepare import prepare_record
     from duffsym.diagnose.search import BUDGET_SAMPLES, _prepare_fit
+
     last = steps[-1]
     say("final fit on the whole record" + _left_text(end))
     if end is None:
@@ -352,12 +442,22 @@ def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rule
     final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params, max_wall_time=wall)
     note = ""
     if not final.success:
-        note = (f"the final fit on the whole record did not succeed ({final.status}); kept instead: the last step's "
-                "fit on the fitting part" + ("" if last.diagnosis.base_fit.success else " (itself not converged)"))
+        note = (
+            f"the final fit on the whole record did not succeed ({final.status}); kept instead: the last step's "
+            "fit on the fitting part" + ("" if last.diagnosis.base_fit.success else " (itself not converged)")
+        )
         say(note)
         final = last.diagnosis.base_fit
-    return Ladder(steps=tuple(steps), final_fit=final, stopped=stopped, timings=_timings(t0), prepare=prep,
-                  final_note=note, budget=budget, complete=complete)
+    return Ladder(
+        steps=tuple(steps),
+        final_fit=final,
+        stopped=stopped,
+        timings=_timings(t0),
+        prepare=prep,
+        final_note=note,
+        budget=budget,
+        complete=complete,
+    )
 
 
 def _timings(t0: float) -> dict:
@@ -367,9 +467,16 @@ def _timings(t0: float) -> dict:
 
 
 def _finish(record, steps, final, stopped, complete, t0, budget, prep, note) -> Ladder:
-    return Ladder(steps=tuple(steps), final_fit=final if final is not None else steps[-1].diagnosis.base_fit,
-                  stopped=stopped, timings=_timings(t0), prepare=prep, final_note=note,
-                  budget=budget, complete=complete)
+    return Ladder(
+        steps=tuple(steps),
+        final_fit=final if final is not None else steps[-1].diagnosis.base_fit,
+        stopped=stopped,
+        timings=_timings(t0),
+        prepare=prep,
+        final_note=note,
+        budget=budget,
+        complete=complete,
+    )
 
 
 def _nested(name: str, present) -> list[str]:
@@ -380,8 +487,14 @@ def _nested(name: str, present) -> list[str]:
     if name not in CATALOGUE:
         return []
     own = {p.name for p in CATALOGUE[name].parameters()}
-    return [s for s, e in CATALOGUE.items() if s not in present and s != name
-            and 0 < len({p.name for p in e.parameters()}) and {p.name for p in e.parameters()} < own]
+    return [
+        s
+        for s, e in CATALOGUE.items()
+        if s not in present
+        and s != name
+        and 0 < len({p.name for p in e.parameters()})
+        and {p.name for p in e.parameters()} < own
+    ]
 
 
 def _simplify(record, base_model, model, steps: list, say, kw) -> object:
@@ -413,11 +526,19 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
                 continue
             if dg.base_fit.success and dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
                 k = dg.split.n_fit
-                steps.append(Step(
-                    effects=tuple(trial.effects), nrmse=_nrmse(y, dg.y_base), nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
-                    nrmse_heldout=dg.nrmse_heldout, bic=dg.bic_base, params=dict(dg.base_fit.params),
-                    stderr=dict(dg.base_fit.stderr), diagnosis=dg,
-                    simplified=f"{name} -> {simpler}" if simpler else f"{name} dropped"))
+                steps.append(
+                    Step(
+                        effects=tuple(trial.effects),
+                        nrmse=_nrmse(y, dg.y_base),
+                        nrmse_fit=_nrmse(y[:k], dg.y_base[:k]),
+                        nrmse_heldout=dg.nrmse_heldout,
+                        bic=dg.bic_base,
+                        params=dict(dg.base_fit.params),
+                        stderr=dict(dg.base_fit.stderr),
+                        diagnosis=dg,
+                        simplified=f"{name} -> {simpler}" if simpler else f"{name} dropped",
+                    )
+                )
                 model = trial
                 break
     return model
@@ -434,8 +555,10 @@ def _discovered(record, model, dg, fixed, mask, progress, rules):
         return None, model, None, " Term discovery outside the catalogue: " + why
     (progress or (lambda m: None))(f"adding {disc.effect} (no catalogued effect is needed; it passes the evidence)")
     info = disc.to_dict()
-    info["note"] = ("no catalogued effect was needed; this discovered term passes the same held-out evidence "
-                    "(dBIC, held-out fall, share of the excess error)")
+    info["note"] = (
+        "no catalogued effect was needed; this discovered term passes the same held-out evidence "
+        "(dBIC, held-out fall, share of the excess error)"
+    )
     return info, disc.model, dict(disc.all_params), ""
 
 
@@ -455,8 +578,20 @@ def error_fell(lad: Ladder) -> float:
 JOINT_CPU_TIME = 60.0
 
 
-def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, float], *, fixed=None,
-                holdout: float = 0.3, mask=None, deadline: float | None = None, say=None, decimate=True):
+def joint_refit(
+    record: Record,
+    base_model,
+    model,
+    steps,
+    start: Mapping[str, float],
+    *,
+    fixed=None,
+    holdout: float = 0.3,
+    mask=None,
+    deadline: float | None = None,
+    say=None,
+    decimate=True,
+):
     """All effects the ladder has added to ``base_model`` (now ``model``) refitted together on the fitting part,
     from several starts; returns (the best start for the next diagnosis, what each start reached).
 
@@ -469,8 +604,17 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
     """
     import dataclasses
 
-    from duffsym.diagnose.search import (BUDGET_SAMPLES, SMOOTH_FORMS, _fit, _part, _prepare_fit, _time_share,
-                                         _within_range, free_run, split_record)
+    from duffsym.diagnose.search import (
+        BUDGET_SAMPLES,
+        SMOOTH_FORMS,
+        _fit,
+        _part,
+        _prepare_fit,
+        _time_share,
+        _within_range,
+        free_run,
+        split_record,
+    )
     from duffsym.effects import CATALOGUE, apply_effects
 
     say = say or (lambda msg: None)
@@ -492,8 +636,17 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
         if time_left(deadline) <= 1.0:
             return None
         say(f"  joint refit of {' + '.join(added)}: {label}")
-        fr = _fit(m, rec_q, fixed_m, p0, mask=mask_q, max_iter=300, flags=False, max_cpu_time=JOINT_CPU_TIME,
-                  max_wall_time=_time_share(deadline, 0.1))
+        fr = _fit(
+            m,
+            rec_q,
+            fixed_m,
+            p0,
+            mask=mask_q,
+            max_iter=300,
+            flags=False,
+            max_cpu_time=JOINT_CPU_TIME,
+            max_wall_time=_time_share(deadline, 0.1),
+        )
         return fr
 
     y_cand = steps[-1].diagnosis.y_candidates.get(added[-1])
@@ -510,8 +663,9 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
         if fr is not None:
             tried["guesses"] = (score(model, fr.params, fr.x0[0]), dict(fr.params))
     if smooth or "seal-friction" in added:
-        soft = apply_effects(base_model, [dataclasses.replace(CATALOGUE[e], **smooth[e]) if e in smooth
-                                          else CATALOGUE[e] for e in added])
+        soft = apply_effects(
+            base_model, [dataclasses.replace(CATALOGUE[e], **smooth[e]) if e in smooth else CATALOGUE[e] for e in added]
+        )
         g = dict(guess)
         if "seal_eps" in g:
             g["seal_eps"] = 0.2 * float(np.max(np.abs(np.asarray(record.velocity(), dtype=float))))
@@ -521,6 +675,9 @@ def joint_refit(record: Record, base_model, model, steps, start: Mapping[str, fl
             tried["continuation"] = (score(model, fr.params, fr.x0[0]), dict(fr.params))
     best = min(tried, key=lambda n: tried[n][0])
     info = {"starts": {n: v[0] for n, v in tried.items()}, "chosen": best}
-    say(f"  joint refit: {best} start kept (fitting-part NRMSE " +
-        ", ".join(f"{n} {v[0]:.4g}" for n, v in tried.items()) + ")")
+    say(
+        f"  joint refit: {best} start kept (fitting-part NRMSE "
+        + ", ".join(f"{n} {v[0]:.4g}" for n, v in tried.items())
+        + ")"
+    )
     return tried[best][1], info

@@ -22,6 +22,7 @@ else:
   record. The diagnosis says so and uses the held-out residual floor (the lowest held-out RMS of any
   fitted model, an upper bound) as its reference; the verdict does not quote "x the noise".
 """
+
 from __future__ import annotations
 
 import math
@@ -167,8 +168,13 @@ class NoiseEstimate:
     stepped: float = 0.0
 
     def to_dict(self) -> dict:
-        return dict(sigma=self.sigma, method=self.method, measurable=self.measurable, smoothing=self.smoothing,
-                    stepped=self.stepped)
+        return dict(
+            sigma=self.sigma,
+            method=self.method,
+            measurable=self.measurable,
+            smoothing=self.smoothing,
+            stepped=self.stepped,
+        )
 
 
 def estimate_noise(y, dt: float) -> NoiseEstimate:
@@ -177,16 +183,28 @@ def estimate_noise(y, dt: float) -> NoiseEstimate:
     third = noise_level(y)
     steps = stepped_share(y)
     if steps >= STEPPED:
-        return NoiseEstimate(third, f"not measurable: {100 * steps:.0f} % of the force's consecutive increments are "
-                             "equal (a quantised force, then smoothed), so the third-difference estimate "
-                             f"({third:.3g}) measures the quantisation, not the noise", measurable=False,
-                             stepped=steps)
+        return NoiseEstimate(
+            third,
+            f"not measurable: {100 * steps:.0f} % of the force's consecutive increments are "
+            "equal (a quantised force, then smoothed), so the third-difference estimate "
+            f"({third:.3g}) measures the quantisation, not the noise",
+            measurable=False,
+            stepped=steps,
+        )
     if not has_noise_floor(y, dt):
-        return NoiseEstimate(third, "not measurable: the force has no white-noise floor near the Nyquist frequency "
-                             f"(low-pass filtered or noise-free), so the third-difference estimate ({third:.3g}) "
-                             "measures its smoothness", measurable=False)
+        return NoiseEstimate(
+            third,
+            "not measurable: the force has no white-noise floor near the Nyquist frequency "
+            f"(low-pass filtered or noise-free), so the third-difference estimate ({third:.3g}) "
+            "measures its smoothness",
+            measurable=False,
+        )
     w = detect_moving_average(y)
     if w > 1:
-        return NoiseEstimate(smoothed_noise_level(y, w), f"third differences of the measured force, corrected for "
-                             f"a {w}-sample moving average detected in its spectrum", smoothing=w)
+        return NoiseEstimate(
+            smoothed_noise_level(y, w),
+            f"third differences of the measured force, corrected for "
+            f"a {w}-sample moving average detected in its spectrum",
+            smoothing=w,
+        )
     return NoiseEstimate(third, "third differences of the measured force")

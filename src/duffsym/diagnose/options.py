@@ -1,9 +1,11 @@
 """The settings of :func:`~duffsym.diagnose.diagnose` and :func:`~duffsym.diagnose.ladder` as options objects
 (:mod:`duffsym.options`), and the decision rules' defaults they start from."""
+
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any
 
 BIC_THRESHOLD = -10.0
 MIN_IMPROVEMENT = 0.10

@@ -8,6 +8,7 @@
   screened-out candidate carries ``status=Status.SCREENED_OUT`` and no fit.
 - :class:`BaseEvidence`: the base model's free run and its errors, against which every candidate is judged.
 """
+
 from __future__ import annotations
 
 import math
@@ -48,7 +49,7 @@ class Split(_ReadsAsDict):
         return {"n_fit": self.n_fit, "n_heldout": self.n_heldout, "t_split": self.t_split}
 
     def summary(self) -> str:
-        return (f"fitted on the first {self.n_fit} samples; {self.n_heldout} held out from t = {self.t_split:.4g} s")
+        return f"fitted on the first {self.n_fit} samples; {self.n_heldout} held out from t = {self.t_split:.4g} s"
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,14 +71,22 @@ class BaseCheck(_ReadsAsDict):
     stability: str = ""
 
     def to_dict(self) -> dict:
-        return {"reference": self.reference, "nrmse_fit_part": self.nrmse_fit_part,
-                "reference_nrmse_fit_part": self.reference_nrmse_fit_part, "start": self.start,
-                "as_good": self.as_good, "budget": list(self.budget), "stable": self.stable,
-                "stability": self.stability}
+        return {
+            "reference": self.reference,
+            "nrmse_fit_part": self.nrmse_fit_part,
+            "reference_nrmse_fit_part": self.reference_nrmse_fit_part,
+            "start": self.start,
+            "as_good": self.as_good,
+            "budget": list(self.budget),
+            "stable": self.stable,
+            "stability": self.stability,
+        }
 
     def summary(self) -> str:
-        s = (f"base fit (from the {self.start}): free-run NRMSE {self.nrmse_fit_part:.3g} on the fitting part, "
-             f"{self.reference} {self.reference_nrmse_fit_part:.3g}" + ("" if self.as_good else " (base worse)"))
+        s = (
+            f"base fit (from the {self.start}): free-run NRMSE {self.nrmse_fit_part:.3g} on the fitting part, "
+            f"{self.reference} {self.reference_nrmse_fit_part:.3g}" + ("" if self.as_good else " (base worse)")
+        )
         if self.budget:
             s += f"; stopped by the time budget: {', '.join(self.budget)}"
         return s + ("; outside the stability certificate: " + self.stability if self.stable is False else "")
@@ -103,11 +112,15 @@ class SindyCheck(_ReadsAsDict):
     def from_evidence(cls, evidence: Mapping[str, Any]) -> SindyCheck:
         known = ("verdict", "conclusive", "missing_terms", "message", "absent_model_terms", "reasons")
         absent, reasons = evidence.get("absent_model_terms"), evidence.get("reasons")
-        return cls(verdict=evidence.get("verdict"), conclusive=evidence.get("conclusive"),
-                   missing_terms=tuple(evidence.get("missing_terms", ())), message=evidence.get("message", ""),
-                   absent_model_terms=None if absent is None else tuple(absent),
-                   reasons=None if reasons is None else tuple(reasons),
-                   extra={k: v for k, v in evidence.items() if k not in known})
+        return cls(
+            verdict=evidence.get("verdict"),
+            conclusive=evidence.get("conclusive"),
+            missing_terms=tuple(evidence.get("missing_terms", ())),
+            message=evidence.get("message", ""),
+            absent_model_terms=None if absent is None else tuple(absent),
+            reasons=None if reasons is None else tuple(reasons),
+            extra={k: v for k, v in evidence.items() if k not in known},
+        )
 
     @classmethod
     def not_applicable(cls, why: str) -> SindyCheck:

@@ -1,5 +1,6 @@
 """Decimation of a diagnosis's fitting data: the rule and the filter live in :mod:`duffsym.data.decimate`
 (moved there so that ``fit`` can use them too); this module re-exports them for the diagnosis."""
+
 from duffsym.data.decimate import (  # noqa: F401
     FLOOR_FACTOR,
     MIN_PER_CYCLE,

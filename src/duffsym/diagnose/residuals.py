@@ -14,6 +14,7 @@ Everything here is computed from a record and a model's free-run output, with no
 :func:`analyse_residuals` gathers them; :meth:`ResidualAnalysis.findings` turns them into short
 statements for people, each with the number behind it.
 """
+
 from __future__ import annotations
 
 import math
@@ -106,7 +107,7 @@ def cross_correlation(r, u, max_lag: int = MAX_LAG) -> np.ndarray:
     if denom == 0:
         return out
     for i, k in enumerate(range(-max_lag, max_lag + 1)):
-        out[i] = np.dot(r[max(k, 0): n + min(k, 0)], u[max(-k, 0): n - max(k, 0)]) / denom
+        out[i] = np.dot(r[max(k, 0) : n + min(k, 0)], u[max(-k, 0) : n - max(k, 0)]) / denom
     return out
 
 
@@ -153,8 +154,9 @@ class Bin:
     rms_ratio: float  # rms here / rms over all samples
 
     def to_dict(self) -> dict:
-        return dict(region=self.region, n=self.n, rms=self.rms, mean=self.mean, share=self.share,
-                    rms_ratio=self.rms_ratio)
+        return dict(
+            region=self.region, n=self.n, rms=self.rms, mean=self.mean, share=self.share, rms_ratio=self.rms_ratio
+        )
 
 
 @dataclass(frozen=True)
@@ -215,49 +217,87 @@ class ResidualAnalysis:
         """Where the model fails, as short statements with their numbers (largest effects first)."""
         out: list[tuple[float, str]] = []
         floor = self.noise_kind == "floor"
-        ref = "the lowest held-out RMS of any fitted model (the noise is not measurable here)" if floor else \
-            "the measurement noise"
+        ref = (
+            "the lowest held-out RMS of any fitted model (the noise is not measurable here)"
+            if floor
+            else "the measurement noise"
+        )
         if self.at_noise_level:
             level = "as small as the best fitted model's held-out residual" if floor else "at the noise level"
-            return [f"the residual is {level} (RMS {self.rmse:.3g} vs {self.noise:.3g}) and white "
-                    f"({100 * self.acf_outside:.0f} % of lags outside the 95 % bound)"]
+            return [
+                f"the residual is {level} (RMS {self.rmse:.3g} vs {self.noise:.3g}) and white "
+                f"({100 * self.acf_outside:.0f} % of lags outside the 95 % bound)"
+            ]
         out.append((self.excess, f"residual RMS is {self.excess:.1f}x {ref} ({self.rmse:.3g} vs {self.noise:.3g})"))
         if abs(self.mean_z) > 5 and abs(self.mean) > 0.2 * self.rmse:
-            out.append((abs(self.mean) / self.rmse * 10,
-                        f"the residual has a mean of {self.mean:.3g} ({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
-                        "the loop is shifted"))
+            out.append(
+                (
+                    abs(self.mean) / self.rmse * 10,
+                    f"the residual has a mean of {self.mean:.3g} ({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
+                    "the loop is shifted",
+                )
+            )
         for b in self.bins:
             if b.n >= 10 and b.rms_ratio > 1.5 and b.share > 0.15:
-                out.append((b.rms_ratio * b.share * 10,
-                            f"the error concentrates {b.region}: RMS {b.rms_ratio:.1f}x the average there, "
-                            f"{100 * b.share:.0f} % of the squared error"))
+                out.append(
+                    (
+                        b.rms_ratio * b.share * 10,
+                        f"the error concentrates {b.region}: RMS {b.rms_ratio:.1f}x the average there, "
+                        f"{100 * b.share:.0f} % of the squared error",
+                    )
+                )
         g = self.trend.get("growth", 1.0)
         if g > 1.5 and self.trend.get("spearman", 0.0) > 0.5:
             out.append((g * 5, f"the error grows with time: the last quarter's RMS is {g:.1f}x the first quarter's"))
         for name, x in self.xcorr.items():
             if x["max"] > 3 * x["bound"] and x["max"] > 0.2:
-                out.append((x["max"] * 5, f"the residual correlates with {name} (|ccf| {x['max']:.2f} at lag {x['lag']}, "
-                            f"bound {x['bound']:.2f}): input-driven structure the model misses"))
+                out.append(
+                    (
+                        x["max"] * 5,
+                        f"the residual correlates with {name} (|ccf| {x['max']:.2f} at lag {x['lag']}, "
+                        f"bound {x['bound']:.2f}): input-driven structure the model misses",
+                    )
+                )
         ce = self.cycle_energy
         if ce.size and np.all(np.isfinite(ce)) and abs(float(np.median(ce))) > 0.05:
-            out.append((abs(float(np.median(ce))) * 20,
-                        f"the model {'over' if np.median(ce) > 0 else 'under'}-estimates the energy dissipated per "
-                        f"cycle by {100 * abs(float(np.median(ce))):.0f} % (median over {ce.size} cycles)"))
+            out.append(
+                (
+                    abs(float(np.median(ce))) * 20,
+                    f"the model {'over' if np.median(ce) > 0 else 'under'}-estimates the energy dissipated per "
+                    f"cycle by {100 * abs(float(np.median(ce))):.0f} % (median over {ce.size} cycles)",
+                )
+            )
         if self.acf_outside > 0.2:
-            out.append((self.acf_outside, f"the residual is not white: {100 * self.acf_outside:.0f} % of lags 1..{self.acf.size - 1} "
-                        f"outside the 95 % bound (Ljung–Box p = {self.ljung_box_p:.2g})"))
+            out.append(
+                (
+                    self.acf_outside,
+                    f"the residual is not white: {100 * self.acf_outside:.0f} % of lags 1..{self.acf.size - 1} "
+                    f"outside the 95 % bound (Ljung–Box p = {self.ljung_box_p:.2g})",
+                )
+            )
         out.sort(key=lambda item: -item[0])
         return [s for _, s in out]
 
     def to_dict(self) -> dict:
         return dict(
-            nrmse=self.nrmse, rmse=self.rmse, noise=self.noise, noise_kind=self.noise_kind, excess=self.excess,
+            nrmse=self.nrmse,
+            rmse=self.rmse,
+            noise=self.noise,
+            noise_kind=self.noise_kind,
+            excess=self.excess,
             mean=self.mean,
-            mean_z=self.mean_z, at_noise_level=self.at_noise_level,
+            mean_z=self.mean_z,
+            at_noise_level=self.at_noise_level,
             bins=[b.to_dict() for b in self.bins],
-            whiteness=dict(acf=self.acf.tolist(), bound=self.acf_bound, fraction_outside=self.acf_outside,
-                           ljung_box_p=self.ljung_box_p),
-            xcorr=self.xcorr, trend=self.trend, cycle_energy_error=self.cycle_energy.tolist(),
+            whiteness=dict(
+                acf=self.acf.tolist(),
+                bound=self.acf_bound,
+                fraction_outside=self.acf_outside,
+                ljung_box_p=self.ljung_box_p,
+            ),
+            xcorr=self.xcorr,
+            trend=self.trend,
+            cycle_energy_error=self.cycle_energy.tolist(),
             plane_map=jsonable(dict(d=self.map_d, d_dot=self.map_v, mean=self.map_mean)),
             phase_map=jsonable(dict(phase=self.phase, mean=self.phase_mean)),
             findings=self.findings(),
@@ -290,8 +330,16 @@ def _bins(r: np.ndarray, v: np.ndarray, y: np.ndarray, dt: float, period: float 
             out.append(Bin(name, 0, math.nan, math.nan, 0.0, math.nan))
             continue
         rms = math.sqrt(float(np.mean(r[m] ** 2)))
-        out.append(Bin(name, n, rms, float(np.mean(r[m])), float(np.sum(r[m] ** 2)) / sse,
-                       rms / rms_all if rms_all else math.nan))
+        out.append(
+            Bin(
+                name,
+                n,
+                rms,
+                float(np.mean(r[m])),
+                float(np.sum(r[m] ** 2)) / sse,
+                rms / rms_all if rms_all else math.nan,
+            )
+        )
     return tuple(out)
 
 
@@ -326,8 +374,8 @@ def _cycle_energy(d: np.ndarray, y: np.ndarray, y_hat: np.ndarray) -> np.ndarray
     rising = rising_crossings(d)
     out = []
     for a, b in zip(rising[:-1], rising[1:]):
-        e_meas = cycle_integral(d[a:b + 1], y[a:b + 1])
-        e_model = cycle_integral(d[a:b + 1], y_hat[a:b + 1])
+        e_meas = cycle_integral(d[a : b + 1], y[a : b + 1])
+        e_model = cycle_integral(d[a : b + 1], y_hat[a : b + 1])
         out.append((e_model - e_meas) / abs(e_meas) if e_meas != 0 else math.nan)
     return np.array(out)
 
@@ -352,9 +400,16 @@ def _phase_map(t, r, period, n_bins: int = 36):
     return (np.arange(n_bins) + 0.5) / n_bins, m
 
 
-def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_lag: int = MAX_LAG,
-                      periodic: bool | None = None, noise_kind: str = "measured",
-                      smoothing: int = 1) -> ResidualAnalysis:
+def analyse_residuals(
+    record: Record,
+    y_hat,
+    *,
+    noise: float | None = None,
+    max_lag: int = MAX_LAG,
+    periodic: bool | None = None,
+    noise_kind: str = "measured",
+    smoothing: int = 1,
+) -> ResidualAnalysis:
     """The residual structure of a model's free-run output ``y_hat`` against ``record``.
 
     Parameters
@@ -410,8 +465,24 @@ def analyse_residuals(record: Record, y_hat, *, noise: float | None = None, max_
         periodic = period is not None and record.duration >= 3 * period
     ph, pm = _phase_map(np.asarray(record.t), r, period) if periodic and period else (np.zeros(0), np.zeros(0))
     return ResidualAnalysis(
-        nrmse=_nrmse(y, y_hat), rmse=rmse, noise=sigma, excess=excess, mean=mean, mean_z=mean / se_mean,
-        bins=_bins(r, v, y, record.dt, period), acf=acf, acf_bound=bound, acf_outside=outside,
-        ljung_box_p=p_lb, xcorr=xc, trend=_trend(r), cycle_energy=_cycle_energy(d, y, y_hat),
-        map_d=md, map_v=mv, map_mean=mm, phase=ph, phase_mean=pm, noise_kind=noise_kind,
+        nrmse=_nrmse(y, y_hat),
+        rmse=rmse,
+        noise=sigma,
+        excess=excess,
+        mean=mean,
+        mean_z=mean / se_mean,
+        bins=_bins(r, v, y, record.dt, period),
+        acf=acf,
+        acf_bound=bound,
+        acf_outside=outside,
+        ljung_box_p=p_lb,
+        xcorr=xc,
+        trend=_trend(r),
+        cycle_energy=_cycle_energy(d, y, y_hat),
+        map_d=md,
+        map_v=mv,
+        map_mean=mm,
+        phase=ph,
+        phase_mean=pm,
+        noise_kind=noise_kind,
     )

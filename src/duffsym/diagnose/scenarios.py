@@ -7,6 +7,7 @@ random input, with white output noise. The truth is kept in ``record.metadata["t
 ``record.metadata["hidden"]``. Used by the tests, ``benchmarks/bench_diagnose.py`` and the
 hidden-effect study.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -74,9 +75,16 @@ def drifting_model(base, duration: float):
     return base.extend(effect="temperature-drift", params=(a,), states=((clock, sp.Integer(1)),), substitute=subs)
 
 
-def hidden_effect_record(hidden: str, seed: int = 0, *, excitation_kind: str | None = None,
-                         voltage: float | None = None, noise: float = 0.01, dt: float = 0.005,
-                         duration: float = 4.0) -> Record:
+def hidden_effect_record(
+    hidden: str,
+    seed: int = 0,
+    *,
+    excitation_kind: str | None = None,
+    voltage: float | None = None,
+    noise: float = 0.01,
+    dt: float = 0.005,
+    duration: float = 4.0,
+) -> Record:
     """A synthetic record with ``hidden`` ("clean", "drift" or a catalogued effect) inside.
 
     The Table 2 row and the excitation cycle with ``seed`` unless given; the noise is white,
@@ -101,8 +109,16 @@ def hidden_effect_record(hidden: str, seed: int = 0, *, excitation_kind: str | N
         truth.update(HIDDEN[hidden])
     else:
         raise ModelError(f"hidden must be 'clean', 'drift' or one of {sorted(CATALOGUE)}; got {hidden!r}")
-    rec = synthetic_record(model, truth, excitation(kind, seed, duration), dt=dt, duration=duration, noise=noise,
-                           rng=1000 + seed, name=f"{hidden}-{kind}-{volt:g}V-s{seed}")
+    rec = synthetic_record(
+        model,
+        truth,
+        excitation(kind, seed, duration),
+        dt=dt,
+        duration=duration,
+        noise=noise,
+        rng=1000 + seed,
+        name=f"{hidden}-{kind}-{volt:g}V-s{seed}",
+    )
     meta = dict(rec.metadata)
     meta["hidden"] = hidden
     meta["scenario"] = Scenario(hidden, volt, kind, seed, noise).__dict__

@@ -22,21 +22,31 @@ The procedure (:func:`diagnose`):
    described in words, so that an effect outside the catalogue is not forced onto a wrong one.
    When the base residual is white at the noise level, no candidate is needed.
 """
+
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Mapping, NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
 from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore
-from duffsym.diagnose.options import (BIC_THRESHOLD, CANDIDATE_CPU_TIME, CANDIDATE_MAX_ITER,
-                                      MIN_EXPLAINED, MIN_IMPROVEMENT, SCREEN, STABILITY_CHECKED, TIE,
-                                      DiagnoseOptions)
+from duffsym.diagnose.options import (
+    BIC_THRESHOLD,
+    CANDIDATE_CPU_TIME,
+    CANDIDATE_MAX_ITER,
+    MIN_EXPLAINED,
+    MIN_IMPROVEMENT,
+    SCREEN,
+    STABILITY_CHECKED,
+    TIE,
+    DiagnoseOptions,
+)
 from duffsym.diagnose.parts import BaseCheck, BaseEvidence, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.diagnose.verdict import full_verdict, why_not
@@ -45,8 +55,19 @@ from duffsym.options import resolve
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
 
-__all__ = ["BIC_THRESHOLD", "MIN_IMPROVEMENT", "MIN_EXPLAINED", "CANDIDATE_MAX_ITER", "CANDIDATE_CPU_TIME", "SCREEN",
-           "DiagnoseOptions", "Candidate", "Diagnosis", "diagnose", "split_record"]
+__all__ = [
+    "BIC_THRESHOLD",
+    "MIN_IMPROVEMENT",
+    "MIN_EXPLAINED",
+    "CANDIDATE_MAX_ITER",
+    "CANDIDATE_CPU_TIME",
+    "SCREEN",
+    "DiagnoseOptions",
+    "Candidate",
+    "Diagnosis",
+    "diagnose",
+    "split_record",
+]
 
 #: IPOPT iterations of a candidate's first, screening fit; candidates continued after it (see :func:`diagnose`)
 SCREEN_ITER = 30
@@ -105,12 +126,28 @@ class Candidate:
     start: int = 1  # 2 when the second start (from the base solution) won
 
     def to_dict(self) -> dict:
-        return dict(effect=self.effect, nrmse_after=self.nrmse_after, delta_bic=self.delta_bic, params=self.params,
-                    stderr=self.stderr, nrmse_after_fit=self.nrmse_after_fit, nrmse_after_all=self.nrmse_after_all,
-                    improvement=self.improvement, explained=self.explained, supported=self.supported,
-                    needed=self.needed, success=self.success, message=self.message, seconds=self.seconds,
-                    all_params=self.all_params, physics=self.physics, diverged=self.diverged, stable=self.stable,
-                    stability=self.stability, start=self.start)
+        return dict(
+            effect=self.effect,
+            nrmse_after=self.nrmse_after,
+            delta_bic=self.delta_bic,
+            params=self.params,
+            stderr=self.stderr,
+            nrmse_after_fit=self.nrmse_after_fit,
+            nrmse_after_all=self.nrmse_after_all,
+            improvement=self.improvement,
+            explained=self.explained,
+            supported=self.supported,
+            needed=self.needed,
+            success=self.success,
+            message=self.message,
+            seconds=self.seconds,
+            all_params=self.all_params,
+            physics=self.physics,
+            diverged=self.diverged,
+            stable=self.stable,
+            stability=self.stability,
+            start=self.start,
+        )
 
 
 @dataclass(frozen=True)
@@ -162,11 +199,22 @@ class Diagnosis:
 
     def to_dict(self) -> dict:
         return dict(
-            nrmse=self.nrmse, candidates=[c.to_dict() for c in self.candidates], needed=list(self.needed),
-            verdict=self.verdict, model=self.model, effects=list(self.effects), nrmse_heldout=self.nrmse_heldout,
-            noise=self.noise, bic_base=self.bic_base, split=self.split.to_dict(), findings=self.residuals.findings(),
-            residuals=self.residuals.to_dict(), base_params=dict(self.base_fit.params), timings=self.timings,
-            sindy=None if self.sindy is None else self.sindy.to_dict(), noise_method=self.noise_method,
+            nrmse=self.nrmse,
+            candidates=[c.to_dict() for c in self.candidates],
+            needed=list(self.needed),
+            verdict=self.verdict,
+            model=self.model,
+            effects=list(self.effects),
+            nrmse_heldout=self.nrmse_heldout,
+            noise=self.noise,
+            bic_base=self.bic_base,
+            split=self.split.to_dict(),
+            findings=self.residuals.findings(),
+            residuals=self.residuals.to_dict(),
+            base_params=dict(self.base_fit.params),
+            timings=self.timings,
+            sindy=None if self.sindy is None else self.sindy.to_dict(),
+            noise_method=self.noise_method,
             base_check={} if self.base_check is None else self.base_check.to_dict(),
             prepare=self.prepare.to_dict() if self.prepare is not None else None,
             noise_estimate=self.noise_estimate.to_dict() if self.noise_estimate is not None else None,
@@ -175,9 +223,11 @@ class Diagnosis:
         )
 
     def summary(self) -> str:
-        lines = [f"diagnosis of {self.model}{' + ' + ' + '.join(self.effects) if self.effects else ''}: "
-                 f"free-run NRMSE {self.nrmse:.4g} (held-out {self.nrmse_heldout:.4g}), noise level {self.noise:.3g} "
-                 f"({self.noise_method})"]
+        lines = [
+            f"diagnosis of {self.model}{' + ' + ' + '.join(self.effects) if self.effects else ''}: "
+            f"free-run NRMSE {self.nrmse:.4g} (held-out {self.nrmse_heldout:.4g}), noise level {self.noise:.3g} "
+            f"({self.noise_method})"
+        ]
         lines.append("where it fails:")
         lines += [f"  - {s}" for s in self.residuals.findings()]
         lines.append("candidates (best first; held-out NRMSE, dBIC, share of excess error explained):")
@@ -185,8 +235,10 @@ class Diagnosis:
             flag = "needed" if c.needed else ("partial" if c.supported else "")
             pv = ", ".join(f"{k}={v:.4g}" for k, v in c.params.items())
             mark = "" if c.stable is not False else f"  [outside the stability certificate: {c.stability}]"
-            lines.append(f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
-                         f"{flag:<7} {pv}" + ("" if c.success else f"  [{why_not(c.message)}]") + mark)
+            lines.append(
+                f"  {c.effect:<22} {c.nrmse_after:8.4g} {c.delta_bic:10.1f} {100 * c.explained:6.0f} %  "
+                f"{flag:<7} {pv}" + ("" if c.success else f"  [{why_not(c.message)}]") + mark
+            )
         if self.sindy is not None:
             lines.append(self.sindy.summary())
         if self.prepare is not None:
@@ -209,15 +261,22 @@ def split_record(record: Record, holdout: float) -> int:
         if ok.size:
             k = int(ok[np.argmin(np.abs(ok - k))])
     if k < 40 or n - k < 20:
-        raise DataError(f"record {record.name!r} ({n} samples) is too short to hold out a part for the diagnosis; "
-                        "give a longer record (several input cycles)")
+        raise DataError(
+            f"record {record.name!r} ({n} samples) is too short to hold out a part for the diagnosis; "
+            "give a longer record (several input cycles)"
+        )
     return k
 
 
 def _part(record: Record, stop: int) -> Record:
     v = np.asarray(record.velocity())
-    return record.replace(t=record.t[:stop], d=record.d[:stop], y=record.y[:stop], d_dot=v[:stop],
-                          command=None if record.command is None else record.command[:stop])
+    return record.replace(
+        t=record.t[:stop],
+        d=record.d[:stop],
+        y=record.y[:stop],
+        d_dot=v[:stop],
+        command=None if record.command is None else record.command[:stop],
+    )
 
 
 # ---------------------------------------------------------------------------------------------- fits
@@ -294,8 +353,9 @@ def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = Non
     return {k: v for k, v in out.items() if k in model.param_names and k not in (fixed or {})}
 
 
-def inactive_effects(model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None,
-                     effects=None) -> dict:
+def inactive_effects(
+    model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None, effects=None
+) -> dict:
     """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
     standard errors), for the catalogued effects of ``model`` (or those in ``effects``) that are flagged; {}
     when every effect acts."""
@@ -313,9 +373,21 @@ def inactive_effects(model, record: Record, params: Mapping[str, float], stderr:
     return out
 
 
-def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, float] | None, *, mask=None,
-         n_starts: int = 1, rng=0, max_iter: int = 500, max_cpu_time: float | None = None,
-         bound_restart: bool = False, flags: bool = True, max_wall_time: float | None = None):
+def _fit(
+    model,
+    record: Record,
+    fixed: Mapping[str, float],
+    x0: Mapping[str, float] | None,
+    *,
+    mask=None,
+    n_starts: int = 1,
+    rng=0,
+    max_iter: int = 500,
+    max_cpu_time: float | None = None,
+    bound_restart: bool = False,
+    flags: bool = True,
+    max_wall_time: float | None = None,
+):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in fixed.items() if k in model.param_names}
@@ -331,8 +403,17 @@ def _fit(model, record: Record, fixed: Mapping[str, float], x0: Mapping[str, flo
     options = {**options, "max_wall_time": float(max_wall_time)} if max_wall_time else (options or None)
     # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
     # by design); the base fit restarts as a plain ``fit`` does
-    return fit(problem, start, n_starts=n_starts, rng=rng, compute_stderr=True, max_iter=max_iter,
-               ipopt_options=options, bound_restart=bound_restart, flags=flags)
+    return fit(
+        problem,
+        start,
+        n_starts=n_starts,
+        rng=rng,
+        compute_stderr=True,
+        max_iter=max_iter,
+        ipopt_options=options,
+        bound_restart=bound_restart,
+        flags=flags,
+    )
 
 
 class CandidateTask(NamedTuple):
@@ -352,9 +433,16 @@ class _CandidateFit:
     Called with a :class:`CandidateTask`; returns a :class:`~duffsym.diagnose.parts.FitOutcome` (its
     ``error`` set when the fit raised on bad input or was not tried)."""
 
-    def __init__(self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time, deadline=None,
-                 n_tasks=1):
-        self.record, self.k, self.rec_fit, self.base_params, self.y_base_fit = record, k, rec_fit, base_params, y_base_fit
+    def __init__(
+        self, record, k, rec_fit, base_params, y_base_fit, fixed, mask_fit, cpu_time, deadline=None, n_tasks=1
+    ):
+        self.record, self.k, self.rec_fit, self.base_params, self.y_base_fit = (
+            record,
+            k,
+            rec_fit,
+            base_params,
+            y_base_fit,
+        )
         self.fixed, self.mask_fit, self.cpu_time = fixed, mask_fit, cpu_time
         self.deadline, self.n_tasks, self.calls = deadline, max(int(n_tasks), 1), 0
 
@@ -372,9 +460,17 @@ class _CandidateFit:
         if soft is None:
             return start
         half = None if self.cpu_time is None else 0.5 * self.cpu_time
-        fs = _fit(soft, self.rec_fit, self.fixed, start, mask=unmasked(soft, self.mask_fit), max_iter=budget,
-                  max_cpu_time=half,
-                  max_wall_time=None if wall is None else 0.5 * wall, flags=False)
+        fs = _fit(
+            soft,
+            self.rec_fit,
+            self.fixed,
+            start,
+            mask=unmasked(soft, self.mask_fit),
+            max_iter=budget,
+            max_cpu_time=half,
+            max_wall_time=None if wall is None else 0.5 * wall,
+            flags=False,
+        )
         ok = fs.success or fs.status in (Status.MAX_ITER,) + OUT_OF_TIME
         return {**start, **dict(fs.params)} if ok and all(np.isfinite(list(fs.params.values()))) else start
 
@@ -389,12 +485,22 @@ class _CandidateFit:
             return FitOutcome(error=NOT_TRIED, status=Status.TIME_LIMIT)
         try:
             if start is None:
-                start = extended_start(ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit,
-                                       fixed=self.fixed)
+                start = extended_start(
+                    ext, CATALOGUE[name], self.rec_fit, self.base_params, self.y_base_fit, fixed=self.fixed
+                )
                 start = self._smooth_first(name, ext, start, budget, wall)
             # no fit-level flags: the diagnosis judges its candidates itself, stability included (_mark_stability)
-            fr = _fit(ext, self.rec_fit, self.fixed, start, mask=unmasked(ext, self.mask_fit), max_iter=budget,
-                      max_cpu_time=self.cpu_time, max_wall_time=wall, flags=False)
+            fr = _fit(
+                ext,
+                self.rec_fit,
+                self.fixed,
+                start,
+                mask=unmasked(ext, self.mask_fit),
+                max_iter=budget,
+                max_cpu_time=self.cpu_time,
+                max_wall_time=wall,
+                flags=False,
+            )
         except (ModelError, DataError) as exc:
             return FitOutcome(error=str(exc), status=Status.UNKNOWN, seconds=time.perf_counter() - t0)
         y_ext = free_run(ext, fr.params, self.record, fr.x0[0])
@@ -492,22 +598,38 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     model = _diagnosed_model(model, o.fit_result)
     names = _candidate_names(o.candidates, model)
     s = _setting(record, model, o)
-    say(f"base fit of {model.name} on {s.k} of {record.n_times} samples"
-        + (f" (decimated by {s.prep.factor})" if s.prep.factor > 1 else ""))
+    say(
+        f"base fit of {model.name} on {s.k} of {record.n_times} samples"
+        + (f" (decimated by {s.prep.factor})" if s.prep.factor > 1 else "")
+    )
     start = dict(o.fit_result.params) if o.start is None and o.fit_result is not None else o.start
     t_budget = time_left(o.deadline)
-    base, y_work, base_check = _base_fit(model, s.work, s.rec_fit, s.fixed, start, o.mask, s.mask_fit, o.fit_result,
-                                         say, k=s.k, rec_plain=_plain_data(s, o), deadline=o.deadline)
+    base, y_work, base_check = _base_fit(
+        model,
+        s.work,
+        s.rec_fit,
+        s.fixed,
+        start,
+        o.mask,
+        s.mask_fit,
+        o.fit_result,
+        say,
+        k=s.k,
+        rec_plain=_plain_data(s, o),
+        deadline=o.deadline,
+    )
     ev = _base_evidence(s, base, model, s.through(y_work))
     base_check = _with_certificate(base_check, model, base.params)
-    failed, runs = _candidate_runs(names, model, s.rec_fit, s.work, base, y_work[:s.k], s.fixed, s.mask_fit, o, say,
-                                   q=s.prep.factor)
+    failed, runs = _candidate_runs(
+        names, model, s.rec_fit, s.work, base, y_work[: s.k], s.fixed, s.mask_fit, o, say, q=s.prep.factor
+    )
     for r in runs:
         if r.fit is not None:
             r.y = s.through(r.y)
     sigma, noise_method = _noise_reference(s, ev, runs)
-    res = analyse_residuals(record, ev.y_base, noise=sigma, noise_kind="floor" if s.floor_noise else "measured",
-                            smoothing=s.est.smoothing)
+    res = analyse_residuals(
+        record, ev.y_base, noise=sigma, noise_kind="floor" if s.floor_noise else "measured", smoothing=s.est.smoothing
+    )
     shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
     out, exts = _judged(failed, runs, s, ev, model, res, shifted, sigma, o)
     out = _mark_stability(_rank(out), exts)
@@ -517,12 +639,27 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     inactive = inactive_effects(model, record, base.params, base.stderr)
     verdict = full_verdict(res, out, base_held, noise_method, shifted, s.est.smoothing, evidence, base_check, inactive)
     return Diagnosis(
-        model=model.name, effects=tuple(model.effects), nrmse=_nrmse(s.y, ev.y_base), nrmse_heldout=base_held,
-        residuals=res, candidates=tuple(out), needed=needed[:1] if needed else (), verdict=verdict, base_fit=base,
-        y_base=ev.y_base, split=Split(n_fit=s.k, n_heldout=record.n_times - s.k, t_split=float(record.t[s.k])),
-        noise=sigma, bic_base=ev.bic, timings={"total": time.perf_counter() - t_start},
-        y_candidates={r.name: r.y for r in runs if r.name in exts}, sindy=evidence, noise_method=noise_method,
-        base_check=base_check, prepare=s.prep, noise_estimate=s.est, inactive=inactive,
+        model=model.name,
+        effects=tuple(model.effects),
+        nrmse=_nrmse(s.y, ev.y_base),
+        nrmse_heldout=base_held,
+        residuals=res,
+        candidates=tuple(out),
+        needed=needed[:1] if needed else (),
+        verdict=verdict,
+        base_fit=base,
+        y_base=ev.y_base,
+        split=Split(n_fit=s.k, n_heldout=record.n_times - s.k, t_split=float(record.t[s.k])),
+        noise=sigma,
+        bic_base=ev.bic,
+        timings={"total": time.perf_counter() - t_start},
+        y_candidates={r.name: r.y for r in runs if r.name in exts},
+        sindy=evidence,
+        noise_method=noise_method,
+        base_check=base_check,
+        prepare=s.prep,
+        noise_estimate=s.est,
+        inactive=inactive,
     )
 
 
@@ -596,8 +733,18 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     mask_fit = None if o.mask is None else np.asarray(o.mask, dtype=bool)[:k]
     cap = BUDGET_SAMPLES if o.deadline is not None else None
     prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, o.decimate, cap)
-    return _Setting(k=k, held=slice(k, record.n_times), y=y, est=est, work=work, rec_fit=rec_fit, fixed=fixed,
-                    mask_fit=mask_fit, prep=prep, cap=cap)
+    return _Setting(
+        k=k,
+        held=slice(k, record.n_times),
+        y=y,
+        est=est,
+        work=work,
+        rec_fit=rec_fit,
+        fixed=fixed,
+        mask_fit=mask_fit,
+        prep=prep,
+        cap=cap,
+    )
 
 
 def _plain_data(s: _Setting, o: DiagnoseOptions):
@@ -611,9 +758,14 @@ def _plain_data(s: _Setting, o: DiagnoseOptions):
 
 def _base_evidence(s: _Setting, base, model, y_base: np.ndarray) -> BaseEvidence:
     r_base = s.y - y_base
-    ss_fit = float(np.sum(r_base[:s.k] ** 2))
-    return BaseEvidence(y_base=y_base, k=s.k, mse_held=float(np.mean(r_base[s.held] ** 2)), ss_fit=ss_fit,
-                        bic=_bic(ss_fit, s.k, _n_estimated(base, model)))
+    ss_fit = float(np.sum(r_base[: s.k] ** 2))
+    return BaseEvidence(
+        y_base=y_base,
+        k=s.k,
+        mse_held=float(np.mean(r_base[s.held] ** 2)),
+        ss_fit=ss_fit,
+        bic=_bic(ss_fit, s.k, _n_estimated(base, model)),
+    )
 
 
 def _with_certificate(check: BaseCheck, model, params) -> BaseCheck:
@@ -629,10 +781,13 @@ def _noise_reference(s: _Setting, ev: BaseEvidence, runs: Sequence[CandidateRun]
     fitted model, an upper bound of the noise."""
     if not s.floor_noise:
         return s.est.sigma, s.est.method
-    held_rms = [math.sqrt(ev.mse_held)] + [math.sqrt(float(np.mean((s.y[s.held] - r.y[s.held]) ** 2)))
-                                           for r in runs if r.converged and r.y is not None]
-    return min(held_rms), (f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; "
-                           f"the noise is {s.est.method}")
+    held_rms = [math.sqrt(ev.mse_held)] + [
+        math.sqrt(float(np.mean((s.y[s.held] - r.y[s.held]) ** 2))) for r in runs if r.converged and r.y is not None
+    ]
+    return min(held_rms), (
+        f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; "
+        f"the noise is {s.est.method}"
+    )
 
 
 def _judged(failed, runs, s: _Setting, ev: BaseEvidence, model, res, shifted, sigma, o) -> tuple[list, dict]:
@@ -658,8 +813,13 @@ def _not_judged(run: CandidateRun) -> Candidate | None:
     if not run.fit.success:
         return _failed(run.name, run.effect, run.fit.message, run.seconds)
     if run.y is None:
-        return _failed(run.name, run.effect, f"free run diverged (failed, or left {DIVERGED:g}x the data's range)",
-                       run.seconds, diverged=True)
+        return _failed(
+            run.name,
+            run.effect,
+            f"free run diverged (failed, or left {DIVERGED:g}x the data's range)",
+            run.seconds,
+            diverged=True,
+        )
     return None
 
 
@@ -678,21 +838,33 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
     enough = explained >= o.min_explained or (run.name == "force-offset" and shifted)
     return Candidate(
-        effect=run.name, nrmse_after=_nrmse(y[s.held], y_ext[s.held]), nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
-        nrmse_after_all=_nrmse(y, y_ext), delta_bic=dbic, improvement=improvement,
-        explained=float(min(explained, 1.0)), params={p: float(fr.params[p]) for p in own},
-        stderr={p: float(fr.stderr.get(p, math.nan)) for p in own}, all_params=dict(fr.params), success=True,
-        message=fr.message, seconds=run.seconds, supported=supported,
-        needed=supported and enough and not res.at_noise_level, physics=run.effect.physics,
-        start=int(fr.settings.get("candidate_start", 1)))
+        effect=run.name,
+        nrmse_after=_nrmse(y[s.held], y_ext[s.held]),
+        nrmse_after_fit=_nrmse(y[:k], y_ext[:k]),
+        nrmse_after_all=_nrmse(y, y_ext),
+        delta_bic=dbic,
+        improvement=improvement,
+        explained=float(min(explained, 1.0)),
+        params={p: float(fr.params[p]) for p in own},
+        stderr={p: float(fr.stderr.get(p, math.nan)) for p in own},
+        all_params=dict(fr.params),
+        success=True,
+        message=fr.message,
+        seconds=run.seconds,
+        supported=supported,
+        needed=supported and enough and not res.at_noise_level,
+        physics=run.effect.physics,
+        start=int(fr.settings.get("candidate_start", 1)),
+    )
 
 
 def _within_range(y_run, y) -> bool:
     return y_run is not None and float(np.max(np.abs(y_run))) <= DIVERGED * float(np.max(np.abs(y)))
 
 
-def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None,
-              deadline=None) -> tuple[object, np.ndarray, BaseCheck]:
+def _base_fit(
+    model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None, deadline=None
+) -> tuple[object, np.ndarray, BaseCheck]:
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
@@ -708,8 +880,9 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
     mask, mask_fit = unmasked(model, mask), unmasked(model, mask_fit)
-    base = _fit(model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True,
-                max_wall_time=_time_share(deadline, BASE_SHARE))
+    base = _fit(
+        model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True, max_wall_time=_time_share(deadline, BASE_SHARE)
+    )
     out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
     # a base fit stopped by its share of the time budget is still used when its free run holds (the verdict
     # says it was not converged)
@@ -726,20 +899,36 @@ def _base_fit(model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, 
     won = "tuning guess" if start is None else "given start"
     if err(y_plain) < 0.99 * err(y_base):
         say("  base refit from the reference's parameters")
-        alt = _fit(model, rec_fit, fixed, dict(plain.params), mask=mask_fit, bound_restart=True,
-                   max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE - REFERENCE_SHARE)))
+        alt = _fit(
+            model,
+            rec_fit,
+            fixed,
+            dict(plain.params),
+            mask=mask_fit,
+            bound_restart=True,
+            max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE - REFERENCE_SHARE)),
+        )
         y_alt = _in_range(model, alt, record, y) if alt.success else None
         if err(y_alt) < err(y_base):
             base, y_base, won = alt, y_alt, "the reference's parameters"
     if y_base is None:
         if not base.success:
-            raise ModelError(f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged "
-                             "base model: check the data and the model, or give a fit with --fit")
-        raise ModelError("the base model's free run over the whole record failed; the diagnosis needs a stable base "
-                         "model")
+            raise ModelError(
+                f"the base fit failed ({base.status}: {base.message}); the diagnosis needs a converged "
+                "base model: check the data and the model, or give a fit with --fit"
+            )
+        raise ModelError(
+            "the base model's free run over the whole record failed; the diagnosis needs a stable base model"
+        )
     e_base, e_plain = err(y_base), err(y_plain)
-    check = BaseCheck(reference=plain_src, nrmse_fit_part=e_base, reference_nrmse_fit_part=e_plain, start=won,
-                      as_good=bool(e_base <= 1.05 * e_plain), budget=tuple(out_of_time))
+    check = BaseCheck(
+        reference=plain_src,
+        nrmse_fit_part=e_base,
+        reference_nrmse_fit_part=e_plain,
+        start=won,
+        as_good=bool(e_base <= 1.05 * e_plain),
+        budget=tuple(out_of_time),
+    )
     return base, y_base, check
 
 
@@ -756,13 +945,21 @@ def _reference(model, record, fixed, start, mask, fit_result, say, rec_plain, de
         return fit_result, "the given fit", []
     say("  reference: a plain fit of the whole record")
     rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
-    plain = _fit(model, rec_p, fixed, start, mask=mask_p, bound_restart=True,
-                 max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)))
+    plain = _fit(
+        model,
+        rec_p,
+        fixed,
+        start,
+        mask=mask_p,
+        bound_restart=True,
+        max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)),
+    )
     return plain, "a plain fit of the record", ["plain-fit reference"] if plain.status in OUT_OF_TIME else []
 
 
-def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, o: DiagnoseOptions, say,
-                    q: int = 1) -> tuple[list[Candidate], list[CandidateRun]]:
+def _candidate_runs(
+    names, model, rec_fit, record, base, y_model_fit, fixed, mask_fit, o: DiagnoseOptions, say, q: int = 1
+) -> tuple[list[Candidate], list[CandidateRun]]:
     """Each candidate fitted (with screening, see :func:`diagnose`; a second start, see ``second_start``;
     on ``engine``'s workers when given): (the failed :class:`Candidate` of each whose fit raised, the
     :class:`CandidateRun` of every other)."""
@@ -773,8 +970,18 @@ def _candidate_runs(names, model, rec_fit, record, base, y_model_fit, fixed, mas
     ss_base = float(np.sum((y[:k] - np.asarray(y_model_fit)) ** 2))
     screen, deadline = o.screen, o.deadline
     budget = o.candidate_max_iter if screen is None else min(SCREEN_ITER, o.candidate_max_iter)
-    job = _CandidateFit(record, k, rec_fit, dict(base.params), np.asarray(y_model_fit)[::q], fixed, mask_fit,
-                        o.candidate_cpu_time, deadline, len(names) + (screen or 0))
+    job = _CandidateFit(
+        record,
+        k,
+        rec_fit,
+        dict(base.params),
+        np.asarray(y_model_fit)[::q],
+        fixed,
+        mask_fit,
+        o.candidate_cpu_time,
+        deadline,
+        len(names) + (screen or 0),
+    )
     tasks = []
     for name in names:
         try:
@@ -802,9 +1009,12 @@ def _second_starts(runs: list[CandidateRun], ss_base: float, base, budget: int, 
     """A run lost to a local optimum (failed, diverged, or worse than the base it extends) fitted again from the
     base solution itself, the effect's parameters at their neutral defaults; the better fit is kept."""
     lost = [r for r in runs if not r.converged or r.ss > ss_base]
-    starts = [CandidateTask(r.name, r.model, budget,
-                            {**dict(base.params), **{p.name: p.default for p in r.effect.parameters()}})
-              for r in lost]
+    starts = [
+        CandidateTask(
+            r.name, r.model, budget, {**dict(base.params), **{p.name: p.default for p in r.effect.parameters()}}
+        )
+        for r in lost
+    ]
     for run, got in zip(lost, _map(engine, job, starts, say, "second start for")):
         if not got.ok:
             continue
@@ -815,8 +1025,7 @@ def _second_starts(runs: list[CandidateRun], ss_base: float, base, budget: int, 
             run.ss, run.fit, run.y = got.ss, fr2, got.y
 
 
-def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max_iter: int, job, engine,
-                         say) -> None:
+def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max_iter: int, job, engine, say) -> None:
     """Screening: the runs not converged on the screening budget are ranked by their free-run error on the
     fitting part; the best ``screen`` continue to ``max_iter`` iterations, the others are screened out.
 
@@ -828,9 +1037,11 @@ def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max
     go_on = []
     for rank, run in enumerate(open_runs):
         if rank >= screen:
-            run.drop(Status.SCREENED_OUT,
-                     f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
-                     f"{rank + 1} of the {len(open_runs)} candidates not converged by then (screen={screen})")
+            run.drop(
+                Status.SCREENED_OUT,
+                f"screened out: not converged in {budget} IPOPT iterations and its free-run error ranks "
+                f"{rank + 1} of the {len(open_runs)} candidates not converged by then (screen={screen})",
+            )
             continue
         go_on.append(run)
     tasks = [CandidateTask(r.name, r.model, max_iter, r.fit.params) for r in go_on]
@@ -889,9 +1100,14 @@ def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate, max_sample
     need = -(-rec_fit.n_times // max_samples) if max_samples and cap != 1 else 1
     if need > prep.factor and prep.rate_in == prep.rate_in:  # uniform sampling (rate_in not NaN)
         q = need if cap is None else min(need, cap)
-        prep = dataclasses.replace(prep, factor=q, rate=prep.rate_in / q, n_out=-(-prep.n_in // q),
-                                   reason=f"the time budget: at most {max_samples} fitting samples (the spectrum alone "
-                                   f"asked for a factor {prep.factor})")
+        prep = dataclasses.replace(
+            prep,
+            factor=q,
+            rate=prep.rate_in / q,
+            n_out=-(-prep.n_in // q),
+            reason=f"the time budget: at most {max_samples} fitting samples (the spectrum alone "
+            f"asked for a factor {prep.factor})",
+        )
     rec = decimate_record(rec_fit, prep.factor)
     return prep, rec, decimate_mask(mask_fit, prep.factor, rec.n_times)
 
@@ -904,7 +1120,7 @@ def _rank(cands: list[Candidate]) -> list[Candidate]:
     rest = [c for c in cands if c not in ok]
     if ok:
         tie = [c for c in ok if c.nrmse_after <= ok[0].nrmse_after * (1 + TIE)]
-        ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie):]
+        ok = sorted(tie, key=lambda c: c.delta_bic) + ok[len(tie) :]
     return ok + rest
 
 
@@ -925,12 +1141,26 @@ def _sindy_evidence(record, base_fit, model, say) -> SindyCheck:
         return SindyCheck.from_evidence(sindy_evidence([record], fit=base_fit, model=model))
     except (ModelError, DataError, ValueError, ArithmeticError) as exc:
         # the cross-check is corroboration only: a failure here must not cost the diagnosis
-        return SindyCheck.not_applicable(f"the SINDy cross-check could not run on this model: "
-                                         f"{type(exc).__name__}: {exc}")
+        return SindyCheck.not_applicable(
+            f"the SINDy cross-check could not run on this model: {type(exc).__name__}: {exc}"
+        )
 
 
 def _failed(name, effect, message, seconds, diverged: bool = False) -> Candidate:
-    return Candidate(effect=name, nrmse_after=math.nan, nrmse_after_fit=math.nan, nrmse_after_all=math.nan,
-                     delta_bic=math.nan, improvement=math.nan, explained=math.nan, params={}, stderr={},
-                     all_params={}, success=False, message=message, seconds=seconds, physics=effect.physics,
-                     diverged=diverged)
+    return Candidate(
+        effect=name,
+        nrmse_after=math.nan,
+        nrmse_after_fit=math.nan,
+        nrmse_after_all=math.nan,
+        delta_bic=math.nan,
+        improvement=math.nan,
+        explained=math.nan,
+        params={},
+        stderr={},
+        all_params={},
+        success=False,
+        message=message,
+        seconds=seconds,
+        physics=effect.physics,
+        diverged=diverged,
+    )

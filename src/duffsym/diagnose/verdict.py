@@ -1,8 +1,10 @@
 """The diagnosis in words: the verdict on the ranked candidates, and the sentences beside it (the proposal to look
 outside the catalogue, the smoothing, the SINDy cross-check, the base fit's check, the inactive effects)."""
+
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from duffsym.diagnose.options import EXACT_FIT, STABILITY_CHECKED, TIE
 from duffsym.diagnose.parts import BaseCheck, SindyCheck
@@ -18,14 +20,21 @@ def why_not(message: str) -> str:
         return f"not converged: its share of the time budget ran out ({message})"
     return message if message.startswith(("screened out", "free run", "not tried")) else f"fit failed: {message}"
 
+
 def full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive) -> str:
     """The diagnosis's sentences: the verdict, the proposal to look outside the catalogue, smoothing, SINDy,
     the base fit's check and the inactive effects."""
     from duffsym.diagnose.discover import proposal
 
-    return (_verdict(res, out, base_held, noise_method, shifted) + proposal(res, out) + _smoothing_sentence(w)
-            + _sindy_sentence(evidence, out) + _base_sentence(base_check)
-            + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items()))
+    return (
+        _verdict(res, out, base_held, noise_method, shifted)
+        + proposal(res, out)
+        + _smoothing_sentence(w)
+        + _sindy_sentence(evidence, out)
+        + _base_sentence(base_check)
+        + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items())
+    )
+
 
 def _sindy_sentence(evidence: SindyCheck | None, cands: Sequence[Candidate]) -> str:
     if evidence is None or not evidence.conclusive:
@@ -39,6 +48,7 @@ def _sindy_sentence(evidence: SindyCheck | None, cands: Sequence[Candidate]) -> 
     if best is not None and best.needed and best.effect in effects:
         return f" The SINDy cross-check independently selects {terms}, the term of {best.effect}."
     return f" The SINDy cross-check selects term(s) the model lacks: {terms}."
+
 
 def _share(c: Candidate, floor: bool) -> str:
     """The share of the excess error a candidate removes, in words; with the held-out floor as the noise
@@ -57,9 +67,11 @@ def _not_needed_why(c: Candidate) -> str:
 def _smoothing_sentence(w: int) -> str:
     if w <= 1:
         return ""
-    return (f" The force is smoothed by a {w}-sample moving average (detected in its spectrum): the models were "
-            "fitted to the force restored by its regularised inverse and judged through the same average against "
-            "the measured force.")
+    return (
+        f" The force is smoothed by a {w}-sample moving average (detected in its spectrum): the models were "
+        "fitted to the force restored by its regularised inverse and judged through the same average against "
+        "the measured force."
+    )
 
 
 def _base_sentence(check: BaseCheck | None) -> str:
@@ -67,68 +79,109 @@ def _base_sentence(check: BaseCheck | None) -> str:
         return ""
     s = ""
     if check.budget:
-        s += (f" Time budget: the {' and the '.join(check.budget)} stopped on {'its' if len(check.budget) == 1 else 'their'}"
-              " share of the budget before converging (give more with --budget).")
+        s += (
+            f" Time budget: the {' and the '.join(check.budget)} stopped on {'its' if len(check.budget) == 1 else 'their'}"
+            " share of the budget before converging (give more with --budget)."
+        )
     if not check.as_good:
-        s += (f" Caution: the diagnosis's base fit (free-run NRMSE {check.nrmse_fit_part:.3g} on the fitting part) "
-              f"is worse than {check.reference} ({check.reference_nrmse_fit_part:.3g}): every candidate is "
-              "judged against a weaker base.")
+        s += (
+            f" Caution: the diagnosis's base fit (free-run NRMSE {check.nrmse_fit_part:.3g} on the fitting part) "
+            f"is worse than {check.reference} ({check.reference_nrmse_fit_part:.3g}): every candidate is "
+            "judged against a weaker base."
+        )
     if check.stable is False:
-        s += (f" The base fit is outside the derived stability certificate ({check.stability}): "
-              "an energy-producing parameter set; treat its numbers with care.")
+        s += (
+            f" The base fit is outside the derived stability certificate ({check.stability}): "
+            "an energy-producing parameter set; treat its numbers with care."
+        )
     return s
 
-def _verdict(res: ResidualAnalysis, cands: Sequence[Candidate], base_held: float, noise_method: str = "given",
-             shifted: bool = False) -> str:
+
+def _verdict(
+    res: ResidualAnalysis,
+    cands: Sequence[Candidate],
+    base_held: float,
+    noise_method: str = "given",
+    shifted: bool = False,
+) -> str:
     ok = [c for c in cands if c.success and not c.diverged]
     best = ok[0] if ok else None
     where = res.findings()
     floor = noise_method.startswith("held-out residual floor")
-    noise_said = (f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})" if not floor else
-                  f" (the noise is not measurable on this record; the reference {res.noise:.3g} is the lowest held-out "
-                  "RMS of any fitted model, an upper bound of the noise)")
+    noise_said = (
+        f" (noise level {res.noise:.3g}, from {noise_method.split(':')[0]})"
+        if not floor
+        else f" (the noise is not measurable on this record; the reference {res.noise:.3g} is the lowest held-out "
+        "RMS of any fitted model, an upper bound of the noise)"
+    )
     if base_held < EXACT_FIT and not any(c.needed for c in ok):
-        return (f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
-                "data?); nothing is left to explain and no effect is needed.")
+        return (
+            f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
+            "data?); nothing is left to explain and no effect is needed."
+        )
     if res.at_noise_level and not any(c.needed for c in ok):
         if floor:
-            return ("The model fits as well as any candidate: no catalogued effect lowers the held-out error "
-                    f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}.")
-        return (f"The model fits to the noise: the residual is white and at the noise level "
-                f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
-                f"catalogued effect improves the held-out error convincingly.")
+            return (
+                "The model fits as well as any candidate: no catalogued effect lowers the held-out error "
+                f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}."
+            )
+        return (
+            f"The model fits to the noise: the residual is white and at the noise level "
+            f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
+            f"catalogued effect improves the held-out error convincingly."
+        )
     if res.excess < 1.5 and not floor and not any(c.needed for c in ok):
-        return (f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
-                f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
-                "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
-                "effect lowers convincingly; no effect is needed.")
+        return (
+            f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
+            f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
+            "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
+            "effect lowers convincingly; no effect is needed."
+        )
     unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
     tail = ""
     if unstable:
-        tail = (" Not taken although supported, because the fitted set is outside the derived stability certificate "
-                "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + ".")
+        tail = (
+            " Not taken although supported, because the fitted set is outside the derived stability certificate "
+            "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + "."
+        )
     if best is not None and best.needed:
-        s = (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-             f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
-             f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {_share(best, floor)}).")
+        s = (
+            f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
+            f"Adding {best.effect} ({best.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} to "
+            f"{best.nrmse_after:.3g} (dBIC {best.delta_bic:.0f}, {_share(best, floor)})."
+        )
         if best.effect == "force-offset" and shifted and best.explained < 0.5:
             s += " It is taken because the loop is shifted (residual mean a large share of its RMS)."
         ties = [c for c in ok[1:] if c.needed and c.nrmse_after <= best.nrmse_after * (1 + TIE)]
         if ties:
-            s += (f" {', '.join(c.effect for c in ties)} explain{'s' if len(ties) == 1 else ''} it almost as well "
-                  "here: this record cannot tell them apart.")
+            s += (
+                f" {', '.join(c.effect for c in ties)} explain{'s' if len(ties) == 1 else ''} it almost as well "
+                "here: this record cannot tell them apart."
+            )
         return s + tail
     needed = next((c for c in ok if c.needed), None)
     if needed is not None:
-        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-                f"Adding {needed.effect} ({needed.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} "
-                f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {_share(needed, floor)}).") + tail
+        return (
+            f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
+            f"Adding {needed.effect} ({needed.physics}) explains it: the held-out NRMSE falls from {base_held:.3g} "
+            f"to {needed.nrmse_after:.3g} (dBIC {needed.delta_bic:.0f}, {_share(needed, floor)})."
+        ) + tail
     if best is not None and best.supported:
-        return (f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
-                f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
-                f"{best.delta_bic:.0f}) but {_not_needed_why(best)}, so it is not the missing effect with confidence. "
-                f"What remains: {'; '.join(where[:2]) if where else 'unclear'}.") + tail
-    return ("No catalogued effect explains what the model misses: "
-            + ("; ".join(where[:3]) if where else "the residual is structured") + noise_said
-            + (f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
-               f"{best.nrmse_after:.3g}." if best is not None else ".") + tail)
+        return (
+            f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "
+            f"{best.effect} helps (held-out NRMSE {base_held:.3g} -> {best.nrmse_after:.3g}, dBIC "
+            f"{best.delta_bic:.0f}) but {_not_needed_why(best)}, so it is not the missing effect with confidence. "
+            f"What remains: {'; '.join(where[:2]) if where else 'unclear'}."
+        ) + tail
+    return (
+        "No catalogued effect explains what the model misses: "
+        + ("; ".join(where[:3]) if where else "the residual is structured")
+        + noise_said
+        + (
+            f". The best candidate, {best.effect}, changes the held-out NRMSE only from {base_held:.3g} to "
+            f"{best.nrmse_after:.3g}."
+            if best is not None
+            else "."
+        )
+        + tail
+    )

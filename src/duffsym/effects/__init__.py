@@ -36,52 +36,68 @@ A model holds the effect objects applied to it (:attr:`~duffsym.model.SymbolicMo
 :attr:`~duffsym.model.SymbolicModel.base_model`); :mod:`duffsym.effects.spec` writes a model as its base and
 effects with their settings (FIT.json's ``model_spec``) and rebuilds it.
 """
+
 from duffsym.effects.base import (
-                                    Effect,
-                                    apply_effects,
-                                    effect_chain,
-                                    initial_states_with_effects,
+    Effect,
+    apply_effects,
+    effect_chain,
+    initial_states_with_effects,
 )
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
 from duffsym.effects.mechanical import CoulombFriction
 from duffsym.effects.output import (
-                                    Asymmetry,
-                                    FieldAsymmetry,
-                                    ForceOffset,
-                                    GasAccumulator,
-                                    OutputLag,
-                                    ParallelDamping,
-                                    PistonInertia,
-                                    SealFriction,
+    Asymmetry,
+    FieldAsymmetry,
+    ForceOffset,
+    GasAccumulator,
+    OutputLag,
+    ParallelDamping,
+    PistonInertia,
+    SealFriction,
 )
 from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
 
 #: Effects by name.
-CATALOGUE: dict[str, Effect] = {e.name: e for e in (
-    ForceOffset(), GasAccumulator(), PistonInertia(), ParallelDamping(), CoulombFriction(), SealFriction(), Asymmetry(),
-    OutputLag(), FieldAsymmetry(),
-    InputDelay(), InputShift(), Backlash(), QuadraticStiffness(), CubicDamping(), InputCurvature(),
-)}
+CATALOGUE: dict[str, Effect] = {
+    e.name: e
+    for e in (
+        ForceOffset(),
+        GasAccumulator(),
+        PistonInertia(),
+        ParallelDamping(),
+        CoulombFriction(),
+        SealFriction(),
+        Asymmetry(),
+        OutputLag(),
+        FieldAsymmetry(),
+        InputDelay(),
+        InputShift(),
+        Backlash(),
+        QuadraticStiffness(),
+        CubicDamping(),
+        InputCurvature(),
+    )
+}
 
 __all__ = [
-                                    "CATALOGUE",
-                                    "Asymmetry",
-                                    "Backlash",
-                                    "CoulombFriction",
-                                    "CubicDamping",
-                                    "Effect",
-                                    "FieldAsymmetry",
-                                    "ForceOffset",
-                                    "GasAccumulator",
-                                    "InputCurvature",
-                                    "InputDelay",
-                                    "InputShift",
-                                    "OutputLag",
-                                    "ParallelDamping",
-                                    "PistonInertia",
-                                    "QuadraticStiffness",
-                                    "SealFriction",
-                                    "apply_effects",
-                                    "effect_chain",
-                                    "initial_states_with_effects",
+    "CATALOGUE",
+    "Asymmetry",
+    "Backlash",
+    "CoulombFriction",
+    "CubicDamping",
+    "Effect",
+    "FieldAsymmetry",
+    "ForceOffset",
+    "GasAccumulator",
+    "InputCurvature",
+    "InputDelay",
+    "InputShift",
+    "OutputLag",
+    "ParallelDamping",
+    "PistonInertia",
+    "QuadraticStiffness",
+    "SealFriction",
+    "apply_effects",
+    "effect_chain",
+    "initial_states_with_effects",
 ]

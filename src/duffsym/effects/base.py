@@ -23,6 +23,7 @@ Helpers: :func:`apply_effects`; :func:`effect_chain` (base model and the models 
 extended model (:func:`~duffsym.identify.extended_start`, :func:`~duffsym.identify.fit_with_effects`)
 is in :mod:`duffsym.identify.extended`: effects never import the fitting code.
 """
+
 from __future__ import annotations
 
 import math
@@ -133,11 +134,21 @@ class Effect:
     def describe(self) -> dict:
         """Everything ``duffsym effects --json`` shows about the effect."""
         return {
-            "effect": self.name, "physics": self.physics, "signature": self.signature, "form": self.form,
-            "initial_guess": self.guess, "new_states": self.n_states,
+            "effect": self.name,
+            "physics": self.physics,
+            "signature": self.signature,
+            "form": self.form,
+            "initial_guess": self.guess,
+            "new_states": self.n_states,
             "parameters": [
-                {"name": p.name, "unit": p.unit, "default": p.default, "lower": p.lower, "upper": p.upper,
-                 "description": p.description}
+                {
+                    "name": p.name,
+                    "unit": p.unit,
+                    "default": p.default,
+                    "lower": p.lower,
+                    "upper": p.upper,
+                    "description": p.description,
+                }
                 for p in self.parameters()
             ],
         }
@@ -149,16 +160,20 @@ class Effect:
 
     def _require_mechanical(self, model: SymbolicModel) -> tuple[sp.Symbol, sp.Symbol]:
         if model.position is None or model.velocity is None:
-            raise ModelError(f"effect {self.name} needs a mechanical model (position and velocity states); "
-                             f"model {model.name} has none")
+            raise ModelError(
+                f"effect {self.name} needs a mechanical model (position and velocity states); "
+                f"model {model.name} has none"
+            )
         return model.position, model.velocity
 
     def _require_input(self, model: SymbolicModel, order: int = 0):
         """The model's input channel of ``order`` on its first signal, or a ModelError."""
         chans = [c for c in model.inputs if c.order == order]
         if not chans:
-            raise ModelError(f"effect {self.name} acts on the input and its derivative of order {order}; "
-                             f"model {model.name} has inputs {[c.name for c in model.inputs]}")
+            raise ModelError(
+                f"effect {self.name} acts on the input and its derivative of order {order}; "
+                f"model {model.name} has inputs {[c.name for c in model.inputs]}"
+            )
         return chans[0]
 
     def _spec(self, name: str) -> ParamSpec:

@@ -6,11 +6,12 @@ model misses). Like every effect it is a model extension and imports no fitting 
 ``"discovered: +0.3019·tanh(d'/0.27) on the output"``, says the term in words and is enough to
 rebuild it (:func:`from_name`, used when a saved fit is read back).
 """
+
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 import sympy as sp
@@ -59,10 +60,19 @@ class DiscoveredEffect(Effect):
         object.__setattr__(self, "form", "y += " + str(self.expression()))
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return tuple(ParamSpec(f"{self.prefix}c{i + 1}", f"c_{{d{self.index},{i + 1}}}", float(c), -1e9, 1e9,
-                               unit="output unit / term unit", scale=max(abs(float(c)), 1e-6),
-                               description=f"coefficient of {term_words(t)} (discovered)")
-                     for i, (t, c) in enumerate(zip(self.terms, self.coefs)))
+        return tuple(
+            ParamSpec(
+                f"{self.prefix}c{i + 1}",
+                f"c_{{d{self.index},{i + 1}}}",
+                float(c),
+                -1e9,
+                1e9,
+                unit="output unit / term unit",
+                scale=max(abs(float(c)), 1e-6),
+                description=f"coefficient of {term_words(t)} (discovered)",
+            )
+            for i, (t, c) in enumerate(zip(self.terms, self.coefs))
+        )
 
     def expression(self, values=None) -> sp.Expr:
         """``Σ c_i·term_i`` with the parameter symbols, or with ``values`` (numbers) in their place."""
@@ -91,8 +101,11 @@ class DiscoveredEffect(Effect):
 
 
 def _record_signals(record) -> dict[str, np.ndarray]:
-    return {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float),
-            "d_ddot": np.asarray(record.acceleration(), float)}
+    return {
+        "d": np.asarray(record.d, float),
+        "d_dot": np.asarray(record.velocity(), float),
+        "d_ddot": np.asarray(record.acceleration(), float),
+    }
 
 
 def _evaluate(term: sp.Expr, cols: Mapping[str, np.ndarray]) -> np.ndarray:
@@ -109,8 +122,9 @@ def term_words(expr: sp.Expr) -> str:
     for key in ("d_ddot", "d_dot", "x_dot"):
         text = text.replace(key, _WORDS[key])
     text = re.sub(r"tanh\(([0-9.e+-]+)\*([a-z_']+)\)", lambda m: f"tanh({m[2]}/{1 / float(m[1]):.2g})", text)
-    text = re.sub(r"exp\(-([0-9.e+-]+)\*([a-z_']+)\*\*2\)",
-                  lambda m: f"exp(-({m[2]}/{1 / float(m[1]) ** 0.5:.2g})**2)", text)
+    text = re.sub(
+        r"exp\(-([0-9.e+-]+)\*([a-z_']+)\*\*2\)", lambda m: f"exp(-({m[2]}/{1 / float(m[1]) ** 0.5:.2g})**2)", text
+    )
     text = text.replace("**", "^").replace("*", "·")
     return text if text.startswith("-") else "+" + text
 
@@ -141,7 +155,9 @@ def _kind(term: sp.Expr) -> tuple[str | None, str]:
         return None, "product"
     v = state_symbol(vel[0])
     deg = int(sp.degree(poly, v)) if poly.has(v) else 0
-    shape = "stribeck" if any(isinstance(a, sp.exp) for a in switch) else {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
+    shape = (
+        "stribeck" if any(isinstance(a, sp.exp) for a in switch) else {0: "sign", 1: "abs", 2: "sabs"}.get(deg, "power")
+    )
     others = sorted(map(str, poly.free_symbols - {v}))
     if not others:
         return vel[0], shape
@@ -153,21 +169,32 @@ def _kind(term: sp.Expr) -> tuple[str | None, str]:
 
 _RESEMBLES = {
     ("d_dot", "sign"): "friction on the piston velocity (seal friction F_c·sign d'; the catalogue's "
-                       "coulomb-friction acts on the internal velocity x' instead)",
-    ("d_dot", "stribeck"): ("Stribeck friction on the piston velocity: a static peak that decays with the sliding "
-                            "speed (the catalogue's seal-friction has one constant level)"),
-    ("d|d_dot", "stroke-sign"): ("seal friction whose level changes over the stroke (with d²: grows toward the "
-                                 "stroke ends; the catalogue's seal-friction has one constant level)"),
+    "coulomb-friction acts on the internal velocity x' instead)",
+    ("d_dot", "stribeck"): (
+        "Stribeck friction on the piston velocity: a static peak that decays with the sliding "
+        "speed (the catalogue's seal-friction has one constant level)"
+    ),
+    ("d|d_dot", "stroke-sign"): (
+        "seal friction whose level changes over the stroke (with d²: grows toward the "
+        "stroke ends; the catalogue's seal-friction has one constant level)"
+    ),
     ("d|d_dot", "stroke-stribeck"): "a Stribeck friction peak whose height changes over the stroke",
     ("x_dot", "sign"): "coulomb-friction (dry friction on the internal velocity x')",
-    ("x_dot", "stribeck"): "a Stribeck-shaped friction on the internal velocity x' (coulomb-friction with a static peak)",
+    (
+        "x_dot",
+        "stribeck",
+    ): "a Stribeck-shaped friction on the internal velocity x' (coulomb-friction with a static peak)",
     ("x_dot", "abs"): "asymmetry (force level differs between compression and extension)",
     ("d_dot", "abs"): "asymmetry (an even-in-velocity force: compression vs extension)",
     ("d", "linear"): "gas-accumulator (stiffness on the piston displacement)",
-    ("d", "square"): ("position-dependent stiffness on the piston (a nonlinear gas spring; the catalogue's "
-                      "gas-accumulator is linear in d)"),
-    ("d", "cube"): ("position-dependent stiffness on the piston (a hardening spring; the catalogue's "
-                    "gas-accumulator is linear in d)"),
+    ("d", "square"): (
+        "position-dependent stiffness on the piston (a nonlinear gas spring; the catalogue's "
+        "gas-accumulator is linear in d)"
+    ),
+    ("d", "cube"): (
+        "position-dependent stiffness on the piston (a hardening spring; the catalogue's "
+        "gas-accumulator is linear in d)"
+    ),
     ("d_ddot", "linear"): "inertia (force proportional to the piston acceleration)",
     ("d_dot", "linear"): "viscous damping on the piston velocity (the model's c1 term)",
     ("d_dot", "sabs"): "quadratic (orifice) damping on the piston velocity, d'|d'|",
@@ -176,8 +203,9 @@ _RESEMBLES = {
     ("x", "square"): "quadratic-stiffness (here on the output rather than in the state equation)",
     ("d_dot", "cube"): "a cubic damping on the piston velocity",
     ("1", "constant"): "force-offset (a constant force)",
-    (None, "stroke-direction"): ("asymmetry that grows over the stroke (compression vs extension, "
-                                 "displacement-dependent)"),
+    (None, "stroke-direction"): (
+        "asymmetry that grows over the stroke (compression vs extension, displacement-dependent)"
+    ),
 }
 
 
@@ -197,7 +225,7 @@ def from_name(name: str, index: int = 1) -> DiscoveredEffect:
     """The effect whose :attr:`DiscoveredEffect.name` is ``name`` (its terms and rounded coefficients)."""
     if not (name.startswith(PREFIX) and name.endswith(SUFFIX)):
         raise ModelError(f"{name!r} is not the name of a discovered term ('{PREFIX}... {SUFFIX.strip()}')")
-    text = name[len(PREFIX):-len(SUFFIX)]
+    text = name[len(PREFIX) : -len(SUFFIX)]
     for key in ("d_ddot", "d_dot", "x_dot"):
         text = text.replace(_WORDS[key], key)
     text = text.replace("^", "**").replace("·", "*")

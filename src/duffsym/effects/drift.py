@@ -9,6 +9,7 @@ fallen by 30 % when ``u = u_ref``. Found by :func:`duffsym.diagnose.discover.dis
 windowed refits; like every effect it imports no fitting code. Its name,
 ``"drift: c3·(1 - a·E/1.2e+03)"``, is enough to rebuild it (:func:`from_name`).
 """
+
 from __future__ import annotations
 
 import re
@@ -23,8 +24,10 @@ from duffsym.model.symbols import ParamSpec
 
 PREFIX = "drift: "
 #: the signals, their letter in the name and what they are, in words
-SIGNALS = {"time": ("t", "time since the record's start"),
-           "energy": ("E", "the energy dissipated since the record's start (the work done on the device)")}
+SIGNALS = {
+    "time": ("t", "time since the record's start"),
+    "energy": ("E", "the energy dissipated since the record's start (the work done on the device)"),
+}
 _LETTER = {v[0]: k for k, v in SIGNALS.items()}
 
 
@@ -51,11 +54,23 @@ class ParameterDrift(Effect):
         object.__setattr__(self, "scale", float(f"{self.scale:.3g}"))
         object.__setattr__(self, "name", f"{PREFIX}{self.parameter}·(1 - a·{letter}/{self.scale:.3g})")
         object.__setattr__(self, "physics", f"{self.parameter} changes in proportion to {SIGNALS[self.signal][1]}")
-        object.__setattr__(self, "form", f"{self.parameter} -> {self.parameter}*(1 - drift_a*{self.signal}/{self.scale:.3g})")
+        object.__setattr__(
+            self, "form", f"{self.parameter} -> {self.parameter}*(1 - drift_a*{self.signal}/{self.scale:.3g})"
+        )
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec("drift_a", "a_{drift}", 0.0, -0.95, 0.95, unit="1", scale=0.1,
-                          description=f"relative change of {self.parameter} when {self.signal} reaches {self.scale:.3g}"),)
+        return (
+            ParamSpec(
+                "drift_a",
+                "a_{drift}",
+                0.0,
+                -0.95,
+                0.95,
+                unit="1",
+                scale=0.1,
+                description=f"relative change of {self.parameter} when {self.signal} reaches {self.scale:.3g}",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         if self.parameter not in model.param_names:
@@ -80,8 +95,10 @@ class ParameterDrift(Effect):
     def sentence(self, a: float) -> str:
         """One sentence: how much the parameter changes and with what."""
         way = "falls" if a > 0 else "rises"
-        return (f"{self.parameter} {way} by {100 * abs(a):.0f} % over the fitting part, in proportion to "
-                f"{SIGNALS[self.signal][1]} ({self.parameter}·(1 - {a:.3g}·{SIGNALS[self.signal][0]}/{self.scale:.3g}))")
+        return (
+            f"{self.parameter} {way} by {100 * abs(a):.0f} % over the fitting part, in proportion to "
+            f"{SIGNALS[self.signal][1]} ({self.parameter}·(1 - {a:.3g}·{SIGNALS[self.signal][0]}/{self.scale:.3g}))"
+        )
 
 
 def from_name(name: str) -> ParameterDrift:

@@ -34,6 +34,7 @@ run does not follow (measured: started at :math:`\tau = dt/10`, a fit ended at f
 against 0.010 for the base); its initial guess is therefore at least ``dt``. For small shifts the
 two are nearly the same term (the diagnosis may rank either first).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -51,8 +52,10 @@ def _input_channels(effect: Effect, model: SymbolicModel, signal: str | None = N
     """Order -> symbol of the channels of the model's (first) input signal."""
     base = effect._require_input(model, 0)
     if signal is not None and base.signal != signal:
-        raise ModelError(f"effect {effect.name} acts on the piston displacement {signal}; model {model.name} is "
-                         f"driven by {base.signal!r}")
+        raise ModelError(
+            f"effect {effect.name} acts on the piston displacement {signal}; model {model.name} is "
+            f"driven by {base.signal!r}"
+        )
     return {c.order: c.symbol for c in model.inputs if c.signal == base.signal}
 
 
@@ -124,17 +127,31 @@ class InputDelay(Effect):
 
     name: str = "input-delay"
     prefix: str = "delay_"
-    physics: str = ("input delay: transport, actuator or acquisition delay between the displacement and force "
-                    "channels (Pade, one state; for shifts below a sample see input-shift)")
-    signature: str = ("residual ~ -tau * dy/dt (force shifted later in time, loop shapes unchanged); "
-                      "to first order the same as an output lag")
+    physics: str = (
+        "input delay: transport, actuator or acquisition delay between the displacement and force "
+        "channels (Pade, one state; for shifts below a sample see input-shift)"
+    )
+    signature: str = (
+        "residual ~ -tau * dy/dt (force shifted later in time, loop shapes unchanged); "
+        "to first order the same as an output lag"
+    )
     form: str = "q' = 2/tau (d - q); d -> 2q - d, d' -> 4/tau (d - q) - d' (Pade 1/1)"
     guess: str = "tau = the time shift s >= 0 minimising ||y(t) - y_model(t - s)||"
     n_states: int = 1
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}tau", r"\tau_{d}", 0.005, 1e-3, 1.0, unit="s", scale=0.005,
-                          description="input delay (dt/2 for a zero-order hold)"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}tau",
+                r"\tau_{d}",
+                0.005,
+                1e-3,
+                1.0,
+                unit="s",
+                scale=0.005,
+                description="input delay (dt/2 for a zero-order hold)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         ch = _input_channels(self, model)
@@ -187,16 +204,30 @@ class InputShift(Effect):
 
     name: str = "input-shift"
     prefix: str = "shift_"
-    physics: str = ("input reconstruction between samples (dt/2 = zero-order hold, 0 = interpolation) and short "
-                    "channel delays: a first-order time shift of the input")
-    signature: str = ("residual ~ -tau * dy/dt, the force shifted by a fraction of a sample; can be worth a factor "
-                      "of ten on real data sampled with a hold")
+    physics: str = (
+        "input reconstruction between samples (dt/2 = zero-order hold, 0 = interpolation) and short "
+        "channel delays: a first-order time shift of the input"
+    )
+    signature: str = (
+        "residual ~ -tau * dy/dt, the force shifted by a fraction of a sample; can be worth a factor "
+        "of ten on real data sampled with a hold"
+    )
     form: str = "d -> d - shift_tau * d', d' -> d' - shift_tau * d'' (Taylor, first order, no state)"
     guess: str = "tau = the time shift s (either sign) minimising ||y(t) - y_model(t - s)||"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}tau", r"\tau_{s}", 0.0, -0.05, 0.05, unit="s", scale=0.0025,
-                          description="input time shift (dt/2 for a zero-order hold; < 0: input leads)"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}tau",
+                r"\tau_{s}",
+                0.0,
+                -0.05,
+                0.05,
+                unit="s",
+                scale=0.0025,
+                description="input time shift (dt/2 for a zero-order hold; < 0: input leads)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         ch = _input_channels(self, model)
@@ -204,8 +235,9 @@ class InputShift(Effect):
         signal = self._require_input(model, 0).signal
         if 1 not in ch:  # a model driven by the input alone (e.g. Duffing's force F) gains its rate
             rate = InputChannel(signal, 1)
-            return model.extend(effect=self.name, params=(tau,), inputs=(rate,),
-                                substitute={ch[0]: ch[0] - tau.symbol * rate.symbol})
+            return model.extend(
+                effect=self.name, params=(tau,), inputs=(rate,), substitute={ch[0]: ch[0] - tau.symbol * rate.symbol}
+            )
         acc = InputChannel(signal, 2)
         subs = {ch[0]: ch[0] - tau.symbol * ch[1], ch[1]: ch[1] - tau.symbol * acc.symbol}
         return model.extend(effect=self.name, params=(tau,), inputs=(acc,), substitute=subs)
@@ -312,9 +344,13 @@ class Backlash(Effect):
 
     name: str = "backlash"
     prefix: str = "bl_"
-    physics: str = "joint backlash (play) between actuator and piston: the force stays flat after each reversal (deadzone, Fig. 8)"
-    signature: str = ("residual concentrated just after velocity reversals, where the measured force stays flat "
-                      "while the model's already changes; zero at high velocity")
+    physics: str = (
+        "joint backlash (play) between actuator and piston: the force stays flat after each reversal (deadzone, Fig. 8)"
+    )
+    signature: str = (
+        "residual concentrated just after velocity reversals, where the measured force stays flat "
+        "while the model's already changes; zero at high velocity"
+    )
     form: str = "b' = d' [s((g-h)/eps+1) s(T d'/h) + s((-g-h)/eps+1) s(-T d'/h)], g = d - b, eps = h/5; d -> b"
     guess: str = "half of the extra input travel the measured force needs after a reversal vs y_model"
     n_states: int = 1
@@ -324,8 +360,18 @@ class Backlash(Effect):
     width_scale: float = 0.87
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}h", "h", 0.01, 1e-6, 1e6, unit="input unit", scale=0.01,
-                          description="half-width of the play (gap 2h)"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}h",
+                "h",
+                0.01,
+                1e-6,
+                1e6,
+                unit="input unit",
+                scale=0.01,
+                description="half-width of the play (gap 2h)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         ch = _input_channels(self, model, "d")

@@ -2,6 +2,7 @@
 
 Its twin on the piston side, seal friction on the measured piston velocity added to the measured
 force, is :class:`duffsym.effects.output.SealFriction` (``seal-friction``)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -39,16 +40,28 @@ class CoulombFriction(Effect):
 
     name: str = "coulomb-friction"
     prefix: str = "fric_"
-    physics: str = ("friction inside the fluid model: a force of constant magnitude opposing the internal velocity x' "
-                    "(continuous, tanh); piston seal friction is seal-friction")
+    physics: str = (
+        "friction inside the fluid model: a force of constant magnitude opposing the internal velocity x' "
+        "(continuous, tanh); piston seal friction is seal-friction"
+    )
     signature: str = "step-like residual at velocity reversals, odd in velocity (opposes the motion)"
     form: str = "x_ddot += -fric_mu * tanh(x_dot / 0.01)"
     guess: str = "mu = 10 * (step of the residual against sign(y_model)) / max|y| (rough)"
     epsilon: float = 0.01
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}mu", r"\mu", 0.0, 0.0, 1e6, unit="1", scale=1.0,
-                          description="Coulomb friction level (force on the normalised mass)"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}mu",
+                r"\mu",
+                0.0,
+                0.0,
+                1e6,
+                unit="1",
+                scale=1.0,
+                description="Coulomb friction level (force on the normalised mass)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _, v = self._require_mechanical(model)
@@ -67,9 +80,9 @@ class CoulombFriction(Effect):
 
 #: The even functions of the element's state that :class:`DirectionalDamping` can use (smoothed |.|).
 DIRECTION_FORMS = {
-    "velocity": "|x'|",             # sigma |x'|   (path: a damping coefficient c +- c_dir)
+    "velocity": "|x'|",  # sigma |x'|   (path: a damping coefficient c +- c_dir)
     "velocity-quadratic": "|x'| x'",  # sigma |x'| x'
-    "position": "|x|",              # sigma |x|
+    "position": "|x|",  # sigma |x|
 }
 
 
@@ -106,26 +119,44 @@ class DirectionalDamping(Effect):
 
     name: str = "directional-damping"
     prefix: str = "dir_"
-    physics: str = ("a damping larger on loading than on unloading: x'' += -c_dir d' g(x), g even "
-                    "(valve/seal resistance different in the two directions)")
-    signature: str = ("loops whose slope after a reversal differs from the slope before it by an amount growing "
-                      "with the element's force (not odd in the element's velocity)")
+    physics: str = (
+        "a damping larger on loading than on unloading: x'' += -c_dir d' g(x), g even "
+        "(valve/seal resistance different in the two directions)"
+    )
+    signature: str = (
+        "loops whose slope after a reversal differs from the slope before it by an amount growing "
+        "with the element's force (not odd in the element's velocity)"
+    )
     form: str = "x_ddot += -dir_c * d_dot * |x_dot|  (|u| = sqrt(u^2 + 1e-6) - 1e-3)"
     guess: str = "0 (starts from the base optimum)"
     shape: str = "velocity"
     epsilon: float = 1e-3
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}c", "c_{dir}", 0.0, -1e4, 1e4, unit="1/(d unit)", scale=1.0,
-                          description=f"direction-dependent damping, d' {DIRECTION_FORMS[self.shape]}"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}c",
+                "c_{dir}",
+                0.0,
+                -1e4,
+                1e4,
+                unit="1/(d unit)",
+                scale=1.0,
+                description=f"direction-dependent damping, d' {DIRECTION_FORMS[self.shape]}",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         if self.shape not in DIRECTION_FORMS:
             from duffsym.errors import ModelError
+
             raise ModelError(f"directional-damping: shape must be one of {sorted(DIRECTION_FORMS)}; got {self.shape!r}")
         x, v = self._require_mechanical(model)
         d_dot = self._require_input(model, 1).symbol
         (c,) = self.parameters()
-        u = {"velocity": smooth_abs(v, self.epsilon), "velocity-quadratic": smooth_abs(v, self.epsilon) * v,
-             "position": smooth_abs(x, self.epsilon)}[self.shape]
+        u = {
+            "velocity": smooth_abs(v, self.epsilon),
+            "velocity-quadratic": smooth_abs(v, self.epsilon) * v,
+            "position": smooth_abs(x, self.epsilon),
+        }[self.shape]
         return model.extend(effect=self.name, params=(c,), rhs_add={v: -c.symbol * d_dot * u})

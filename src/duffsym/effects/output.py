@@ -5,6 +5,7 @@ measured force). None of them changes the state equations of the mechanical mode
 Lyapunov argument of ``duffsym derive`` is unchanged by them (only the output map changes); the
 output lag adds a stable first-order state (:math:`\\tau > 0`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,8 +21,16 @@ from duffsym.model.symbols import ParamSpec
 #: Parameters of the additive output effects: set to 0 they remove their term (see Asymmetry).
 ADDITIVE_OUTPUT_PARAMS = ("off_y0", "gas_k", "inertia_m")
 
-OFFSET = ParamSpec("off_y0", "y_{0}", 0.0, -1e9, 1e9, unit="output unit", scale=1.0,
-                   description="constant force: load-cell zero error or accumulator preload")
+OFFSET = ParamSpec(
+    "off_y0",
+    "y_{0}",
+    0.0,
+    -1e9,
+    1e9,
+    unit="output unit",
+    scale=1.0,
+    description="constant force: load-cell zero error or accumulator preload",
+)
 
 
 def whole_cycle_mean(record) -> float:
@@ -59,8 +68,10 @@ class ForceOffset(Effect):
 
     name: str = "force-offset"
     prefix: str = "off_"
-    physics: str = ("constant force: load-cell zero error or gas-accumulator preload (the same term on one record; "
-                    "gas-accumulator includes it)")
+    physics: str = (
+        "constant force: load-cell zero error or gas-accumulator preload (the same term on one record; "
+        "gas-accumulator includes it)"
+    )
     signature: str = "residual mean is non-zero; d-y loop shifted vertically, residual not correlated with d or d'"
     form: str = "y += off_y0"
     guess: str = "off_y0 = mean of y over whole input cycles"
@@ -70,8 +81,10 @@ class ForceOffset(Effect):
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         if OFFSET.name in model.param_names:
-            raise ModelError(f"model {model.name} already has the constant force {OFFSET.name} (from "
-                             f"{', '.join(model.effects) or 'the model'}); a second offset would not be identifiable")
+            raise ModelError(
+                f"model {model.name} already has the constant force {OFFSET.name} (from "
+                f"{', '.join(model.effects) or 'the model'}); a second offset would not be identifiable"
+            )
         return model.extend(effect=self.name, params=(OFFSET,), output_add=OFFSET.symbol)
 
     def initial_guess(self, record, y_model) -> dict[str, float]:
@@ -108,16 +121,31 @@ class GasAccumulator(Effect):
 
     name: str = "gas-accumulator"
     prefix: str = "gas_"
-    physics: str = ("gas spring of the accumulator: preload off_y0 (= force-offset, same term) plus stiffness "
-                    "gas_k on the piston displacement")
-    signature: str = ("residual linear in d (in phase with the displacement, loop tilted) plus a constant; "
-                      "on one sine indistinguishable from inertia")
+    physics: str = (
+        "gas spring of the accumulator: preload off_y0 (= force-offset, same term) plus stiffness "
+        "gas_k on the piston displacement"
+    )
+    signature: str = (
+        "residual linear in d (in phase with the displacement, loop tilted) plus a constant; "
+        "on one sine indistinguishable from inertia"
+    )
     form: str = "y += off_y0 + gas_k * d"
     guess: str = "off_y0 = mean of y over whole cycles; gas_k = least squares of the residual on [1, d]"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (OFFSET, ParamSpec(f"{self.prefix}k", "k_{a}", 0.0, -1e9, 1e9, unit="output unit / input unit",
-                                  scale=0.1, description="gas-spring stiffness on the piston displacement"))
+        return (
+            OFFSET,
+            ParamSpec(
+                f"{self.prefix}k",
+                "k_{a}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit / input unit",
+                scale=0.1,
+                description="gas-spring stiffness on the piston displacement",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         d = _piston(self, model, 0)
@@ -130,8 +158,10 @@ class GasAccumulator(Effect):
         r = residual(record, y_model)
         d = np.asarray(record.d, dtype=float)
         c0, c1 = lstsq_coeffs(r, np.ones_like(d), d)
-        return {OFFSET.name: self._clip(OFFSET.name, whole_cycle_mean(record)),
-                f"{self.prefix}k": self._clip(f"{self.prefix}k", c1)}
+        return {
+            OFFSET.name: self._clip(OFFSET.name, whole_cycle_mean(record)),
+            f"{self.prefix}k": self._clip(f"{self.prefix}k", c1),
+        }
 
     def base_output(self, y, record, params):
         return y - params[OFFSET.name] - params[f"{self.prefix}k"] * np.asarray(record.d)
@@ -161,14 +191,26 @@ class PistonInertia(Effect):
     name: str = "inertia"
     prefix: str = "inertia_"
     physics: str = "inertia of piston, rod and accelerated fluid: a force proportional to the piston acceleration"
-    signature: str = ("residual proportional to d'' (in phase with -d on a sine), growing with frequency squared; "
-                      "loops wider at high frequency")
+    signature: str = (
+        "residual proportional to d'' (in phase with -d on a sine), growing with frequency squared; "
+        "loops wider at high frequency"
+    )
     form: str = "y += inertia_m * d_ddot"
     guess: str = "d'' coefficient of the least squares of the residual on [1, d', d''] (record acceleration)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}m", "m_{p}", 0.0, 0.0, 1e9, unit="output unit / (input unit/s^2)",
-                          scale=0.01, description="piston and fluid mass"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}m",
+                "m_{p}",
+                0.0,
+                0.0,
+                1e9,
+                unit="output unit / (input unit/s^2)",
+                scale=0.01,
+                description="piston and fluid mass",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _piston(self, model, 0)
@@ -204,19 +246,40 @@ class ParallelDamping(Effect):
 
     name: str = "parallel-damping"
     prefix: str = "pd_"
-    physics: str = ("viscous damper in parallel with the fluid element on the piston (Spencer's c0; field-dependent "
-                    "on a command-driven model): the post-yield slope of force against velocity")
-    signature: str = ("residual proportional to d' (in phase with the velocity), growing at high speed: the measured "
-                      "force keeps rising after yield while the model's saturates")
+    physics: str = (
+        "viscous damper in parallel with the fluid element on the piston (Spencer's c0; field-dependent "
+        "on a command-driven model): the post-yield slope of force against velocity"
+    )
+    signature: str = (
+        "residual proportional to d' (in phase with the velocity), growing at high speed: the measured "
+        "force keeps rising after yield while the model's saturates"
+    )
     form: str = "y += (pd_c + pd_c_u * u_field) * d_dot (pd_c_u only on a command-driven model)"
     guess: str = "least squares of the residual on [1, d'] (and command * d' on a command-driven model)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}c", "c_{0}", 0.0, -1e9, 1e9, unit="output unit / (input unit/s)",
-                          scale=0.1, description="parallel viscous damping"),
-                ParamSpec(f"{self.prefix}c_u", "c_{0}^{(u)}", 0.0, -1e9, 1e9,
-                          unit="output unit / (input unit/s) per command unit", scale=0.1,
-                          description="change of the parallel damping per unit field"))
+        return (
+            ParamSpec(
+                f"{self.prefix}c",
+                "c_{0}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit / (input unit/s)",
+                scale=0.1,
+                description="parallel viscous damping",
+            ),
+            ParamSpec(
+                f"{self.prefix}c_u",
+                "c_{0}^{(u)}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit / (input unit/s) per command unit",
+                scale=0.1,
+                description="change of the parallel damping per unit field",
+            ),
+        )
 
     def _field(self, model: SymbolicModel):
         from duffsym.model.library import FIELD
@@ -240,8 +303,10 @@ class ParallelDamping(Effect):
             _, c = lstsq_coeffs(r, np.ones_like(v), v)
             return {f"{self.prefix}c": self._clip(f"{self.prefix}c", c), f"{self.prefix}c_u": 0.0}
         _, c, c_u = lstsq_coeffs(r, np.ones_like(v), v, np.asarray(cmd, dtype=float) * v)
-        return {f"{self.prefix}c": self._clip(f"{self.prefix}c", c),
-                f"{self.prefix}c_u": self._clip(f"{self.prefix}c_u", c_u)}
+        return {
+            f"{self.prefix}c": self._clip(f"{self.prefix}c", c),
+            f"{self.prefix}c_u": self._clip(f"{self.prefix}c_u", c_u),
+        }
 
     def base_output(self, y, record, params):
         v = np.asarray(record.velocity(), dtype=float)
@@ -268,25 +333,49 @@ class FieldAsymmetry(Effect):
 
     name: str = "field-asymmetry"
     prefix: str = "fa_"
-    physics: str = ("the field rises and decays at different rates (current driver against the coil's inductance "
-                    "on switch-on, resistance and eddy currents on switch-off)")
-    signature: str = ("residual after command switches, of one sign after switch-on and the other after switch-off "
-                      "(the model's force rises too slowly and decays too fast, or the reverse)")
+    physics: str = (
+        "the field rises and decays at different rates (current driver against the coil's inductance "
+        "on switch-on, resistance and eddy currents on switch-off)"
+    )
+    signature: str = (
+        "residual after command switches, of one sign after switch-on and the other after switch-off "
+        "(the model's force rises too slowly and decays too fast, or the reverse)"
+    )
     form: str = "u' = -eta (1 + fa_a tanh((i - u)/fa_eps)) (u - i)"
     guess: str = "fa_a = 0; fa_eps = 2 % of the command's range"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}a", "a_{u}", 0.0, -0.95, 0.95, unit="1", scale=0.1,
-                          description="relative rate difference, rising +a, decaying -a"),
-                ParamSpec(f"{self.prefix}eps", r"\\varepsilon_{u}", 0.05, 1e-4, 1e3, unit="command unit", scale=0.05,
-                          description="field-command difference over which the rate switches (tanh 1)"))
+        return (
+            ParamSpec(
+                f"{self.prefix}a",
+                "a_{u}",
+                0.0,
+                -0.95,
+                0.95,
+                unit="1",
+                scale=0.1,
+                description="relative rate difference, rising +a, decaying -a",
+            ),
+            ParamSpec(
+                f"{self.prefix}eps",
+                r"\\varepsilon_{u}",
+                0.05,
+                1e-4,
+                1e3,
+                unit="command unit",
+                scale=0.05,
+                description="field-command difference over which the rate switches (tanh 1)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         from duffsym.model.library import COMMAND, FIELD
 
         if FIELD not in model.states or COMMAND not in model.inputs or "eta" not in model.param_names:
-            raise ModelError(f"effect {self.name} needs a command-driven model with a field state (e.g. "
-                             f"mr-damper-current); model {model.name} has none")
+            raise ModelError(
+                f"effect {self.name} needs a command-driven model with a field state (e.g. "
+                f"mr-damper-current); model {model.name} has none"
+            )
         a, eps = self.parameters()
         u, i, eta = FIELD, COMMAND.symbol, model.param("eta").symbol
         term = -eta * a.symbol * sp.tanh((i - u) / eps.symbol) * (u - i)
@@ -328,16 +417,27 @@ class Asymmetry(Effect):
     epsilon: float = 0.05
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}a", "a", 0.0, -0.95, 0.95, unit="1", scale=0.1,
-                          description="relative force difference, extension +a, compression -a"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}a",
+                "a",
+                0.0,
+                -0.95,
+                0.95,
+                unit="1",
+                scale=0.1,
+                description="relative force difference, extension +a, compression -a",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _, v = self._require_mechanical(model)
         (a,) = self.parameters()
         zero = {model.param(n).symbol: 0 for n in ADDITIVE_OUTPUT_PARAMS if n in model.param_names}
         force = model.output.xreplace(zero)
-        return model.extend(effect=self.name, params=(a,),
-                            output_add=a.symbol * force * sp.tanh(v / sp.Float(self.epsilon)))
+        return model.extend(
+            effect=self.name, params=(a,), output_add=a.symbol * force * sp.tanh(v / sp.Float(self.epsilon))
+        )
 
     def initial_guess(self, record, y_model) -> dict[str, float]:
         r = residual(record, y_model)
@@ -380,15 +480,27 @@ class OutputLag(Effect):
     name: str = "output-lag"
     prefix: str = "lag_"
     physics: str = "first-order lag of the measured force: coil inductance, sensor or filter dynamics"
-    signature: str = ("residual ~ -tau * dy/dt: largest where the force changes fastest, loop corners rounded; "
-                      "to first order the same as an input delay")
+    signature: str = (
+        "residual ~ -tau * dy/dt: largest where the force changes fastest, loop corners rounded; "
+        "to first order the same as an input delay"
+    )
     form: str = "z' = (y - z) / lag_tau, output z"
     guess: str = "tau = -<r, dy_model/dt> / <dy_model/dt, dy_model/dt>, at least dt/2"
     n_states: int = 1
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}tau", r"\tau", 0.01, LAG_TAU_MIN, 10.0, unit="s", scale=0.01,
-                          description="lag time constant"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}tau",
+                r"\tau",
+                0.01,
+                LAG_TAU_MIN,
+                10.0,
+                unit="s",
+                scale=0.01,
+                description="lag time constant",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         (tau,) = self.parameters()
@@ -411,8 +523,9 @@ def _piston(effect: Effect, model: SymbolicModel, order: int) -> InputChannel:
     """The model's piston-displacement input channel (signal ``d``), or a ModelError."""
     chan = effect._require_input(model, order)
     if chan.signal != "d":
-        raise ModelError(f"effect {effect.name} acts on the piston displacement d; model {model.name} is driven by "
-                         f"{chan.signal!r}")
+        raise ModelError(
+            f"effect {effect.name} acts on the piston displacement d; model {model.name} is driven by {chan.signal!r}"
+        )
     return chan
 
 
@@ -463,18 +576,40 @@ class SealFriction(Effect):
 
     name: str = "seal-friction"
     prefix: str = "seal_"
-    physics: str = ("piston seal friction: a force of constant magnitude opposing the piston velocity d', added to "
-                    "the measured force (on the piston, not inside the fluid model; see coulomb-friction)")
-    signature: str = ("step of the residual at every reversal of the piston velocity d', flat in between "
-                      "(odd in d', independent of the force level)")
+    physics: str = (
+        "piston seal friction: a force of constant magnitude opposing the piston velocity d', added to "
+        "the measured force (on the piston, not inside the fluid model; see coulomb-friction)"
+    )
+    signature: str = (
+        "step of the residual at every reversal of the piston velocity d', flat in between "
+        "(odd in d', independent of the force level)"
+    )
     form: str = "y += seal_F * tanh(d_dot / seal_eps)"
     guess: str = "eps = 2 % of max|d'|; F = least squares of the residual on [1, tanh(d'/eps)], >= 0"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}F", "F_{c}", 0.0, 0.0, 1e9, unit="output unit", scale=0.1,
-                          description="seal friction force"),
-                ParamSpec(f"{self.prefix}eps", r"\varepsilon_{s}", 0.1, 1e-6, 1e9, unit="input unit / s", scale=0.1,
-                          description="piston velocity at which the friction is 76 % developed (tanh 1)"))
+        return (
+            ParamSpec(
+                f"{self.prefix}F",
+                "F_{c}",
+                0.0,
+                0.0,
+                1e9,
+                unit="output unit",
+                scale=0.1,
+                description="seal friction force",
+            ),
+            ParamSpec(
+                f"{self.prefix}eps",
+                r"\varepsilon_{s}",
+                0.1,
+                1e-6,
+                1e9,
+                unit="input unit / s",
+                scale=0.1,
+                description="piston velocity at which the friction is 76 % developed (tanh 1)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _piston(self, model, 1)
@@ -487,8 +622,10 @@ class SealFriction(Effect):
         v = np.asarray(record.velocity(), dtype=float)
         eps = SEAL_EPS_FRACTION * (float(np.max(np.abs(v))) or 1.0)
         _, c = lstsq_coeffs(r, np.ones_like(v), np.tanh(v / eps))
-        return {f"{self.prefix}F": self._clip(f"{self.prefix}F", max(c, 0.0)),
-                f"{self.prefix}eps": self._clip(f"{self.prefix}eps", eps)}
+        return {
+            f"{self.prefix}F": self._clip(f"{self.prefix}F", max(c, 0.0)),
+            f"{self.prefix}eps": self._clip(f"{self.prefix}eps", eps),
+        }
 
     def base_output(self, y, record, params):
         v = np.asarray(record.velocity(), dtype=float)
@@ -511,6 +648,8 @@ class SealFriction(Effect):
         if size < NEGLIGIBLE * scale:
             return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
         if eps >= 0.5 * vmax:
-            return (f"its switch is flat over the record (seal_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
-                    "the tanh is nearly linear there, a viscous term rather than a friction")
+            return (
+                f"its switch is flat over the record (seal_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
+                "the tanh is nearly linear there, a viscous term rather than a friction"
+            )
         return _not_significant(f"{self.prefix}F", params, stderr or {})

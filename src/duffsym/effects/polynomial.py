@@ -26,10 +26,10 @@ gain, ``duffing-gain``: x in output units, t in s), so their magnitude depends o
 identification scales them by ``ParamSpec.scale`` and starts them at 0 (the extended model is
 then the base model, whose optimum starts the fit, :func:`~duffsym.identify.extended_start`).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
-
 
 from duffsym.effects.base import Effect, residual
 from duffsym.model.core import InputChannel, SymbolicModel
@@ -45,16 +45,30 @@ class QuadraticStiffness(Effect):
 
     name: str = "quadratic-stiffness"
     prefix: str = "quad_"
-    physics: str = ("asymmetric spring: a restoring force x^2 (stiffer on one side; a constant force on a cubic "
-                    "spring shifts the equilibrium and creates it)")
-    signature: str = ("residual with even harmonics of the motion (2w, DC) growing with amplitude squared; "
-                      "peaks of one sign under- and of the other over-predicted")
+    physics: str = (
+        "asymmetric spring: a restoring force x^2 (stiffer on one side; a constant force on a cubic "
+        "spring shifts the equilibrium and creates it)"
+    )
+    signature: str = (
+        "residual with even harmonics of the motion (2w, DC) growing with amplitude squared; "
+        "peaks of one sign under- and of the other over-predicted"
+    )
     form: str = "x_ddot += -quad_k * x^2"
     guess: str = "0 (starts from the base optimum)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}k", "k_{q}", 0.0, -1e12, 1e12, unit="1/(s^2 x)", scale=1e4,
-                          description="quadratic stiffness per unit mass"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}k",
+                "k_{q}",
+                0.0,
+                -1e12,
+                1e12,
+                unit="1/(s^2 x)",
+                scale=1e4,
+                description="quadratic stiffness per unit mass",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         x, v = self._require_mechanical(model)
@@ -76,14 +90,26 @@ class CubicDamping(Effect):
     name: str = "cubic-damping"
     prefix: str = "cdamp_"
     physics: str = "non-linear damping growing with the speed cubed (non-linear resistance)"
-    signature: str = ("residual odd in velocity, largest at the fastest motion (peaks of the resonance "
-                      "over-predicted at large amplitude), in quadrature with the displacement")
+    signature: str = (
+        "residual odd in velocity, largest at the fastest motion (peaks of the resonance "
+        "over-predicted at large amplitude), in quadrature with the displacement"
+    )
     form: str = "x_ddot += -cdamp_c * x_dot^3"
     guess: str = "0 (starts from the base optimum)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}c", "c_{3}", 0.0, -1e9, 1e9, unit="s/x^2", scale=1e-3,
-                          description="cubic damping per unit mass"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}c",
+                "c_{3}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="s/x^2",
+                scale=1e-3,
+                description="cubic damping per unit mass",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _, v = self._require_mechanical(model)
@@ -118,16 +144,30 @@ class InputCurvature(Effect):
 
     name: str = "input-curvature"
     prefix: str = "curv_"
-    physics: str = ("input reconstruction between samples, even part: linear interpolation flattens fast input "
-                    "components by ~(w dt)^2/12; F -> F + kappa F'' restores them (a symmetric input FIR tap)")
-    signature: str = ("residual in phase with the input's fast components (correlated with the input at lag 0), "
-                      "growing with frequency squared")
+    physics: str = (
+        "input reconstruction between samples, even part: linear interpolation flattens fast input "
+        "components by ~(w dt)^2/12; F -> F + kappa F'' restores them (a symmetric input FIR tap)"
+    )
+    signature: str = (
+        "residual in phase with the input's fast components (correlated with the input at lag 0), "
+        "growing with frequency squared"
+    )
     form: str = "F -> F + curv_k * F_ddot (order 0; F_ddot a new input channel)"
     guess: str = "kappa = -dt^2/12 (linear interpolation of a band-limited input)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}k", r"\kappa", 0.0, -1.0, 1.0, unit="s^2", scale=1e-6,
-                          description="second-derivative input correction (-dt^2/12: band-limited input)"),)
+        return (
+            ParamSpec(
+                f"{self.prefix}k",
+                r"\kappa",
+                0.0,
+                -1.0,
+                1.0,
+                unit="s^2",
+                scale=1e-6,
+                description="second-derivative input correction (-dt^2/12: band-limited input)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         base = self._require_input(model, 0)
@@ -135,10 +175,11 @@ class InputCurvature(Effect):
         have = {c.order: c for c in model.inputs if c.signal == base.signal}
         acc = have.get(2, InputChannel(base.signal, 2))
         new = () if 2 in have else (acc,)
-        return model.extend(effect=self.name, params=(k,), inputs=new,
-                            substitute={base.symbol: base.symbol + k.symbol * acc.symbol})
+        return model.extend(
+            effect=self.name, params=(k,), inputs=new, substitute={base.symbol: base.symbol + k.symbol * acc.symbol}
+        )
 
     def initial_guess(self, record, y_model) -> dict[str, float]:
         residual(record, y_model)  # checks the length
         name = f"{self.prefix}k"
-        return {name: self._clip(name, -record.dt**2 / 12)}
+        return {name: self._clip(name, -(record.dt**2) / 12)}

@@ -20,6 +20,7 @@ are listed in :data:`RATE_EFFECTS` and tried by the campaign comparison of study
   plateau through the rate-dependent ``c3 x'^n`` term, so its plateau moves with the excitation's velocity;
   a Bingham yield stays. An output term: passive (``F tanh(d'/eps) d' >= 0`` for ``F(u) >= 0``).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -28,8 +29,8 @@ import numpy as np
 import sympy as sp
 
 from duffsym.effects.base import Effect, lstsq_coeffs, residual
-from duffsym.errors import DataError
 from duffsym.effects.output import _piston, piston_path
+from duffsym.errors import DataError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
@@ -70,21 +71,51 @@ class MaxwellBranch(Effect):
 
     name: str = "maxwell-branch"
     prefix: str = "mx_"
-    physics: str = ("pre-yield viscoelasticity: a spring and a dashpot in series on the piston, parallel to the "
-                    "fluid element (a damper below 1/tau, a spring above; the spring follows the field)")
-    signature: str = ("residual in phase with the displacement at high frequency and with the velocity at low "
-                      "frequency: the loop's slope changes with the excitation frequency")
+    physics: str = (
+        "pre-yield viscoelasticity: a spring and a dashpot in series on the piston, parallel to the "
+        "fluid element (a damper below 1/tau, a spring above; the spring follows the field)"
+    )
+    signature: str = (
+        "residual in phase with the displacement at high frequency and with the velocity at low "
+        "frequency: the loop's slope changes with the excitation frequency"
+    )
     form: str = "z' = (mx_k + mx_k_u u) d' - z / mx_tau, y += z"
     guess: str = "tau = period/10; k = least squares of the residual on the unit-stiffness branch force, >= 0"
     n_states: int = 1
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}k", "k_{m}", 0.0, 0.0, 1e9, unit="output unit / input unit", scale=0.1,
-                          description="spring of the Maxwell branch"),
-                ParamSpec(f"{self.prefix}k_u", "k_{m}^{(u)}", 0.0, -1e9, 1e9, unit="output unit / input unit per "
-                          "command unit", scale=0.1, description="change of the branch spring per unit field"),
-                ParamSpec(f"{self.prefix}tau", r"\tau_{m}", 0.05, 1e-4, 1e3, unit="s", scale=0.05,
-                          description="relaxation time c/k of the branch"))
+        return (
+            ParamSpec(
+                f"{self.prefix}k",
+                "k_{m}",
+                0.0,
+                0.0,
+                1e9,
+                unit="output unit / input unit",
+                scale=0.1,
+                description="spring of the Maxwell branch",
+            ),
+            ParamSpec(
+                f"{self.prefix}k_u",
+                "k_{m}^{(u)}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit / input unit per command unit",
+                scale=0.1,
+                description="change of the branch spring per unit field",
+            ),
+            ParamSpec(
+                f"{self.prefix}tau",
+                r"\tau_{m}",
+                0.05,
+                1e-4,
+                1e3,
+                unit="s",
+                scale=0.05,
+                description="relaxation time c/k of the branch",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _piston(self, model, 1)
@@ -101,8 +132,11 @@ class MaxwellBranch(Effect):
         v = np.asarray(record.velocity(), dtype=float)
         tau = self._clip(f"{self.prefix}tau", 0.1 * record.period)
         (k,) = lstsq_coeffs(r - r.mean(), maxwell_force(v, 1.0, tau, record.dt))
-        return {f"{self.prefix}k": self._clip(f"{self.prefix}k", max(k, 0.0)), f"{self.prefix}k_u": 0.0,
-                f"{self.prefix}tau": tau}
+        return {
+            f"{self.prefix}k": self._clip(f"{self.prefix}k", max(k, 0.0)),
+            f"{self.prefix}k_u": 0.0,
+            f"{self.prefix}tau": tau,
+        }
 
     def initial_states(self, X_base, record, params) -> np.ndarray:
         k = params.get(f"{self.prefix}k", 0.0) + params.get(f"{self.prefix}k_u", 0.0) * _command_level(record)
@@ -124,19 +158,47 @@ class FieldYield(Effect):
 
     name: str = "field-yield"
     prefix: str = "fy_"
-    physics: str = ("Bingham yield of the MR fluid on the piston: a force of field-dependent magnitude opposing the "
-                    "piston velocity, independent of the rate once yielded")
+    physics: str = (
+        "Bingham yield of the MR fluid on the piston: a force of field-dependent magnitude opposing the "
+        "piston velocity, independent of the rate once yielded"
+    )
     signature: str = "step of the residual at every velocity reversal, growing with the current"
     form: str = "y += (fy_F + fy_F_u u) tanh(d_dot / fy_eps)"
     guess: str = "eps = 2 % of max|d'|; F, F_u = least squares of the residual on tanh(d'/eps) and i tanh(d'/eps)"
 
     def parameters(self) -> tuple[ParamSpec, ...]:
-        return (ParamSpec(f"{self.prefix}F", "F_{y}", 0.0, -1e9, 1e9, unit="output unit", scale=0.1,
-                          description="yield force at zero field"),
-                ParamSpec(f"{self.prefix}F_u", "F_{y}^{(u)}", 0.0, -1e9, 1e9, unit="output unit per command unit",
-                          scale=0.1, description="change of the yield force per unit field"),
-                ParamSpec(f"{self.prefix}eps", r"\varepsilon_{y}", 0.1, 1e-6, 1e9, unit="input unit / s", scale=0.1,
-                          description="piston velocity at which the yield is 76 % developed (tanh 1)"))
+        return (
+            ParamSpec(
+                f"{self.prefix}F",
+                "F_{y}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit",
+                scale=0.1,
+                description="yield force at zero field",
+            ),
+            ParamSpec(
+                f"{self.prefix}F_u",
+                "F_{y}^{(u)}",
+                0.0,
+                -1e9,
+                1e9,
+                unit="output unit per command unit",
+                scale=0.1,
+                description="change of the yield force per unit field",
+            ),
+            ParamSpec(
+                f"{self.prefix}eps",
+                r"\varepsilon_{y}",
+                0.1,
+                1e-6,
+                1e9,
+                unit="input unit / s",
+                scale=0.1,
+                description="piston velocity at which the yield is 76 % developed (tanh 1)",
+            ),
+        )
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         _piston(self, model, 1)
@@ -153,8 +215,11 @@ class FieldYield(Effect):
         eps = self._clip(f"{self.prefix}eps", 0.02 * (float(np.max(np.abs(v))) or 1.0))
         s = np.tanh(v / eps)
         _, F, F_u = lstsq_coeffs(r, np.ones_like(v), s, _command_level(record) * s)
-        return {f"{self.prefix}F": self._clip(f"{self.prefix}F", F), f"{self.prefix}F_u": self._clip(
-            f"{self.prefix}F_u", F_u), f"{self.prefix}eps": eps}
+        return {
+            f"{self.prefix}F": self._clip(f"{self.prefix}F", F),
+            f"{self.prefix}F_u": self._clip(f"{self.prefix}F_u", F_u),
+            f"{self.prefix}eps": eps,
+        }
 
     def base_output(self, y, record, params):
         v = np.asarray(record.velocity(), dtype=float)

@@ -19,6 +19,7 @@ equations are identical (their hash, :attr:`SymbolicModel.key`)::
   differ from the class defaults (a discovered term's terms as SymPy text, a drift's parameter and scale).
 - ``params``: every parameter's default, bounds and scale (``with_params`` or a scaled start changes them).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -80,18 +81,26 @@ def effect_to_spec(effect: Effect) -> dict:
 
 def effect_from_spec(data, *, source: str = "model_spec") -> Effect:
     """The effect written by :func:`effect_to_spec` (a :class:`ModelError` naming ``source`` if it is not)."""
-    if not isinstance(data, dict) or not isinstance(data.get("type"), str) \
-            or not isinstance(data.get("settings", {}), dict):
-        raise ModelError(f"{source}: an effect must be {{'effect': name, 'type': class, 'settings': {{...}}}}; "
-                         f"got {str(data)[:60]}")
+    if (
+        not isinstance(data, dict)
+        or not isinstance(data.get("type"), str)
+        or not isinstance(data.get("settings", {}), dict)
+    ):
+        raise ModelError(
+            f"{source}: an effect must be {{'effect': name, 'type': class, 'settings': {{...}}}}; got {str(data)[:60]}"
+        )
     types = effect_types()
     cls = types.get(data["type"])
     if cls is None:
-        raise ModelError(f"{source}: effect type {data['type']!r} ({data.get('effect')}) is unknown to this duffsym; "
-                         f"known: {sorted(types)}")
+        raise ModelError(
+            f"{source}: effect type {data['type']!r} ({data.get('effect')}) is unknown to this duffsym; "
+            f"known: {sorted(types)}"
+        )
     where = f"{source}: effect {data.get('effect', data['type'])}"
-    settings = {k: value_from_data(v, lambda d: model_from_spec(d, source=where), where)
-                for k, v in data.get("settings", {}).items()}
+    settings = {
+        k: value_from_data(v, lambda d: model_from_spec(d, source=where), where)
+        for k, v in data.get("settings", {}).items()
+    }
     known = {f.name for f in dataclasses.fields(cls) if f.init} if dataclasses.is_dataclass(cls) else set()
     if set(settings) - known:
         raise ModelError(f"{where}: unknown setting(s) {sorted(set(settings) - known)}; known: {sorted(known)}")
@@ -155,10 +164,20 @@ def model_spec(model: SymbolicModel) -> dict:
     base_data = {"name": base.name, "key": base.key}
     base_data.update({"library": ref} if ref is not None else {"equations": model_to_data(base, model_spec)})
     return {
-        "format": SPEC_FORMAT, "name": model.name, "key": model.key, "base": base_data,
+        "format": SPEC_FORMAT,
+        "name": model.name,
+        "key": model.key,
+        "base": base_data,
         "effects": [effect_to_spec(e) for e in effects],
-        "params": {p.name: [float_to_data(p.default), float_to_data(p.lower), float_to_data(p.upper),
-                            None if p.scale is None else float(p.scale)] for p in model.params},
+        "params": {
+            p.name: [
+                float_to_data(p.default),
+                float_to_data(p.lower),
+                float_to_data(p.upper),
+                None if p.scale is None else float(p.scale),
+            ]
+            for p in model.params
+        },
     }
 
 
@@ -178,9 +197,11 @@ def model_from_spec(spec, *, source: str = "model_spec") -> SymbolicModel:
     model = apply_effects(base, effects)
     model = _with_param_settings(model, spec.get("params", {}), source)
     if model.key != spec.get("key"):
-        raise ModelError(f"{source}: the rebuilt model {model.name} has other equations than the saved one "
-                         f"(hash {model.key} vs {spec.get('key')}): the file was edited, or this duffsym builds "
-                         "the model differently; use the duffsym of the fit")
+        raise ModelError(
+            f"{source}: the rebuilt model {model.name} has other equations than the saved one "
+            f"(hash {model.key} vs {spec.get('key')}): the file was edited, or this duffsym builds "
+            "the model differently; use the duffsym of the fit"
+        )
     return model
 
 
@@ -200,8 +221,10 @@ def _base_from_spec(data: dict, source: str) -> SymbolicModel:
     else:
         raise ModelError(f"{source}: the base model needs 'library' or 'equations'")
     if base.key != data.get("key"):
-        raise ModelError(f"{source}: this duffsym builds the base model {base.name} with other equations than "
-                         f"the one fitted (hash {base.key} vs {data.get('key')}); use the duffsym of the fit")
+        raise ModelError(
+            f"{source}: this duffsym builds the base model {base.name} with other equations than "
+            f"the one fitted (hash {base.key} vs {data.get('key')}); use the duffsym of the fit"
+        )
     return base
 
 
@@ -218,9 +241,13 @@ def _with_param_settings(model: SymbolicModel, settings: Any, source: str) -> Sy
         if not isinstance(s, list) or len(s) != 4:
             raise ModelError(f"{source}: params.{p.name} must be [default, lower, upper, scale]; got {str(s)[:40]}")
         where = f"{source}: params.{p.name}"
-        new = dataclasses.replace(p, default=float_from_data(s[0], where), lower=float_from_data(s[1], where),
-                                  upper=float_from_data(s[2], where),
-                                  scale=None if s[3] is None else float_from_data(s[3], where))
+        new = dataclasses.replace(
+            p,
+            default=float_from_data(s[0], where),
+            lower=float_from_data(s[1], where),
+            upper=float_from_data(s[2], where),
+            scale=None if s[3] is None else float_from_data(s[3], where),
+        )
         changed |= new != p
         params.append(new)
     return dataclasses.replace(model, params=tuple(params)) if changed else model

@@ -12,6 +12,7 @@ derivatives and the IPOPT runs), ``states`` (the data-based start of the state t
 simulates a fit on another record (Fig. 9); :func:`extended_start` and :func:`fit_with_effects`
 fit a model extended by effects after a base fit.
 """
+
 from duffsym.identify.collocation import FitOptions, fit
 from duffsym.identify.extended import extended_start, fit_with_effects
 from duffsym.identify.initial import TUNING_STEPS, auto_mask, initial_guess
@@ -22,7 +23,21 @@ from duffsym.identify.states import driven_states, initial_states
 from duffsym.identify.validation import ValidationResult, model_from_result, validate
 
 __all__ = [
-    "Problem", "fit", "FitOptions", "IdentificationResult", "load_result", "initial_guess", "auto_mask",
-    "initial_states", "driven_states", "collocation_coefficients", "TUNING_STEPS", "nrmse", "validate",
-    "ValidationResult", "model_from_result", "extended_start", "fit_with_effects",
+    "Problem",
+    "fit",
+    "FitOptions",
+    "IdentificationResult",
+    "load_result",
+    "initial_guess",
+    "auto_mask",
+    "initial_states",
+    "driven_states",
+    "collocation_coefficients",
+    "TUNING_STEPS",
+    "nrmse",
+    "validate",
+    "ValidationResult",
+    "model_from_result",
+    "extended_start",
+    "fit_with_effects",
 ]

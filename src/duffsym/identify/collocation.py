@@ -25,12 +25,13 @@ References
 L. T. Biegler, Nonlinear Programming, SIAM 2010, ch. 10 (direct transcription), doi:10.1137/1.9780898719383.
 A. Wächter and L. T. Biegler, Math. Program. 106 (2006) 25-57 (IPOPT), doi:10.1007/s10107-004-0559-y.
 """
+
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields, replace
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -45,7 +46,6 @@ from duffsym.identify.result import nrmse as record_nrmse
 from duffsym.identify.structure import rescaled_problem
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
-
 
 #: Up to this many samples in total, ``fit(expand="auto")`` expands the NLP graph.
 EXPAND_AUTO_SAMPLES = 1000
@@ -140,13 +140,19 @@ def fit_options(options: FitOptions | None = None, **settings) -> FitOptions:
         raise TypeError(f"fit() options must be a FitOptions; got {type(options).__name__}")
     unknown = sorted(set(settings) - {f.name for f in fields(FitOptions)})
     if unknown:
-        raise TypeError(f"fit() got an unexpected keyword argument {unknown[0]!r} (the settings are FitOptions' "
-                        f"fields: {', '.join(f.name for f in fields(FitOptions))})")
+        raise TypeError(
+            f"fit() got an unexpected keyword argument {unknown[0]!r} (the settings are FitOptions' "
+            f"fields: {', '.join(f.name for f in fields(FitOptions))})"
+        )
     return replace(options, **settings) if settings else options
 
 
-def fit(problem: Problem, x0: Mapping[str, float] | Sequence[float] | None = None,
-        options: FitOptions | None = None, **settings) -> IdentificationResult:
+def fit(
+    problem: Problem,
+    x0: Mapping[str, float] | Sequence[float] | None = None,
+    options: FitOptions | None = None,
+    **settings,
+) -> IdentificationResult:
     r"""Identify the free parameters of ``problem`` by direct collocation and IPOPT.
 
     Parameters
@@ -196,11 +202,19 @@ def fit(problem: Problem, x0: Mapping[str, float] | Sequence[float] | None = Non
     solved = _solve(problem, nlp, opts, n_starts, build, say)
     slot_values, x0s = nlp.unscale(solved.best.w)
     # a solve the time limit stopped is not an optimum: no standard errors (they would cost more time)
-    fitted = _evaluate(problem, nlp, slot_values, x0s,
-                       opts.compute_stderr and solved.best.status != Status.TIME_LIMIT)
+    fitted = _evaluate(problem, nlp, slot_values, x0s, opts.compute_stderr and solved.best.status != Status.TIME_LIMIT)
     settings_out = _settings(opts, nlp, start, expand, solved, fitted)
-    return _result(problem, nlp, solved.best, fitted, slot_values, x0s, settings_out,
-                   {"build": build, "solve": solved.seconds}, flags=opts.flags)
+    return _result(
+        problem,
+        nlp,
+        solved.best,
+        fitted,
+        slot_values,
+        x0s,
+        settings_out,
+        {"build": build, "solve": solved.seconds},
+        flags=opts.flags,
+    )
 
 
 @dataclass(frozen=True)
@@ -220,14 +234,26 @@ def _build(problem: Problem, x0, opts: FitOptions, expand: bool, say) -> tuple[P
     start = parameter_start(problem, x0)
     if getattr(problem.model, "composition", ()):  # a structure with an element: O(1) variables whatever the units
         problem = rescaled_problem(problem, start)
-    say(f"building the collocation NLP ({sum(r.n_times for r in problem.records)} samples, "
-        f"{len(problem.slot_names)} free parameters)")
-    nlp = CollocationNLP(problem, start, degree=opts.degree, derivatives=opts.derivatives, expand=expand,
-                         param_stride=opts.param_stride,
-                         solver_options=ipopt_settings(tol=opts.tol, acceptable_tol=opts.acceptable_tol,
-                                                       max_iter=opts.max_iter, print_level=opts.print_level,
-                                                       linear_solver=opts.linear_solver,
-                                                       ipopt_options=opts.ipopt_options))
+    say(
+        f"building the collocation NLP ({sum(r.n_times for r in problem.records)} samples, "
+        f"{len(problem.slot_names)} free parameters)"
+    )
+    nlp = CollocationNLP(
+        problem,
+        start,
+        degree=opts.degree,
+        derivatives=opts.derivatives,
+        expand=expand,
+        param_stride=opts.param_stride,
+        solver_options=ipopt_settings(
+            tol=opts.tol,
+            acceptable_tol=opts.acceptable_tol,
+            max_iter=opts.max_iter,
+            print_level=opts.print_level,
+            linear_solver=opts.linear_solver,
+            ipopt_options=opts.ipopt_options,
+        ),
+    )
     return problem, start, nlp
 
 
@@ -235,42 +261,73 @@ def _solve(problem: Problem, nlp: CollocationNLP, opts: FitOptions, n_starts: in
     """One IPOPT run per start (the first from the start, the others random), the best kept, a bound restart."""
     t_solve = time.perf_counter()
     deadline = None if opts.max_wall_time is None else t_solve + float(opts.max_wall_time)
-    starts = [nlp.th0] + _random_starts(nlp.th0, nlp.lo, nlp.hi, nlp.p_scale, n_starts - 1, opts.start_spread,
-                                        opts.rng)
+    starts = [nlp.th0] + _random_starts(nlp.th0, nlp.lo, nlp.hi, nlp.p_scale, n_starts - 1, opts.start_spread, opts.rng)
     say(f"built in {build:.1f} s; solving" + (f" from {n_starts} starts" if n_starts > 1 else ""))
-    runs = [nlp.solve(th, max_iter=opts.max_iter, progress=opts.progress, deadline=deadline,
-                      label=f"start {i + 1}/{n_starts}" if n_starts > 1 else "")
-            for i, th in enumerate(starts)]
-    runs = [_timed_out(r, "the IPOPT solve" + (f" of start {i + 1}/{n_starts}" if n_starts > 1 else ""),
-                       opts.max_wall_time, problem) for i, r in enumerate(runs)]
+    runs = [
+        nlp.solve(
+            th,
+            max_iter=opts.max_iter,
+            progress=opts.progress,
+            deadline=deadline,
+            label=f"start {i + 1}/{n_starts}" if n_starts > 1 else "",
+        )
+        for i, th in enumerate(starts)
+    ]
+    runs = [
+        _timed_out(
+            r,
+            "the IPOPT solve" + (f" of start {i + 1}/{n_starts}" if n_starts > 1 else ""),
+            opts.max_wall_time,
+            problem,
+        )
+        for i, r in enumerate(runs)
+    ]
     i_best = best_run(runs)
     best, bound_note = runs[i_best], None
     if opts.bound_restart and n_starts == 1 and best.success:
-        best, bound_note = bound_restart_policy(nlp, best, starts[i_best], max_iter=opts.max_iter,
-                                                progress=opts.progress, deadline=deadline)
+        best, bound_note = bound_restart_policy(
+            nlp, best, starts[i_best], max_iter=opts.max_iter, progress=opts.progress, deadline=deadline
+        )
     n_ok = sum(r.success for r in runs)
     if n_starts > 1:
         best = replace(best, message=best.message + f"; best of {n_starts} starts ({n_ok} converged)")
     solve = time.perf_counter() - t_solve
-    say(f"solved in {solve:.1f} s: {best.status}, {best.n_iter} iterations" + _iteration_note(runs, bound_note)
-        + "; free run and standard errors")
+    say(
+        f"solved in {solve:.1f} s: {best.status}, {best.n_iter} iterations"
+        + _iteration_note(runs, bound_note)
+        + "; free run and standard errors"
+    )
     return Solved(best, tuple(runs), bound_note, n_ok, solve)
 
 
-def _settings(opts: FitOptions, nlp: CollocationNLP, start: dict, expand: bool, solved: Solved,
-              fitted: "Evaluation") -> dict:
+def _settings(
+    opts: FitOptions, nlp: CollocationNLP, start: dict, expand: bool, solved: Solved, fitted: Evaluation
+) -> dict:
     """``IdentificationResult.settings``: how the fit was made (the keys of ``docs/contract.md``)."""
     runs, bound_note = solved.runs, solved.bound_note
-    return {"method": "direct collocation", "scheme": "legendre", "degree": int(opts.degree),
-            "expand": bool(expand) and opts.derivatives == "casadi", "derivatives": opts.derivatives,
-            "param_stride": nlp.stride, "tol": opts.tol, "acceptable_tol": opts.acceptable_tol,
-            "max_iter": int(opts.max_iter), "linear_solver": opts.linear_solver, "start": start,
-            "n_starts": len(runs), "starts_converged": solved.n_converged, "constraints": nlp.constraints,
-            "bound_restart": bound_note,
-            "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs], "y_norm": nlp.y_norm,
-            "max_wall_time": opts.max_wall_time, "iterations": [r.iterations for r in runs]
-            + ([bound_note["iterations"]] if bound_note and bound_note.get("iterations") else []),
-            "integrator": fitted.integrator}
+    return {
+        "method": "direct collocation",
+        "scheme": "legendre",
+        "degree": int(opts.degree),
+        "expand": bool(expand) and opts.derivatives == "casadi",
+        "derivatives": opts.derivatives,
+        "param_stride": nlp.stride,
+        "tol": opts.tol,
+        "acceptable_tol": opts.acceptable_tol,
+        "max_iter": int(opts.max_iter),
+        "linear_solver": opts.linear_solver,
+        "start": start,
+        "n_starts": len(runs),
+        "starts_converged": solved.n_converged,
+        "constraints": nlp.constraints,
+        "bound_restart": bound_note,
+        "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs],
+        "y_norm": nlp.y_norm,
+        "max_wall_time": opts.max_wall_time,
+        "iterations": [r.iterations for r in runs]
+        + ([bound_note["iterations"]] if bound_note and bound_note.get("iterations") else []),
+        "integrator": fitted.integrator,
+    }
 
 
 def _silent(msg: str) -> None:
@@ -283,25 +340,39 @@ def _timed_out(run: Run, phase: str, budget, problem) -> Run:
         return run
     n = sum(r.n_times for r in problem.records)
     info = run.iterations or {}
-    return replace(run, status=Status.TIME_LIMIT, success=False, message=(
-        f"stopped by the time limit ({budget:g} s) in {phase} after {run.n_iter} iterations (slowest iteration "
-        f"{info.get('seconds_max', 0):.1f} s, Hessian regularisation up to {info.get('regularisation_max', 0):.1e}); "
-        f"try: check the units of the record (a time column in ms, signals far from O(1)), a start closer to the "
-        f"data (--fix or x0), fewer samples ({n} now: decimate or cut the record), or a larger time limit"))
+    return replace(
+        run,
+        status=Status.TIME_LIMIT,
+        success=False,
+        message=(
+            f"stopped by the time limit ({budget:g} s) in {phase} after {run.n_iter} iterations (slowest iteration "
+            f"{info.get('seconds_max', 0):.1f} s, Hessian regularisation up to {info.get('regularisation_max', 0):.1e}); "
+            f"try: check the units of the record (a time column in ms, signals far from O(1)), a start closer to the "
+            f"data (--fix or x0), fewer samples ({n} now: decimate or cut the record), or a larger time limit"
+        ),
+    )
 
 
 def _iteration_note(runs, bound_note) -> str:
     """`` (iterations median X s, max Y s at iteration k[; N ill-conditioned])`` of the runs of a fit."""
-    infos = [r.iterations for r in runs if r.iterations] + ([bound_note["iterations"]]
-                                                              if bound_note and bound_note.get("iterations") else [])
+    infos = [r.iterations for r in runs if r.iterations] + (
+        [bound_note["iterations"]] if bound_note and bound_note.get("iterations") else []
+    )
     if not infos or not sum(i["n"] for i in infos):
         return ""
     worst = max(infos, key=lambda i: i["seconds_max"])
     med = float(np.median([i["seconds_median"] for i in infos if i["n"]]))
     bad = sum(i["ill_conditioned"] for i in infos)
-    return (f" (iteration median {med:.2g} s, slowest {worst['seconds_max']:.2g} s"
-            + (f"; {bad} ill-conditioned iterations, Hessian regularisation up to "
-               f"{max(i['regularisation_max'] for i in infos):.1e}" if bad else "") + ")")
+    return (
+        f" (iteration median {med:.2g} s, slowest {worst['seconds_max']:.2g} s"
+        + (
+            f"; {bad} ill-conditioned iterations, Hessian regularisation up to "
+            f"{max(i['regularisation_max'] for i in infos):.1e}"
+            if bad
+            else ""
+        )
+        + ")"
+    )
 
 
 def _checked_options(problem: Problem, opts: FitOptions) -> tuple[int, bool]:
@@ -363,7 +434,9 @@ def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] 
         if not lo <= v <= hi and n in scaled:  # a bound scaled to the record (Effect.record_bounds): moved inside
             v = start[sn] = min(max(v, lo), hi)
         if not lo <= v <= hi:
-            raise ModelError(f"x0: initial value of {sn} = {v:g} is outside its bounds [{lo:g}, {hi:g}]; move it inside")
+            raise ModelError(
+                f"x0: initial value of {sn} = {v:g} is outside its bounds [{lo:g}, {hi:g}]; move it inside"
+            )
     return start
 
 
@@ -373,8 +446,9 @@ def best_run(runs: Sequence[Run]) -> int:
     return min(ok, key=lambda i: runs[i].cost) if ok else 0
 
 
-def bound_restart_policy(nlp: CollocationNLP, best: Run, th_start: np.ndarray, *, max_iter: int,
-                         progress=None, deadline: float | None = None) -> tuple[Run, dict | None]:
+def bound_restart_policy(
+    nlp: CollocationNLP, best: Run, th_start: np.ndarray, *, max_iter: int, progress=None, deadline: float | None = None
+) -> tuple[Run, dict | None]:
     """When ``best`` ended with a parameter on a bound it did not start on, one more run from its end
     parameters with those back at their start values (states from the data); the restart is kept if
     it lowers the cost. Returns the run kept and a note for ``settings["bound_restart"]`` (None if no
@@ -390,33 +464,55 @@ def bound_restart_policy(nlp: CollocationNLP, best: Run, th_start: np.ndarray, *
     lo_s, hi_s, n_slots = nlp.lo, nlp.hi, nlp.n_slots
     th_end = best.w[:n_slots]
     tol_b = 1e-6 * np.maximum(1.0, np.abs(th_end))
-    at_bound = [j for j in range(n_slots)
-                if (np.isfinite(lo_s[j]) and th_end[j] - lo_s[j] <= tol_b[j] < th_start[j] - lo_s[j])
-                or (np.isfinite(hi_s[j]) and hi_s[j] - th_end[j] <= tol_b[j] < hi_s[j] - th_start[j])]
+    at_bound = [
+        j
+        for j in range(n_slots)
+        if (np.isfinite(lo_s[j]) and th_end[j] - lo_s[j] <= tol_b[j] < th_start[j] - lo_s[j])
+        or (np.isfinite(hi_s[j]) and hi_s[j] - th_end[j] <= tol_b[j] < hi_s[j] - th_start[j])
+    ]
     if not at_bound:
         return best, None
     th_re = th_end.copy()
     th_re[at_bound] = th_start[at_bound]
-    again = nlp.solve(th_re, max_iter=max_iter, progress=progress, label="bound restart", deadline=deadline,
-                      guard=restart_guard(best, max_iter=max_iter))
+    again = nlp.solve(
+        th_re,
+        max_iter=max_iter,
+        progress=progress,
+        label="bound restart",
+        deadline=deadline,
+        guard=restart_guard(best, max_iter=max_iter),
+    )
     names_b = ", ".join(nlp.slot_names[j] for j in at_bound)
     better = again.success and again.cost < best.cost * (1 - 1e-9)
     y2 = 2 * nlp.y_norm**2
-    stopped = ("the time limit" if again.stopped == "time" else again.stopped)
-    note = {"parameters": [nlp.slot_names[j] for j in at_bound], "cost_before": best.cost * y2,
-            "cost_after": again.cost * y2 if math.isfinite(again.cost) else math.inf,
-            "kept": "restart" if better else "first", "iterations": again.iterations,
-            "stopped": stopped or None}
+    stopped = "the time limit" if again.stopped == "time" else again.stopped
+    note = {
+        "parameters": [nlp.slot_names[j] for j in at_bound],
+        "cost_before": best.cost * y2,
+        "cost_after": again.cost * y2 if math.isfinite(again.cost) else math.inf,
+        "kept": "restart" if better else "first",
+        "iterations": again.iterations,
+        "stopped": stopped or None,
+    }
     if better:
-        kept = replace(again, n_iter=best.n_iter + again.n_iter,
-                       message=again.message + f"; {names_b} had stopped on a bound: a restart with it back at its "
-                       f"start lowered the cost {best.cost / again.cost:.3g}x")
+        kept = replace(
+            again,
+            n_iter=best.n_iter + again.n_iter,
+            message=again.message + f"; {names_b} had stopped on a bound: a restart with it back at its "
+            f"start lowered the cost {best.cost / again.cost:.3g}x",
+        )
     elif stopped:
-        kept = replace(best, message=best.message + f"; {names_b} ended on a bound; a restart with it back at its start "
-                       f"was stopped after {again.n_iter} iterations ({stopped}); the converged run is kept")
+        kept = replace(
+            best,
+            message=best.message + f"; {names_b} ended on a bound; a restart with it back at its start "
+            f"was stopped after {again.n_iter} iterations ({stopped}); the converged run is kept",
+        )
     else:
-        kept = replace(best, message=best.message + f"; {names_b} ended on a bound and a restart with it back at its "
-                       "start found nothing better")
+        kept = replace(
+            best,
+            message=best.message + f"; {names_b} ended on a bound and a restart with it back at its "
+            "start found nothing better",
+        )
     return kept, note
 
 
@@ -448,8 +544,10 @@ def _evaluate(problem: Problem, nlp: CollocationNLP, slot_values, x0s, compute_s
     """Free run of the fitted parameters on every record, its errors, and the Laplace covariance."""
     rec_params = [problem.record_params(i, slot_values) for i in range(len(problem.records))]
     t_free = time.perf_counter()
-    runs = [simulate_record(problem.model, rp, rec, x0=x, on_failure="return")
-            for rp, rec, x in zip(rec_params, problem.records, x0s)]
+    runs = [
+        simulate_record(problem.model, rp, rec, x0=x, on_failure="return")
+        for rp, rec, x in zip(rec_params, problem.records, x0s)
+    ]
     t_free = time.perf_counter() - t_free
     y_sims = tuple(np.asarray(tr.y, dtype=float) for tr in runs)
     ok_runs = all(tr.success for tr in runs)
@@ -465,17 +563,23 @@ def _evaluate(problem: Problem, nlp: CollocationNLP, slot_values, x0s, compute_s
         cov = laplace_covariance(problem, rec_params, x0s, [b.U for b in nlp.blocks], y_sims)
     t_se = time.perf_counter() - t_se
     return Evaluation(
-        rec_params=rec_params, y_sims=y_sims, ok=ok_runs,
+        rec_params=rec_params,
+        y_sims=y_sims,
+        ok=ok_runs,
         integrator=[{"record": r.name, **tr.integrator} for r, tr in zip(records, runs)],
         failure=next((tr.message for tr in runs if not tr.success), ""),
         nrmse=math.sqrt(sse / sst) if ok_runs else math.inf,
         nrmse_records=tuple(record_nrmse(r.y, ys) for r, ys in zip(records, y_sims)),
         nrmse_objective=math.sqrt(sse_u / sst_u) if ok_runs else math.inf,
-        covariance=cov, t_free=t_free, t_se=t_se)
+        covariance=cov,
+        t_free=t_free,
+        t_se=t_se,
+    )
 
 
-def _result(problem, nlp, best: Run, fitted: Evaluation, slot_values, x0s, settings, timings,
-            flags: bool = True) -> IdentificationResult:
+def _result(
+    problem, nlp, best: Run, fitted: Evaluation, slot_values, x0s, settings, timings, flags: bool = True
+) -> IdentificationResult:
     """The :class:`IdentificationResult`: the run, judged usable or not (:func:`usability`), with its flags."""
     import casadi
 
@@ -487,32 +591,55 @@ def _result(problem, nlp, best: Run, fitted: Evaluation, slot_values, x0s, setti
     status, success, message = best.status, best.success, best.message
     if success and not fitted.ok:
         success = False
-        message = (f"IPOPT converged ({status}) but the free-run simulation with the fitted parameters failed: "
-                   f"{fitted.failure}")
+        message = (
+            f"IPOPT converged ({status}) but the free-run simulation with the fitted parameters failed: "
+            f"{fitted.failure}"
+        )
         status = Status.FREE_RUN_FAILED
     elif success:
         status, success, message = usability(problem, fitted.rec_params, r2, status, message)
     cov = fitted.covariance
-    stderr = {n: float(math.sqrt(cov[j, j])) if np.isfinite(cov[j, j]) and cov[j, j] >= 0 else math.nan
-              for j, n in enumerate(nlp.slot_names)}
+    stderr = {
+        n: float(math.sqrt(cov[j, j])) if np.isfinite(cov[j, j]) and cov[j, j] >= 0 else math.nan
+        for j, n in enumerate(nlp.slot_names)
+    }
     params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
     t_flags = time.perf_counter()
     flags = fit_flags(problem, nlp, best.w, fitted.rec_params, r2) if fitted.ok and flags else ()
     t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions (~0.4 s)
     return IdentificationResult(
-        model=model, params=params, free=tuple(nlp.slot_names), fixed=dict(problem.fixed), stderr=stderr,
-        covariance=cov, cost=best.cost * 2 * nlp.y_norm**2, nrmse=nrmse, r2=r2,
-        status=status, success=success, message=message, n_iter=best.n_iter,
+        model=model,
+        params=params,
+        free=tuple(nlp.slot_names),
+        fixed=dict(problem.fixed),
+        stderr=stderr,
+        covariance=cov,
+        cost=best.cost * 2 * nlp.y_norm**2,
+        nrmse=nrmse,
+        r2=r2,
+        status=status,
+        success=success,
+        message=message,
+        n_iter=best.n_iter,
         timings={**timings, "free_run": fitted.t_free, "stderr": fitted.t_se, "flags": t_flags},
-        mask=problem.masks(), defaults_applied=dict(problem.defaults_applied), effects=tuple(model.effects),
-        structural={k: v for k, v in model.structural}, nrmse_records=fitted.nrmse_records,
-        nrmse_objective=fitted.nrmse_objective, x0=tuple(x0s), y_sim=fitted.y_sims,
-        records=tuple(r.name for r in problem.records), mask_info=dict(problem.mask_info), settings=settings,
+        mask=problem.masks(),
+        defaults_applied=dict(problem.defaults_applied),
+        effects=tuple(model.effects),
+        structural={k: v for k, v in model.structural},
+        nrmse_records=fitted.nrmse_records,
+        nrmse_objective=fitted.nrmse_objective,
+        x0=tuple(x0s),
+        y_sim=fitted.y_sims,
+        records=tuple(r.name for r in problem.records),
+        mask_info=dict(problem.mask_info),
+        settings=settings,
         versions={"casadi": casadi.__version__, "duffsym": getattr(duffsym, "__version__", "?")},
         n_samples=int(sum(r.n_times for r in problem.records)),
-        group_params={lab: problem.record_params(problem.labels.index(lab), slot_values)
-                      for lab in problem.group_order},
-        groups=tuple(problem.labels) if problem.group_order else (), flags=tuple(flags),
+        group_params={
+            lab: problem.record_params(problem.labels.index(lab), slot_values) for lab in problem.group_order
+        },
+        groups=tuple(problem.labels) if problem.group_order else (),
+        flags=tuple(flags),
     )
 
 

@@ -7,6 +7,7 @@ record (central differences of :func:`duffsym.simulate.simulate` with a fixed su
 the free parameters and the initial states; the parameter block of :math:`\Sigma` is reported (the
 initial states are marginalised). :func:`duffsym.identify.fit` reports its square roots as standard errors.
 """
+
 from __future__ import annotations
 
 import warnings
@@ -102,9 +103,12 @@ def _gauss_newton(J: np.ndarray, r: np.ndarray, wv: np.ndarray, n_slots: int) ->
     cond = np.linalg.cond(Hs)
     if np.isfinite(cond) and cond <= 1e14:
         return (sigma2 * np.linalg.inv(Hs) / np.outer(d, d))[:n_slots, :n_slots]
-    warnings.warn(f"the Gauss-Newton Hessian is singular (condition number {cond:.3g}): some free parameters are "
-                  "not identifiable from these records; their standard errors are set to inf",
-                  ConvergenceWarning, stacklevel=4)
+    warnings.warn(
+        f"the Gauss-Newton Hessian is singular (condition number {cond:.3g}): some free parameters are "
+        "not identifiable from these records; their standard errors are set to inf",
+        ConvergenceWarning,
+        stacklevel=4,
+    )
     out = (sigma2 * np.linalg.pinv(Hs) / np.outer(d, d))[:n_slots, :n_slots]
     w_eig, v_eig = np.linalg.eigh(Hs)
     weak = np.abs(v_eig[:n_slots, np.abs(w_eig) < 1e-14 * np.max(np.abs(w_eig))]).sum(axis=1) > 1e-6

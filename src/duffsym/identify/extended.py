@@ -6,9 +6,10 @@ its data-based guesses (``apply``, parameters, ``initial_guess``, ``initial_stat
 ``base_output``); how an extended model is fitted belongs here. The import direction is
 effects -> identify, never back (``tests/test_layers.py``).
 """
+
 from __future__ import annotations
 
-from typing import Iterable, Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -21,8 +22,14 @@ from duffsym.model.core import SymbolicModel
 from duffsym.simulate import simulate_record
 
 
-def extended_start(model: SymbolicModel, effect: Effect, record, base_params: Mapping[str, float], y_model,
-                   fixed: Mapping[str, float] | None = None) -> dict[str, float]:
+def extended_start(
+    model: SymbolicModel,
+    effect: Effect,
+    record,
+    base_params: Mapping[str, float],
+    y_model,
+    fixed: Mapping[str, float] | None = None,
+) -> dict[str, float]:
     """Starting parameters for fitting ``model`` (which includes ``effect``) after a base fit.
 
     Two candidates, the one whose free run of ``model`` on ``record`` has the smaller error is kept:

@@ -13,6 +13,7 @@ Two steps, both reported in one line and in FIT.json:
 :func:`score_valid` gives a validation's error on the valid samples only; :func:`fit_extras` the FIT.json
 keys ``training_ranges``, ``decimation`` and ``data_sanity``.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -71,7 +72,7 @@ def prepare_fit_data(record: Record, mask=None, *, keep_invalid: bool = False, d
     full = record if valid is None else valid.record
     m = None if mask is None else np.asarray(mask, dtype=bool)
     if valid is not None:
-        m = valid.mask if m is None else (m[valid.start:valid.stop] | valid.mask)
+        m = valid.mask if m is None else (m[valid.start : valid.stop] | valid.mask)
         m = m if m.any() else None
     prep, rec = _decimation(full, decimate)
     inside = None if valid is None or not valid.mask.any() else valid.mask
@@ -108,9 +109,16 @@ def fit_extras(result, data: FitData, model) -> dict:
     ``data_sanity`` (None when not checked) for a fit of ``data``."""
     dec = {"factor": 1, "rate_hz": 1.0 / data.full.dt, "reason": "not decimated"}
     if data.prep is not None:
-        dec = {**data.prep.to_dict(), "rate_hz": data.prep.rate, "nrmse_full_rate": full_rate_nrmse(result, data, model)}
-    return {"training_ranges": training_ranges([data.full]), "decimation": dec,
-            "data_sanity": None if data.valid is None else data.valid.to_dict()}
+        dec = {
+            **data.prep.to_dict(),
+            "rate_hz": data.prep.rate,
+            "nrmse_full_rate": full_rate_nrmse(result, data, model),
+        }
+    return {
+        "training_ranges": training_ranges([data.full]),
+        "decimation": dec,
+        "data_sanity": None if data.valid is None else data.valid.to_dict(),
+    }
 
 
 def finish_fit(result, data: FitData, model):

@@ -1,8 +1,9 @@
 """Initial parameter values (the paper's tuning procedure; an equation-error start for command-driven
 models under a changing command) and the automatic deadzone mask."""
+
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -14,13 +15,20 @@ from duffsym.model.library import EPS_PARAM
 
 #: The paper's tuning order (Fig. 4): step 1 fixes A_f (and n, structural), then pairs of parameters.
 TUNING_STEPS: dict[str, tuple[tuple[str, ...], ...]] = {
-    "mr-damper": (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),          # Fig. 4b
+    "mr-damper": (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),  # Fig. 4b
     "mr-damper-physical": (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),
     "duffing-like": (("A_f",), ("k1", "c1"), ("gamma", "delta"), ("alpha", "beta")),  # Fig. 4a
     # the command-driven models: the constant parts as for mr-damper (the field terms start at 0)
-    **{name: (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3"))
-       for name in ("mr-damper-current", "mr-damper-current-saturating", "mr-damper-current-quadratic",
-                     "mr-damper-current-path", "mr-damper-current-path-viscous")},
+    **dict.fromkeys(
+        (
+            "mr-damper-current",
+            "mr-damper-current-saturating",
+            "mr-damper-current-quadratic",
+            "mr-damper-current-path",
+            "mr-damper-current-path-viscous",
+        ),
+        (("A_f",), ("c1", "k1"), ("c2", "c3"), ("k2", "k3")),
+    ),
     **CLASSICAL_TUNING_STEPS,
 }
 COARSE = (0.1, 0.3, 1.0, 3.0, 10.0)
@@ -37,8 +45,9 @@ def _cost(model, P, t, chans, x0, y):
     return np.where(res.success & np.all(np.isfinite(res.y), axis=1), err, np.inf)
 
 
-def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = None,
-                  max_samples: int = 2000) -> dict[str, float]:
+def initial_guess(
+    record: Record, model, *, fixed: Mapping[str, float] | None = None, max_samples: int = 2000
+) -> dict[str, float]:
     """Starting values by the paper's tuning procedure (Fig. 4), as a small grid search.
 
     Step 1 sets ``A_f = max|y|`` (unless fixed; ``n`` is structural and kept). Each later step
@@ -73,8 +82,9 @@ def initial_guess(record: Record, model, *, fixed: Mapping[str, float] | None = 
     return tuning_guess(record, model, fixed=fixed, max_samples=max_samples)
 
 
-def tuning_guess(record: Record, model, *, fixed: Mapping[str, float] | None = None,
-                 max_samples: int = 2000) -> dict[str, float]:
+def tuning_guess(
+    record: Record, model, *, fixed: Mapping[str, float] | None = None, max_samples: int = 2000
+) -> dict[str, float]:
     """The paper's tuning procedure of :func:`initial_guess` (for any model with a tuning order; the
     defaults with the fixed values otherwise)."""
     fixed = dict(fixed or {})
@@ -142,8 +152,15 @@ def linear_parameters(model, exclude=()) -> list[str]:
         lin -= drop
 
 
-def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = None,
-                  rate_factors=RATE_FACTORS, lowpass: float = 0.08, skip: int = 20) -> dict[str, float]:
+def command_start(
+    record: Record,
+    model,
+    *,
+    fixed: Mapping[str, float] | None = None,
+    rate_factors=RATE_FACTORS,
+    lowpass: float = 0.08,
+    skip: int = 20,
+) -> dict[str, float]:
     r"""Start of a command-driven model on a record with a changing command: equation error (teacher
     forcing) for each trial field rate, the candidates ranked by their free-run error.
 
@@ -178,7 +195,7 @@ def command_start(record: Record, model, *, fixed: Mapping[str, float] | None = 
         for r in rates:
             spec = model.param(r)
             values[r] = float(np.clip(spec.default * f, spec.lower, spec.upper))
-        values.update({n: 0.0 for n in lin})
+        values.update(dict.fromkeys(lin, 0.0))
         X = initial_states(model, record, np.array([values[n] for n in model.param_names]))
         values.update(regress(X, values))
         candidates.append(values)
@@ -201,8 +218,10 @@ def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float
     if chain is None or not _command_varies(record, chain[0]):
         return None
     base, steps = chain
-    values = {**model.defaults(), **command_start(record, base, fixed={k: v for k, v in fixed.items()
-                                                                         if k in base.param_names})}
+    values = {
+        **model.defaults(),
+        **command_start(record, base, fixed={k: v for k, v in fixed.items() if k in base.param_names}),
+    }
     p = base.param_vector({n: values[n] for n in base.param_names})
     tr = simulate_record(base, p, record, x0=initial_states(base, record, p)[0], on_failure="return", method="rk4")
     if tr.success and np.all(np.isfinite(tr.y)):
@@ -253,8 +272,9 @@ class _EquationError:
         self.cols = [sp.lambdify(self.args, c, "numpy") for c in cols]
         # the integral x of x' has an unknown offset and drift: they enter through x's coefficients
         slopes = {sp.diff(c, model.position) for c in cols} - {0}
-        self.nuisance = [sp.lambdify(self.args, c, "numpy") for c in slopes
-                         if not c.free_symbols & {model.position, model.velocity}]
+        self.nuisance = [
+            sp.lambdify(self.args, c, "numpy") for c in slopes if not c.free_symbols & {model.position, model.velocity}
+        ]
         self.lower = np.array([model.param(n).lower for n in names])
         self.upper = np.array([model.param(n).upper for n in names])
 
@@ -359,10 +379,16 @@ def auto_mask(record: Record, *, force_band: float = 0.5) -> tuple[np.ndarray, d
         lag = v_band = width = 0.0
     info = {
         "rule": "auto: from each input velocity reversal until |y| >= force_band*max|y| with the new sign",
-        "force_band": float(force_band), "force_threshold": threshold,
-        "median_lag_samples": lag, "median_lag_s": lag * record.dt,
-        "velocity_band": v_band, "velocity_threshold": v_band * v_max, "median_displacement_width": width,
-        "n_stretches": len(stretches), "n_masked": int(mask.sum()), "fraction_masked": float(mask.mean()),
+        "force_band": float(force_band),
+        "force_threshold": threshold,
+        "median_lag_samples": lag,
+        "median_lag_s": lag * record.dt,
+        "velocity_band": v_band,
+        "velocity_threshold": v_band * v_max,
+        "median_displacement_width": width,
+        "n_stretches": len(stretches),
+        "n_masked": int(mask.sum()),
+        "fraction_masked": float(mask.mean()),
     }
     return mask, info
 
@@ -385,4 +411,3 @@ def path_start(clock_params: Mapping[str, float], n: int = 5, *, v_eps: float) -
     out["A_f"] = float(clock_params["A_f"]) * v_eps
     out.update(c0=0.0, c0_u=0.0, **{EPS_PARAM: float(v_eps)})
     return out
-

@@ -11,14 +11,15 @@ An IPOPT intermediate callback (:func:`_iteration_hook`) counts iterations, repo
 through a ``progress`` callable and stops the solve when the user presses Ctrl-C
 (:class:`FitInterrupted`, a :class:`KeyboardInterrupt`).
 """
+
 from __future__ import annotations
 
 import math
 import signal
 import threading
 import time
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Callable, Mapping
 
 import numpy as np
 
@@ -75,19 +76,19 @@ class RecordBlock:
     ``param_stride`` samples). Its constraints start at row ``g_offset``.
     """
 
-    offset: int                 # first decision variable of the record (its first sample state)
-    N: int                      # samples
-    S: np.ndarray               # (n_states,) state scale
-    p_offset: int               # first of its parameter copies
-    nb: int                     # number of parameter copies
-    U: np.ndarray               # (N, n_inputs) input matrix (Record.input_matrix)
-    X_init: np.ndarray          # (N, n_states) data-based state guess (duffsym.identify.states)
-    h: np.ndarray               # (N-1,) sample intervals
-    pf: np.ndarray              # (n_params,) fixed values, 0 where free
-    sidx: list                  # the slots of the free parameters (Problem.slot_index)
-    y: np.ndarray               # (N,) measured output
-    wts: np.ndarray             # (N,) sample weights (0: masked)
-    g_offset: int               # first constraint row of the record
+    offset: int  # first decision variable of the record (its first sample state)
+    N: int  # samples
+    S: np.ndarray  # (n_states,) state scale
+    p_offset: int  # first of its parameter copies
+    nb: int  # number of parameter copies
+    U: np.ndarray  # (N, n_inputs) input matrix (Record.input_matrix)
+    X_init: np.ndarray  # (N, n_states) data-based state guess (duffsym.identify.states)
+    h: np.ndarray  # (N-1,) sample intervals
+    pf: np.ndarray  # (n_params,) fixed values, 0 where free
+    sidx: list  # the slots of the free parameters (Problem.slot_index)
+    y: np.ndarray  # (N,) measured output
+    wts: np.ndarray  # (N,) sample weights (0: masked)
+    g_offset: int  # first constraint row of the record
     driven_range: dict = field(default_factory=dict)  # input-driven state -> (lower, upper) bounds
 
 
@@ -98,14 +99,26 @@ class RecordBlock:
 MUMPS_MEM_PERCENT = 1000
 
 
-def ipopt_settings(*, tol: float = 1e-10, acceptable_tol: float = 1e-7, max_iter: int = 500, print_level: int = 0,
-                   linear_solver: str = "mumps", ipopt_options: Mapping[str, object] | None = None) -> dict:
+def ipopt_settings(
+    *,
+    tol: float = 1e-10,
+    acceptable_tol: float = 1e-7,
+    max_iter: int = 500,
+    print_level: int = 0,
+    linear_solver: str = "mumps",
+    ipopt_options: Mapping[str, object] | None = None,
+) -> dict:
     """IPOPT/CasADi options of a fit (the defaults are :func:`~duffsym.identify.fit`'s); ``ipopt_options``
     are added with the ``ipopt.`` prefix."""
     opts = {
-        "ipopt.tol": float(tol), "ipopt.acceptable_tol": float(acceptable_tol), "ipopt.max_iter": int(max_iter),
-        "ipopt.print_level": int(print_level), "print_time": False, "ipopt.sb": "yes",
-        "ipopt.linear_solver": linear_solver, "error_on_fail": False,
+        "ipopt.tol": float(tol),
+        "ipopt.acceptable_tol": float(acceptable_tol),
+        "ipopt.max_iter": int(max_iter),
+        "ipopt.print_level": int(print_level),
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.linear_solver": linear_solver,
+        "error_on_fail": False,
         "ipopt.mumps_mem_percent": MUMPS_MEM_PERCENT,
     }
     for k, v in (ipopt_options or {}).items():
@@ -155,8 +168,17 @@ class CollocationNLP:
     constraints : the linear parameter constraints as stated (for the result).
     """
 
-    def __init__(self, problem, start: Mapping[str, float], *, degree: int = 3, derivatives: str = "structured",
-                 expand: bool = False, param_stride: int = 8, solver_options: Mapping[str, object] | None = None):
+    def __init__(
+        self,
+        problem,
+        start: Mapping[str, float],
+        *,
+        degree: int = 3,
+        derivatives: str = "structured",
+        expand: bool = False,
+        param_stride: int = 8,
+        solver_options: Mapping[str, object] | None = None,
+    ):
         import casadi as ca
 
         from duffsym.codegen.casadi_fn import casadi_functions
@@ -211,8 +233,9 @@ class CollocationNLP:
         """Decision variables, bounds, start vector, dynamics constraints and objective of every record."""
         problem, model, K, stride = self.problem, self.model, self.degree, self.stride
         nx, n_free, n_slots = model.n_states, len(self.free), self.n_slots
-        n_w = n_slots + sum(nx * r.n_times + nx * K * (r.n_times - 1) + n_free * -(-r.n_times // stride)
-                            for r in problem.records)
+        n_w = n_slots + sum(
+            nx * r.n_times + nx * K * (r.n_times - 1) + n_free * -(-r.n_times // stride) for r in problem.records
+        )
         self.wsym = wsym = ca.MX.sym("w", n_w)
         self.theta = wsym[:n_slots]
         lbw, ubw, w0 = list(self.lo), list(self.hi), list(self.th0)
@@ -254,8 +277,8 @@ class CollocationNLP:
         S = np.maximum(np.max(np.abs(X_init), axis=0), 1e-3 * max(1.0, float(np.max(np.abs(X_init)))))
         S = np.where(np.isfinite(S) & (S > 0), S, 1.0)
         n_var = nx * N + nx * K * (N - 1)
-        Xs = ca.reshape(wsym[offset: offset + nx * N], nx, N)
-        Xc = ca.reshape(wsym[offset + nx * N: offset + n_var], nx, K * (N - 1))
+        Xs = ca.reshape(wsym[offset : offset + nx * N], nx, N)
+        Xc = ca.reshape(wsym[offset + nx * N : offset + n_var], nx, K * (N - 1))
         # One copy of the free parameters per `stride` samples, chained to theta by linear
         # constraints: every interval then depends on nearby variables only, so the Hessian has no
         # dense rows (shared parameters made CasADi's build quadratic and slowed MUMPS) and the chain
@@ -263,7 +286,7 @@ class CollocationNLP:
         # per 8 samples instead of per sample: ~30 % less CPU at 12 800 samples (measured 1, 4, 8,
         # 16, 64: 5.8-6.2, 4.1-4.2, 3.8-4.4, 3.9-5.1, 4.2-5.1 s; no copies at all: ~40 % more than 1).
         nb = -(-N // stride)
-        Pl = ca.reshape(wsym[offset + n_var: offset + n_var + n_free * nb], n_free, nb)
+        Pl = ca.reshape(wsym[offset + n_var : offset + n_var + n_free * nb], n_free, nb)
         copy_of = (np.arange(N) // stride).tolist()
         rows = []
         for n in model.param_names:
@@ -288,8 +311,22 @@ class CollocationNLP:
         w0 = list(Xs0.reshape(-1)) + list(Xc0.flatten(order="F"))
         w0 += list(np.tile(th0[sidx] * self.p_scale[sidx] / self.p_scale_free, nb))
         pf = np.array([0.0 if n in free else problem.fixed_value(i, n) for n in model.param_names])
-        blk = RecordBlock(offset=offset, N=N, S=S, p_offset=offset + n_var, nb=nb, U=U, X_init=X_init, h=h, pf=pf,
-                          sidx=sidx, y=np.asarray(rec.y, dtype=float), wts=wts, g_offset=n_g, driven_range=driven)
+        blk = RecordBlock(
+            offset=offset,
+            N=N,
+            S=S,
+            p_offset=offset + n_var,
+            nb=nb,
+            U=U,
+            X_init=X_init,
+            h=h,
+            pf=pf,
+            sidx=sidx,
+            y=np.asarray(rec.y, dtype=float),
+            wts=wts,
+            g_offset=n_g,
+            driven_range=driven,
+        )
         return blk, parts, w0
 
     def _linear_constraints(self) -> None:
@@ -312,8 +349,9 @@ class CollocationNLP:
                 con_c += list(key)
                 con_v += vals
                 lbg, ubg = np.append(lbg, lo), np.append(ubg, hi)
-                con_info.append({"coefficients": {slot_names[j]: coeffs[n] for n, j in zip(coeffs, key)},
-                                 "lower": lo, "upper": hi})
+                con_info.append(
+                    {"coefficients": {slot_names[j]: coeffs[n] for n, j in zip(coeffs, key)}, "lower": lo, "upper": hi}
+                )
         self.lbg, self.ubg, self.constraints = lbg, ubg, con_info
         self.linear_rows = (con_r, con_c, con_v)  # the Jacobian's constant rows of the constraints
 
@@ -331,16 +369,25 @@ class CollocationNLP:
     def with_params(self, th: np.ndarray) -> np.ndarray:
         """The start vector with the parameter slots (and their per-stride copies) set to ``th``."""
         w = self.w0.copy()
-        w[:self.n_slots] = th
+        w[: self.n_slots] = th
         for i, blk in enumerate(self.blocks):
             sidx = self.problem.slot_index(i)
-            w[blk.p_offset: blk.p_offset + len(self.free) * blk.nb] = np.tile(
-                th[sidx] * self.p_scale[sidx] / self.p_scale_free, blk.nb)
+            w[blk.p_offset : blk.p_offset + len(self.free) * blk.nb] = np.tile(
+                th[sidx] * self.p_scale[sidx] / self.p_scale_free, blk.nb
+            )
         return w
 
-    def solve(self, th: np.ndarray, *, max_iter: int, progress: Callable[[str], None] | None = None,
-              label: str = "", deadline: float | None = None, guard: Callable[["IterationLog"], str] | None = None,
-              w_start: np.ndarray | None = None) -> Run:
+    def solve(
+        self,
+        th: np.ndarray,
+        *,
+        max_iter: int,
+        progress: Callable[[str], None] | None = None,
+        label: str = "",
+        deadline: float | None = None,
+        guard: Callable[[IterationLog], str] | None = None,
+        w_start: np.ndarray | None = None,
+    ) -> Run:
         """One IPOPT run from the scaled parameters ``th`` (states from the data, or ``w_start``); never
         raises for solver failure. Ctrl-C during the run stops IPOPT and raises :class:`FitInterrupted`.
 
@@ -356,8 +403,16 @@ class CollocationNLP:
                 sol = self.solver(x0=w_start, lbx=self.lbw, ubx=self.ubw, lbg=self.lbg, ubg=self.ubg)
             except RuntimeError as exc:  # CasADi raises on evaluation errors it cannot recover from
                 self._hook.raise_if_interrupted()
-                return Run("error", False, 0, w_start, math.inf, f"IPOPT stopped with an error: {exc}",
-                           self._hook.log.summary(), self._hook.stop_reason)
+                return Run(
+                    "error",
+                    False,
+                    0,
+                    w_start,
+                    math.inf,
+                    f"IPOPT stopped with an error: {exc}",
+                    self._hook.log.summary(),
+                    self._hook.stop_reason,
+                )
             self._hook.raise_if_interrupted()
         stats = self.solver.stats()
         status = ipopt_status(stats.get("return_status", "unknown"))
@@ -365,23 +420,30 @@ class CollocationNLP:
         cost = float(sol["f"])
         log = self._hook.log
         log.finish(stats)
-        return Run(status, success, int(stats.get("iter_count", 0)), np.asarray(sol["x"]).reshape(-1),
-                   cost if math.isfinite(cost) else math.inf, _status_message(status, success, max_iter),
-                   log.summary(), self._hook.stop_reason)
+        return Run(
+            status,
+            success,
+            int(stats.get("iter_count", 0)),
+            np.asarray(sol["x"]).reshape(-1),
+            cost if math.isfinite(cost) else math.inf,
+            _status_message(status, success, max_iter),
+            log.summary(),
+            self._hook.stop_reason,
+        )
 
     def unscale(self, w: np.ndarray) -> tuple[dict[str, float], list[tuple[float, ...]]]:
         """Slot values by name (clipped into the bounds) and each record's initial state, from a solution."""
         w = w.copy()
         # IPOPT relaxes bounds by ~1e-8 relative: a parameter on its bound can come back just outside
         # it, which a prior or a later Problem would reject
-        w[:self.n_slots] = np.clip(w[:self.n_slots], self.lo, self.hi)
-        slot_values = dict(zip(self.slot_names, map(float, w[:self.n_slots] * self.p_scale)))
+        w[: self.n_slots] = np.clip(w[: self.n_slots], self.lo, self.hi)
+        slot_values = dict(zip(self.slot_names, map(float, w[: self.n_slots] * self.p_scale)))
         nx = self.model.n_states
-        x0s = [tuple(float(v) for v in w[b.offset: b.offset + nx] * b.S) for b in self.blocks]
+        x0s = [tuple(float(v) for v in w[b.offset : b.offset + nx] * b.S) for b in self.blocks]
         return slot_values, x0s
 
 
-def _structured_derivatives(nlp: "CollocationNLP", g):
+def _structured_derivatives(nlp: CollocationNLP, g):
     """The NLP's constraint Jacobian and the triangle of the Lagrangian's Hessian, assembled by blocks.
 
     Every collocation interval k depends only on ``z_k = (x_k, xc_k, x_k+1, p_k)`` (scaled states at
@@ -411,16 +473,16 @@ def _structured_derivatives(nlp: "CollocationNLP", g):
         J_cols.append(np.asarray(con_c))
         J_vals.append(ca.DM(np.asarray(con_v, dtype=float)))
     n_w = w.numel()
-    jac = _scatter(np.concatenate(J_rows), np.concatenate(J_cols), ca.vertcat(*J_vals), nlp.lbg.size, n_w,
-                   upper=False)
+    jac = _scatter(np.concatenate(J_rows), np.concatenate(J_cols), ca.vertcat(*J_vals), nlp.lbg.size, n_w, upper=False)
     hess = _scatter(np.concatenate(H_rows), np.concatenate(H_cols), ca.vertcat(*H_vals), n_w, n_w, upper=True)
     jac_g = ca.Function("nlp_jac_g", [w, p_empty], [g, jac], ["x", "p"], ["g", "jac_g_x"])
-    hess_lag = ca.Function("nlp_hess_l", [w, p_empty, lam_f, lam_g], [hess],
-                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    hess_lag = ca.Function(
+        "nlp_hess_l", [w, p_empty, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+    )
     return jac_g, hess_lag
 
 
-def _interval_derivatives(nlp: "CollocationNLP") -> dict:
+def _interval_derivatives(nlp: CollocationNLP) -> dict:
     """The derivatives of one interval and of one objective term, as SX functions with the triplets of
     their nonzeros: ``jac`` (Jacobian of the interval's constraints in ``z``), ``hess`` (upper triangle
     of the Hessian of ``lam . g_k``), ``obj`` (upper triangle of the Hessian of one objective term in
@@ -433,11 +495,15 @@ def _interval_derivatives(nlp: "CollocationNLP") -> dict:
     z = ca.SX.sym("z", nzz)
     uk, uk1, hk = ca.SX.sym("uk", nu), ca.SX.sym("uk1", nu), ca.SX.sym("h")
     pf, sx = ca.SX.sym("pf", n_par), ca.SX.sym("sx", nx)
-    pk = z[nx * (K + 2):]
-    ps = ca.vertcat(*[pk[free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
-                      for j, n in enumerate(model.param_names)])
-    res, xend = nlp.interval(z[:nx], ca.reshape(z[nx: nx + nx * K], nx, K), uk, uk1, hk, ps, sx)
-    gk = ca.vertcat(res, xend - z[nx + nx * K: nx * (K + 2)])
+    pk = z[nx * (K + 2) :]
+    ps = ca.vertcat(
+        *[
+            pk[free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+            for j, n in enumerate(model.param_names)
+        ]
+    )
+    res, xend = nlp.interval(z[:nx], ca.reshape(z[nx : nx + nx * K], nx, K), uk, uk1, hk, ps, sx)
+    gk = ca.vertcat(res, xend - z[nx + nx * K : nx * (K + 2)])
     Jk = ca.jacobian(gk, z)
     lam = ca.SX.sym("lam", nx * K + nx)
     Hk = ca.triu(ca.hessian(ca.dot(lam, gk), z)[0])
@@ -445,21 +511,26 @@ def _interval_derivatives(nlp: "CollocationNLP") -> dict:
     # one objective term: 0.5 * w * ((y_hat - y) / y_norm)^2 of v = (x_k, p_k)
     v = ca.SX.sym("v", nx + n_free)
     uo, yk, wk, lf = ca.SX.sym("u", nu), ca.SX.sym("y"), ca.SX.sym("wk"), ca.SX.sym("lam_f")
-    pv = ca.vertcat(*[v[nx + free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
-                      for j, n in enumerate(model.param_names)])
+    pv = ca.vertcat(
+        *[
+            v[nx + free.index(n)] * p_scale_free[free.index(n)] if n in free else pf[j]
+            for j, n in enumerate(model.param_names)
+        ]
+    )
     ok = 0.5 * wk * ((nlp.out_fn(v[:nx] * sx, uo, pv) - yk) / nlp.y_norm) ** 2
     Ho = ca.triu(ca.hessian(lf * ok, v)[0])
 
     def triplet(M):
         return tuple(np.asarray(a, dtype=np.int64) for a in M.sparsity().get_triplet())
 
-    return {"jac": (ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())]), *triplet(Jk)),
-            "hess": (ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())]), *triplet(Hk)),
-            "obj": (ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())]),
-                    *triplet(Ho))}
+    return {
+        "jac": (ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())]), *triplet(Jk)),
+        "hess": (ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())]), *triplet(Hk)),
+        "obj": (ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())]), *triplet(Ho)),
+    }
 
 
-def _block_entries(nlp: "CollocationNLP", fns: dict, b: RecordBlock, lam_f, lam_g):
+def _block_entries(nlp: CollocationNLP, fns: dict, b: RecordBlock, lam_f, lam_g):
     """One record's entries of the Jacobian and of the Hessian: ``(rows, cols, vals)`` lists of each."""
     import casadi as ca
 
@@ -469,18 +540,19 @@ def _block_entries(nlp: "CollocationNLP", fns: dict, b: RecordBlock, lam_f, lam_
     (jfun, jr, jc), (hfun, hr, hc), (ofun, orr, occ) = fns["jac"], fns["hess"], fns["obj"]
     o, N, U = b.offset, b.N, b.U
     k = np.arange(N - 1)
-    xs_idx = o + np.arange(nx)[:, None] + nx * np.arange(N)[None, :]                     # (nx, N)
-    xc_idx = o + nx * N + np.arange(nx * K)[:, None] + nx * K * k[None, :]              # (nx K, N-1)
+    xs_idx = o + np.arange(nx)[:, None] + nx * np.arange(N)[None, :]  # (nx, N)
+    xc_idx = o + nx * N + np.arange(nx * K)[:, None] + nx * K * k[None, :]  # (nx K, N-1)
     nb = -(-N // stride)
     pb_idx = o + nx * N + nx * K * (N - 1) + np.arange(n_free)[:, None] + n_free * np.arange(nb)[None, :]
-    p_idx = pb_idx[:, np.arange(N) // stride]                                          # (n_free, N)
-    zi = np.vstack([xs_idx[:, :-1], xc_idx, xs_idx[:, 1:], p_idx[:, :-1]])            # (nzz, N-1)
+    p_idx = pb_idx[:, np.arange(N) // stride]  # (n_free, N)
+    zi = np.vstack([xs_idx[:, :-1], xc_idx, xs_idx[:, 1:], p_idx[:, :-1]])  # (nzz, N-1)
     c0 = b.g_offset
     c1 = c0 + nx * K * (N - 1)
     c2 = c1 + nx * (N - 1)
     c3 = c2 + n_free
-    gi = np.vstack([c0 + np.arange(nx * K)[:, None] + nx * K * k[None, :],
-                    c1 + np.arange(nx)[:, None] + nx * k[None, :]])                   # (n_rows, N-1)
+    gi = np.vstack(
+        [c0 + np.arange(nx * K)[:, None] + nx * K * k[None, :], c1 + np.arange(nx)[:, None] + nx * k[None, :]]
+    )  # (n_rows, N-1)
     Z = ca.reshape(w[zi.ravel(order="F").tolist()], nzz, N - 1)
     L = ca.reshape(lam_g[gi.ravel(order="F").tolist()], n_rows, N - 1)
     common = (U[:-1].T, U[1:].T, b.h[None, :], b.pf, b.S)
@@ -489,8 +561,10 @@ def _block_entries(nlp: "CollocationNLP", fns: dict, b: RecordBlock, lam_f, lam_
     J_cols = [zi[jc, :].ravel(order="F")]
     vi = np.vstack([xs_idx, p_idx])
     V = ca.reshape(w[vi.ravel(order="F").tolist()], nx + n_free, N)
-    H_vals = [ca.vec(hfun.map(N - 1)(Z, *common, L)),
-              ca.vec(ofun.map(N)(V, U.T, b.y[None, :], b.wts[None, :], b.pf, b.S, lam_f))]
+    H_vals = [
+        ca.vec(hfun.map(N - 1)(Z, *common, L)),
+        ca.vec(ofun.map(N)(V, U.T, b.y[None, :], b.wts[None, :], b.pf, b.S, lam_f)),
+    ]
     H_rows = [zi[hr, :].ravel(order="F"), vi[orr, :].ravel(order="F")]
     H_cols = [zi[hc, :].ravel(order="F"), vi[occ, :].ravel(order="F")]
     # linear constraints: p_0 - theta = 0 and p_b+1 - p_b = 0 between consecutive copies
@@ -545,12 +619,12 @@ def _status_message(status: str, success: bool, max_iter: int) -> str:
         return f"IPOPT converged ({status})"
     hints = {
         "Maximum_Iterations_Exceeded": f"IPOPT reached max_iter={max_iter} before converging; raise max_iter or "
-                                       "give a better start",
+        "give a better start",
         "Infeasible_Problem_Detected": "IPOPT found the collocation constraints locally infeasible; check the "
-                                       "parameter bounds and the model's stability for this input",
+        "parameter bounds and the model's stability for this input",
         "Restoration_Failed": "IPOPT's restoration phase failed; try another start or looser bounds",
         "Invalid_Number_Detected": "IPOPT met NaN/inf in the model functions; the start or bounds allow a "
-                                   "blow-up, tighten the bounds",
+        "blow-up, tighten the bounds",
     }
     return hints.get(status, f"IPOPT did not converge ({status}); inspect the problem or try another start")
 
@@ -594,8 +668,10 @@ def _make_hook_class():
             self.log.add(now, self.solver)
             if self.progress is not None and now - self.last >= PROGRESS_EVERY:
                 self.last = now
-                self.progress(f"solving{self.label}: iteration {self.iterations}, {now - self.t0:.1f} s"
-                              + self.log.progress_note())
+                self.progress(
+                    f"solving{self.label}: iteration {self.iterations}, {now - self.t0:.1f} s"
+                    + self.log.progress_note()
+                )
             if self.interrupted:
                 return [1]
             if self.deadline is not None and now >= self.deadline:
@@ -665,12 +741,16 @@ class IterationLog:
         "ill_conditioned"}`` (for ``settings["iterations"]`` of a fit)."""
         t = np.asarray(self.times, dtype=float)
         reg = np.asarray([r for r in self.reg if math.isfinite(r)], dtype=float)
-        return {"n": int(t.size), "seconds_total": float(t.sum()),
-                "seconds_median": float(np.median(t)) if t.size else 0.0,
-                "seconds_max": float(t.max()) if t.size else 0.0,
-                "slowest": int(np.argmax(t)) + 1 if t.size else 0,
-                "regularisation_max": float(reg.max()) if reg.size else 0.0,
-                "ill_conditioned": self.alarms, "restoration_failed": bool(self.restoration)}
+        return {
+            "n": int(t.size),
+            "seconds_total": float(t.sum()),
+            "seconds_median": float(np.median(t)) if t.size else 0.0,
+            "seconds_max": float(t.max()) if t.size else 0.0,
+            "slowest": int(np.argmax(t)) + 1 if t.size else 0,
+            "regularisation_max": float(reg.max()) if reg.size else 0.0,
+            "ill_conditioned": self.alarms,
+            "restoration_failed": bool(self.restoration),
+        }
 
 
 def restart_guard(first: Run, *, max_iter: int) -> Callable[[IterationLog], str]:
@@ -687,8 +767,10 @@ def restart_guard(first: Run, *, max_iter: int) -> Callable[[IterationLog], str]
         if log.times and log.times[-1] > slow:
             return f"an iteration took {log.times[-1]:.1f} s (the first run's median {info.get('seconds_median', 0):.2g} s)"
         if log.alarms >= RESTART_ALARM_ITERATIONS:
-            return (f"{log.alarms} iterations with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} "
-                    "(ill-conditioned)")
+            return (
+                f"{log.alarms} iterations with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} "
+                "(ill-conditioned)"
+            )
         if len(log.times) >= cap:
             return f"{len(log.times)} iterations without converging (the first run needed {first.n_iter})"
         return ""

@@ -11,27 +11,36 @@ recorded with its reason:
 - ``k3`` fixed at 0: under a single-amplitude sine, ``k3`` trades against ``k1`` and ``k2`` along
   a ridge of equal fit (Table 2 has ``k3 = 0`` throughout); several amplitudes free it.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError, ModelError
 
-REASON_AF = ("fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leaves the output unchanged, so A_f "
-             "and the gains are not identifiable together (the paper sets A_f to the force peak)")
-REASON_K3 = ("fixed at 0: under a single-amplitude sine k3 trades against k1 and k2 along a ridge of equal fit "
-             "(Table 2 has k3 = 0); free it (free=[..., 'k3']) with records at several amplitudes")
-REASON_K3_OTHER = ("fixed at 0 (Table 2 has k3 = 0): at one excitation level k3 trades against k1 and k2 along a "
-                   "ridge of equal fit; free it (free=[..., 'k3']) with records that span several amplitudes")
+REASON_AF = (
+    "fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leaves the output unchanged, so A_f "
+    "and the gains are not identifiable together (the paper sets A_f to the force peak)"
+)
+REASON_K3 = (
+    "fixed at 0: under a single-amplitude sine k3 trades against k1 and k2 along a ridge of equal fit "
+    "(Table 2 has k3 = 0); free it (free=[..., 'k3']) with records at several amplitudes"
+)
+REASON_K3_OTHER = (
+    "fixed at 0 (Table 2 has k3 = 0): at one excitation level k3 trades against k1 and k2 along a "
+    "ridge of equal fit; free it (free=[..., 'k3']) with records that span several amplitudes"
+)
 #: A record is a single-amplitude sine when this share of its input's variance lies at one frequency.
 SINE_SHARE = 0.995
-REASON_AF_ELEMENT = ("fixed at {value:.6g}: the element's scaling symmetry x -> s*x leaves its force, hence the "
-                     "structure's output, unchanged, so A_f and the element's gains are not identifiable together")
+REASON_AF_ELEMENT = (
+    "fixed at {value:.6g}: the element's scaling symmetry x -> s*x leaves its force, hence the "
+    "structure's output, unchanged, so A_f and the element's gains are not identifiable together"
+)
 REASON_HELD = "not listed in free; held at the model default {value:.6g}"
 
 
@@ -45,7 +54,7 @@ def single_sine(d) -> bool:
     if p.size < 5 or not np.sum(p[1:]) > 0:
         return False
     k = int(np.argmax(p[1:])) + 1
-    return float(np.sum(p[max(1, k - 2): k + 3]) / np.sum(p[1:])) >= SINE_SHARE
+    return float(np.sum(p[max(1, k - 2) : k + 3]) / np.sum(p[1:])) >= SINE_SHARE
 
 
 def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
@@ -79,7 +88,9 @@ def _as_records(records) -> tuple[Record, ...]:
 
 def _command_text(record: Record) -> str:
     c = np.asarray(record.command_signal())
-    unit = "A" if (record.command_name or ("current" if record.current is not None else "voltage")) == "current" else "V"
+    unit = (
+        "A" if (record.command_name or ("current" if record.current is not None else "voltage")) == "current" else "V"
+    )
     return f"{c.min():g} {unit}" if np.ptp(c) == 0 else f"{c.min():g} to {c.max():g} {unit}"
 
 
@@ -157,8 +168,10 @@ def _per_record(name: str, value, records: tuple[Record, ...], dtype) -> tuple[n
     for i, (v, r) in enumerate(zip(value, records)):
         a = np.array(v, dtype=dtype).reshape(-1)
         if a.size != r.n_times:
-            raise DataError(f"{name}[{i}] has {a.size} values for record {r.name!r} of {r.n_times} samples; "
-                            "give one value per sample")
+            raise DataError(
+                f"{name}[{i}] has {a.size} values for record {r.name!r} of {r.n_times} samples; "
+                "give one value per sample"
+            )
         a.flags.writeable = False
         out.append(a)
     return tuple(out)
@@ -176,8 +189,9 @@ def _check_constraints(constraints, free: tuple[str, ...]) -> tuple:
             raise ModelError(f"constraints[{i}] must be (coefficients by name, lower, upper); got {item!r}") from None
         bad = sorted(set(coeffs) - set(free))
         if bad:
-            raise ModelError(f"constraints[{i}]: {bad} not free parameters (free: {list(free)}); "
-                             "constrain free ones only")
+            raise ModelError(
+                f"constraints[{i}]: {bad} not free parameters (free: {list(free)}); constrain free ones only"
+            )
         finite = all(math.isfinite(v) for v in coeffs.values())
         if not coeffs or not finite or math.isnan(lo) or math.isnan(hi) or lo > hi:
             raise ModelError(f"constraints[{i}]: need finite coefficients and lower <= upper; got {coeffs}, {lo}, {hi}")
@@ -252,8 +266,10 @@ def _checked_names(model, free, fixed, bounds) -> tuple[list[str] | None, dict[s
             raise ModelError(f"fixed value of {k} must be finite; got {v}")
         lower = model.param(k).lower
         if lower >= 0 and v < lower:  # a sign the model needs (A_f > 0, c1 > 0, c3 >= 0, ...)
-            raise ModelError(f"fixed value of {k} = {v:g} is below its lower bound {lower:g} (the model needs "
-                             f"{k} {'> 0' if lower > 0 else '>= 0'}); give a value >= {lower:g}")
+            raise ModelError(
+                f"fixed value of {k} = {v:g} is below its lower bound {lower:g} (the model needs "
+                f"{k} {'> 0' if lower > 0 else '>= 0'}); give a value >= {lower:g}"
+            )
         fixed_vals[k] = v
     return free, fixed_vals
 
@@ -281,8 +297,11 @@ def _applied_defaults(model, recs, labels, groups, free, fixed_vals):
                 gp = max(float(np.max(np.abs(r.y))) for r, lr in zip(recs, labels) if lr == lab)
                 group_fixed[("A_f", lab)] = gp
             defaults["A_f"] = REASON_AF.format(value=peak).replace(
-                f"fixed to max|y| = {peak:.6g}", "fixed per group to the group's max|y| ("
-                + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items()) + ")")
+                f"fixed to max|y| = {peak:.6g}",
+                "fixed per group to the group's max|y| ("
+                + ", ".join(f"{lab}: {v:.6g}" for (_, lab), v in group_fixed.items())
+                + ")",
+            )
     for spec in model.params:  # a parameter its model holds (a scaling symmetry), unless requested
         if spec.held and spec.name not in requested and spec.name not in fixed_vals:
             fixed_vals[spec.name] = spec.default
@@ -394,10 +413,21 @@ class Problem:
     slots: tuple[tuple[str, str | None], ...] = ()
     constraints: tuple = ()
 
-    def __init__(self, model, records, *, free: Sequence[str] | None = None, fixed: Mapping[str, float] | None = None,
-                 bounds: Mapping[str, tuple[float, float]] | None = None, weights=None, mask=None,
-                 mask_info: Mapping[str, object] | None = None, groups=None, per_group: Sequence[str] = (),
-                 constraints=None):
+    def __init__(
+        self,
+        model,
+        records,
+        *,
+        free: Sequence[str] | None = None,
+        fixed: Mapping[str, float] | None = None,
+        bounds: Mapping[str, tuple[float, float]] | None = None,
+        weights=None,
+        mask=None,
+        mask_info: Mapping[str, object] | None = None,
+        groups=None,
+        per_group: Sequence[str] = (),
+        constraints=None,
+    ):
         recs = _as_records(records)
         labels = _group_labels(groups, recs)
         free, fixed_vals = _checked_names(model, free, fixed, bounds)
@@ -456,8 +486,9 @@ class Problem:
             slot_values = dict(zip(self.slot_names, map(float, slot_values)))
         idx = dict(zip(self.free, self.slot_index(i)))
         names = self.slot_names
-        return {n: float(slot_values[names[idx[n]]]) if n in idx else self.fixed_value(i, n)
-                for n in self.model.param_names}
+        return {
+            n: float(slot_values[names[idx[n]]]) if n in idx else self.fixed_value(i, n) for n in self.model.param_names
+        }
 
     def sample_weights(self, i: int) -> np.ndarray:
         """Effective weight of each sample of record ``i`` (0 where masked)."""
@@ -482,11 +513,15 @@ class Problem:
         return out
 
     def summary(self) -> str:
-        lines = [f"problem: model {self.model.name}, {len(self.records)} record(s), "
-                 f"{sum(r.n_times for r in self.records)} samples"]
+        lines = [
+            f"problem: model {self.model.name}, {len(self.records)} record(s), "
+            f"{sum(r.n_times for r in self.records)} samples"
+        ]
         lines.append(f"  free:  {', '.join(self.free)}")
         for k, v in self.fixed.items():
-            lines.append(f"  fixed: {k} = {v:g}" + (f"  ({self.defaults_applied[k]})" if k in self.defaults_applied else ""))
+            lines.append(
+                f"  fixed: {k} = {v:g}" + (f"  ({self.defaults_applied[k]})" if k in self.defaults_applied else "")
+            )
         if self.mask:
             n = sum(int(m.sum()) for m in self.mask)
             lines.append(f"  mask:  {n} sample(s) out of the objective")

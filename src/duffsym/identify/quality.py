@@ -11,10 +11,11 @@
 
 Each flag is a dict ``{"flag": name, "message": one line, ...details}``.
 """
+
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -34,15 +35,21 @@ def usability(problem, rec_params: Sequence[dict], r2: float, status: str, messa
     if "A_f" in model.param_names:
         bad = sorted({float(p["A_f"]) for p in rec_params if not p["A_f"] > 0})
         if bad:
-            return ("A_f not positive", False,
-                    f"IPOPT converged ({status}) but the output gain A_f = {bad[0]:g} is not positive: the model "
-                    "output is zero or sign-flipped; use --af max (the force peak) or a positive value")
+            return (
+                "A_f not positive",
+                False,
+                f"IPOPT converged ({status}) but the output gain A_f = {bad[0]:g} is not positive: the model "
+                "output is zero or sign-flipped; use --af max (the force peak) or a positive value",
+            )
     if not r2 >= 0:
         nrmse = math.sqrt(1 - r2) if math.isfinite(r2) else math.inf
-        return ("worse than the mean", False,
-                f"IPOPT converged ({status}) but the free run is worse than predicting the mean (R2 {r2:.3g}, "
-                f"NRMSE {nrmse:.3g}): this model does not describe the record; check the columns (--columns), "
-                "units and the model")
+        return (
+            "worse than the mean",
+            False,
+            f"IPOPT converged ({status}) but the free run is worse than predicting the mean (R2 {r2:.3g}, "
+            f"NRMSE {nrmse:.3g}): this model does not describe the record; check the columns (--columns), "
+            "units and the model",
+        )
     return status, True, message
 
 
@@ -54,15 +61,20 @@ def fit_flags(problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float
         flags.append(on_bound)
     flags += _outside_certificate(problem.model, rec_params, _command_levels(problem))
     if math.isfinite(r2) and 0 <= r2 < R2_LITTLE:
-        flags.append({"flag": "explains-little", "r2": float(r2),
-                      "message": f"the model explains little of the record (R2 {r2:.3g} < {R2_LITTLE}): the fit "
-                                 "may be a poor description; check the model, the effects (duffsym diagnose) and "
-                                 "the noise"})
+        flags.append(
+            {
+                "flag": "explains-little",
+                "r2": float(r2),
+                "message": f"the model explains little of the record (R2 {r2:.3g} < {R2_LITTLE}): the fit "
+                "may be a poor description; check the model, the effects (duffsym diagnose) and "
+                "the noise",
+            }
+        )
     return flags
 
 
 def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
-    th = np.clip(np.asarray(w[:nlp.n_slots], dtype=float), nlp.lo, nlp.hi)
+    th = np.clip(np.asarray(w[: nlp.n_slots], dtype=float), nlp.lo, nlp.hi)
     tol = ON_BOUND_RTOL * np.maximum(1.0, np.abs(th))
     hits = []
     for j, name in enumerate(nlp.slot_names):
@@ -72,9 +84,12 @@ def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
     if not hits:
         return None
     text = ", ".join(f"{n} on its {side} bound {b:g}" for n, side, b in hits)
-    return {"flag": "on-bound", "parameters": [n for n, _, _ in hits],
-            "message": f"{text}: the optimum may lie beyond it (a bound that is active is a modelling choice, "
-                       "not a result); check the bounds, the model and --starts"}
+    return {
+        "flag": "on-bound",
+        "parameters": [n for n, _, _ in hits],
+        "message": f"{text}: the optimum may lie beyond it (a bound that is active is a modelling choice, "
+        "not a result); check the bounds, the model and --starts",
+    }
 
 
 #: model key -> ((condition name, numeric test), ...) of its parameter-dependent stability conditions.
@@ -162,13 +177,23 @@ def _outside_certificate(model, rec_params: Sequence[dict], levels: tuple = ()) 
             continue
         if not failed:
             continue
-        at = (f" at command {where[0]:.3g}" + (f"..{where[-1]:.3g}" if len(where) > 1 else "")
-              + f" of the records' range {levels[0]:.3g}..{levels[-1]:.3g}") if where else ""
-        flag = {"flag": "outside-stability-certificate", "failed": failed,
-                "message": f"the fitted set is outside the model's derived stability certificate "
-                           f"({', '.join(failed)}: {'fails' if len(failed) == 1 else 'fail'}{at})"
-                           f"{'' if levels else _origin(model, params)}; it describes this record only, do not "
-                           "extrapolate it (duffsym derive --json states the conditions)"}
+        at = (
+            (
+                f" at command {where[0]:.3g}"
+                + (f"..{where[-1]:.3g}" if len(where) > 1 else "")
+                + f" of the records' range {levels[0]:.3g}..{levels[-1]:.3g}"
+            )
+            if where
+            else ""
+        )
+        flag = {
+            "flag": "outside-stability-certificate",
+            "failed": failed,
+            "message": f"the fitted set is outside the model's derived stability certificate "
+            f"({', '.join(failed)}: {'fails' if len(failed) == 1 else 'fail'}{at})"
+            f"{'' if levels else _origin(model, params)}; it describes this record only, do not "
+            "extrapolate it (duffsym derive --json states the conditions)",
+        }
         if where:
             flag["command_levels"] = [float(v) for v in where]
         flags.append(flag)
@@ -176,12 +201,12 @@ def _outside_certificate(model, rec_params: Sequence[dict], levels: tuple = ()) 
 
 
 def _origin(model, params) -> str:
-    """", the origin is a saddle/unstable" from the linearization at the origin, else ""."""
+    """ ", the origin is a saddle/unstable" from the linearization at the origin, else ""."""
     import sympy as sp
 
     try:
         J = sp.Matrix(model.rhs).jacobian(sp.Matrix(model.states))
-        at = {s: 0 for s in model.states} | {u: 0 for u in model.input_symbols}
+        at = dict.fromkeys(model.states, 0) | dict.fromkeys(model.input_symbols, 0)
         at |= {p.symbol: float(params[p.name]) for p in model.params}
         eig = np.linalg.eigvals(np.array(J.subs(at).evalf(), dtype=float))
     except Exception:  # noqa: BLE001 - the flag stands without the linearization

@@ -1,4 +1,5 @@
 """The outcome of an identification, and its JSON form (``docs/contract.md``)."""
+
 from __future__ import annotations
 
 import json
@@ -188,15 +189,22 @@ class IdentificationResult:
             return self.covariance / np.outer(s, s)
 
     def summary(self) -> str:
-        lines = [f"fit of {self.model}" + (f" + {', '.join(self.effects)}" if self.effects else "")
-                 + f": {self.status} ({'success' if self.success else 'FAILED'}), {self.n_iter} iterations, "
-                 f"build {self.timings.get('build', math.nan):.3g} s, solve {self.timings.get('solve', math.nan):.3g} s"]
+        lines = [
+            f"fit of {self.model}"
+            + (f" + {', '.join(self.effects)}" if self.effects else "")
+            + f": {self.status} ({'success' if self.success else 'FAILED'}), {self.n_iter} iterations, "
+            f"build {self.timings.get('build', math.nan):.3g} s, solve {self.timings.get('solve', math.nan):.3g} s"
+        ]
         if not self.success:
             lines.append(f"  {self.message}")
-        lines.append(f"  free-run NRMSE {self.nrmse:.4g} (R2 {self.r2:.5g}) over {self.n_samples} samples; "
-                     f"cost {self.cost:.4g}")
-        lines += [f"  free run of {i.get('record', '?')} by {i['method']}: {i.get('reason', '')}"
-                  for i in self.settings.get("integrator", []) if i.get("method") != "rk4"]
+        lines.append(
+            f"  free-run NRMSE {self.nrmse:.4g} (R2 {self.r2:.5g}) over {self.n_samples} samples; cost {self.cost:.4g}"
+        )
+        lines += [
+            f"  free run of {i.get('record', '?')} by {i['method']}: {i.get('reason', '')}"
+            for i in self.settings.get("integrator", [])
+            if i.get("method") != "rk4"
+        ]
         lines += [f"  flag {f.get('flag', '?')}: {f.get('message', '')}" for f in self.flags]
         for n, v in self.params.items():
             if n in self.stderr:
@@ -208,7 +216,9 @@ class IdentificationResult:
                 lines.append(f"  {n:>6} = {v:12.6g}  fixed: {why}")
         n = sum(int(np.sum(m)) for m in self.mask)
         if n:
-            lines.append(f"  mask: {n} sample(s) out of the objective" + (f" ({self.mask_info})" if self.mask_info else ""))
+            lines.append(
+                f"  mask: {n} sample(s) out of the objective" + (f" ({self.mask_info})" if self.mask_info else "")
+            )
         return "\n".join(lines)
 
     # ------------------------------------------------------------------ JSON
@@ -245,8 +255,11 @@ class IdentificationResult:
             "versions": dict(self.versions),
             "group_params": {g: {k: float(v) for k, v in p.items()} for g, p in self.group_params.items()},
             "groups": list(self.groups),
-            **({"sampling": jsonable(self.sampling[0] if len(self.sampling) == 1 else list(self.sampling))}
-               if self.sampling else {}),
+            **(
+                {"sampling": jsonable(self.sampling[0] if len(self.sampling) == 1 else list(self.sampling))}
+                if self.sampling
+                else {}
+            ),
             **{k: jsonable(v) for k, v in self.extras.items() if k in EXTRA_KEYS},
             **({"model_spec": spec} if (spec := self._spec()) else {}),
         }
@@ -293,25 +306,40 @@ class IdentificationResult:
         nrmse = r.number("nrmse", allow_none=True)
         r2_default = 1 - nrmse**2 if math.isfinite(nrmse) and abs(nrmse) < 1e150 else None
         return cls(
-            model=r.string("model"), params=params, free=free, fixed=r.numbers("fixed", default={}),
-            stderr=stderr, covariance=cov, cost=r.number("cost", default=None, allow_none=True),
-            nrmse=nrmse, r2=r.number("r2", default=r2_default, allow_none=True),
-            status=r.string("status"), success=r.boolean("success"), message=r.string("message", default=""),
-            n_iter=r.integer("n_iter", default=0), timings=r.numbers("timings", default={}),
-            defaults_applied=r.mapping("defaults_applied"), effects=tuple(r.strings("effects", default=[])),
+            model=r.string("model"),
+            params=params,
+            free=free,
+            fixed=r.numbers("fixed", default={}),
+            stderr=stderr,
+            covariance=cov,
+            cost=r.number("cost", default=None, allow_none=True),
+            nrmse=nrmse,
+            r2=r.number("r2", default=r2_default, allow_none=True),
+            status=r.string("status"),
+            success=r.boolean("success"),
+            message=r.string("message", default=""),
+            n_iter=r.integer("n_iter", default=0),
+            timings=r.numbers("timings", default={}),
+            defaults_applied=r.mapping("defaults_applied"),
+            effects=tuple(r.strings("effects", default=[])),
             structural={k: r.bounded_int(f"structural.{k}", v, 1, 1000) for k, v in r.mapping("structural").items()},
-            nrmse_records=tuple(r.number_list("nrmse_records")), nrmse_objective=r.number(
-                "nrmse_objective", default=None, allow_none=True),
+            nrmse_records=tuple(r.number_list("nrmse_records")),
+            nrmse_objective=r.number("nrmse_objective", default=None, allow_none=True),
             x0=tuple(tuple(r.number_list(f"x0[{i}]", x)) for i, x in enumerate(r.list("x0"))),
-            records=tuple(r.strings("records", default=[])), mask_info=r.mapping("mask_info"),
+            records=tuple(r.strings("records", default=[])),
+            mask_info=r.mapping("mask_info"),
             mask=tuple(mask_from_ranges(m, source=source) for m in r.list("mask")),
-            settings=r.mapping("settings"), versions=r.mapping("versions"),
+            settings=r.mapping("settings"),
+            versions=r.mapping("versions"),
             n_samples=r.integer("n_samples", default=0),
             group_params={str(g): r.numbers(f"group_params.{g}", p) for g, p in r.mapping("group_params").items()},
             groups=tuple(r.strings("groups", default=[])),
             sampling=_sampling_of(data.get("sampling")),
-            flags=tuple(dict(f) for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
-                        if isinstance(f, Mapping)),
+            flags=tuple(
+                dict(f)
+                for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
+                if isinstance(f, Mapping)
+            ),
             extras={k: r.mapping(k) for k in EXTRA_KEYS if k in data},
             model_spec=r.mapping("model_spec"),
         )
@@ -371,8 +399,10 @@ class _Reader:
 
     def fail(self, key: str, what: str, value) -> DataError:
         text = json.dumps(value, default=str)[:60] if _shallow(value) else type(value).__name__
-        return DataError(f"{self.source}: field {key!r} must be {what}; got {text}; the file is damaged or edited: "
-                         "produce it again with duffsym fit --out")
+        return DataError(
+            f"{self.source}: field {key!r} must be {what}; got {text}; the file is damaged or edited: "
+            "produce it again with duffsym fit --out"
+        )
 
     def get(self, key, default=KeyError):
         if key in self.data:
@@ -477,8 +507,9 @@ def mask_from_ranges(data: Mapping[str, Any], *, source: str = "result") -> np.n
         if isinstance(data["n_times"], bool) or not 0 < n <= 10**8:
             raise ValueError
     except (KeyError, TypeError, ValueError, OverflowError):
-        raise DataError(f"{source}: a stored mask must be {{'n_times': N, 'ranges': [[start, stop], ...]}}; "
-                        f"got {str(data)[:80]}") from None
+        raise DataError(
+            f"{source}: a stored mask must be {{'n_times': N, 'ranges': [[start, stop], ...]}}; got {str(data)[:80]}"
+        ) from None
     m = np.zeros(n, dtype=bool)
     for a, b in ranges:
         if not 0 <= a < b <= n:
@@ -500,8 +531,9 @@ def load_result(path) -> IdentificationResult:
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not valid JSON ({str(exc)[:80]}); give a fit saved with duffsym fit --out") from None
     except RecursionError:
-        raise DataError(f"{path}: JSON nested too deeply to be a duffsym fit; give a fit saved with duffsym fit "
-                        "--out") from None
+        raise DataError(
+            f"{path}: JSON nested too deeply to be a duffsym fit; give a fit saved with duffsym fit --out"
+        ) from None
     if not isinstance(data, dict):
         raise DataError(f"{path}: expected a JSON object (a duffsym fit)")
     return IdentificationResult.from_dict(data, source=str(path))

@@ -7,6 +7,7 @@ the states at the data is what makes the fit insensitive to the parameter guess.
 inputs alone (the field of ``mr-damper-current``) are integrated exactly from the inputs
 (:func:`driven_states`); other models start from a free run at the parameters.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -71,9 +72,13 @@ def initial_states(model, record, params: np.ndarray) -> np.ndarray:
     y = np.asarray(record.y, dtype=float)
     if len(info) == 3:  # the output's input term (e.g. c0 d_dot) removed first
         chans = record.inputs_for(model)
-        y = y - np.broadcast_to(np.asarray(info[2](*params, *driven.values(),
-                                                   *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]),
-                                           dtype=float), y.shape)
+        y = y - np.broadcast_to(
+            np.asarray(
+                info[2](*params, *driven.values(), *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]),
+                dtype=float,
+            ),
+            y.shape,
+        )
     xi = y / gain
     X[:, i] = xi
     if model.n_states - len(driven) == 2 and model.position is not None and model.velocity is not None:
@@ -106,8 +111,9 @@ def _position_rate(model, record, params: np.ndarray) -> np.ndarray | float:
         return 1.0
     chans = record.inputs_for(model)
     fn = sp.lambdify([*model.param_symbols, *model.input_symbols], rate, "numpy")
-    out = np.asarray(fn(*[float(v) for v in params], *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]),
-                     dtype=float)
+    out = np.asarray(
+        fn(*[float(v) for v in params], *[np.asarray(chans[c.name], dtype=float) for c in model.inputs]), dtype=float
+    )
     return out if np.all(np.isfinite(out)) else 1.0
 
 

@@ -14,10 +14,11 @@ the collocation fit work anyway:
 - **Scaling.** Parameters enter the NLP divided by the magnitude of their start (ParamSpec scales
   rebuilt from the start), states by the magnitude of their data-based guess.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
-from typing import Mapping
 
 import numpy as np
 
@@ -66,7 +67,7 @@ def structure_initial_states(model, record, params: np.ndarray) -> np.ndarray:
         chans = {c.name: chans[c.name] for c in el.inputs}
         tr = simulate(el, {n: pd[n] for n in el.param_names}, np.asarray(record.t), chans, on_failure="return")
         if tr.success:
-            X[:, j:j + el.n_states] = tr.x
+            X[:, j : j + el.n_states] = tr.x
         j += el.n_states
     return X
 
@@ -76,7 +77,7 @@ def structure_columns(model, q, v, a) -> tuple[list[str], np.ndarray]:
     :math:`\partial(\mathrm{lhs}-\mathrm{rhs})/\partial p` evaluated on the data (q, q', q'')."""
     import sympy as sp
 
-    from duffsym.model.structure import FORCE_SYMBOL, H, Q, Q_DDOT, Q_DOT
+    from duffsym.model.structure import FORCE_SYMBOL, Q_DDOT, Q_DOT, H, Q
 
     comp = composition(model)
     eq = comp["equation"]
@@ -120,8 +121,20 @@ def scaled_to(model, values: Mapping[str, float]):
     return replace(model, params=tuple(params))
 
 
-def equation_error_start(record, model, *, free_element=None, starts=None, skip: int = 100, max_nfev: int = 200,
-                         rng=0, n_random: int = 32, lowpass: float = 0.08, fixed=None, spread: float = 1000.0) -> dict:
+def equation_error_start(
+    record,
+    model,
+    *,
+    free_element=None,
+    starts=None,
+    skip: int = 100,
+    max_nfev: int = 200,
+    rng=0,
+    n_random: int = 32,
+    lowpass: float = 0.08,
+    fixed=None,
+    spread: float = 1000.0,
+) -> dict:
     r"""Start values of every parameter of a composed model from the equation error (teacher forcing).
 
     The element is driven by the *measured* motion, so its force :math:`H(t;\theta_e)` is simulated from
@@ -155,8 +168,10 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     q, F, t = np.asarray(record.y), np.asarray(record.d), np.asarray(record.t)
     sig = {"d": q / L, "d_dot": v / L}
     fixed = dict(fixed or {})
-    free = list(free_element or [n for el in elements for n in el.param_names
-                                 if not n.startswith(("A_f", "k3")) and n not in fixed])
+    free = list(
+        free_element
+        or [n for el in elements for n in el.param_names if not n.startswith(("A_f", "k3")) and n not in fixed]
+    )
     base = {**model.defaults(), **fixed}
     sl = slice(skip, record.n_times - skip)
     s_names, A = structure_columns(model, q, v, a)
@@ -167,9 +182,15 @@ def equation_error_start(record, model, *, free_element=None, starts=None, skip:
     def force(values):
         total = np.zeros(t.size)
         for el in elements:
-            tr = simulate(el, {n: values[n] for n in el.param_names}, t,
-                          {ch.name: sig[ch.name] for ch in el.inputs}, on_failure="return", max_substeps=200,
-                          method="rk4")  # a start too stiff for 200 substeps is rejected, not rerun implicitly
+            tr = simulate(
+                el,
+                {n: values[n] for n in el.param_names},
+                t,
+                {ch.name: sig[ch.name] for ch in el.inputs},
+                on_failure="return",
+                max_substeps=200,
+                method="rk4",
+            )  # a start too stiff for 200 substeps is rejected, not rerun implicitly
             if not tr.success or not np.all(np.isfinite(tr.y)):
                 return None
             total += tr.y
@@ -209,8 +230,9 @@ def _scaled_starts(free, scale, n_random, spread, starts, rng) -> list[np.ndarra
     ``n_random`` log-uniform factors, half within 10 and half within ``spread``."""
     gen = np.random.default_rng(rng)
     n_near = (n_random + 1) // 2  # half near the defaults (factor 10), half within the wide spread
-    inits = [np.ones(len(free))] + [np.exp(gen.uniform(-np.log(f), np.log(f), len(free)))
-                                    for f in [10.0] * n_near + [spread] * (n_random - n_near)]
+    inits = [np.ones(len(free))] + [
+        np.exp(gen.uniform(-np.log(f), np.log(f), len(free))) for f in [10.0] * n_near + [spread] * (n_random - n_near)
+    ]
     if starts is not None:
         inits = [np.array([s[n] for n in free]) / scale for s in starts] + inits
     return inits

@@ -1,4 +1,5 @@
 """Free-run validation of a fitted parameter set on another record (the paper's Fig. 9)."""
+
 from __future__ import annotations
 
 import math
@@ -41,10 +42,18 @@ class ValidationResult:
     effects: tuple = ()
 
     def to_dict(self) -> dict:
-        return {"record": self.record, "model": self.model, "effects": list(self.effects),
-                "nrmse": finite_or_none(self.nrmse),
-                "rmse": finite_or_none(self.rmse), "r2": finite_or_none(self.r2), "success": bool(self.success), "message": self.message,
-                "x0": [float(v) for v in self.x0], "integrator": dict(self.integrator)}
+        return {
+            "record": self.record,
+            "model": self.model,
+            "effects": list(self.effects),
+            "nrmse": finite_or_none(self.nrmse),
+            "rmse": finite_or_none(self.rmse),
+            "r2": finite_or_none(self.r2),
+            "success": bool(self.success),
+            "message": self.message,
+            "x0": [float(v) for v in self.x0],
+            "integrator": dict(self.integrator),
+        }
 
     def summary(self) -> str:
         name = self.model + "".join(f" + {e}" for e in self.effects)
@@ -97,20 +106,33 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     y_sim = np.asarray(tr.y, dtype=float)
     effects = tuple(model.effects)
     if not tr.success:
-        return ValidationResult(record.name, model.name, math.inf, math.inf, -math.inf, False,
-                                f"the free run failed: {tr.message}", tuple(map(float, x0)), y_sim, tr.integrator,
-                                effects)
+        return ValidationResult(
+            record.name,
+            model.name,
+            math.inf,
+            math.inf,
+            -math.inf,
+            False,
+            f"the free run failed: {tr.message}",
+            tuple(map(float, x0)),
+            y_sim,
+            tr.integrator,
+            effects,
+        )
     rmse = float(np.sqrt(np.mean((np.asarray(record.y) - y_sim) ** 2)))
     err = nrmse(record.y, y_sim)
     r2 = 1 - err**2
     ok = r2 >= 0
     message = note or "ok"
     if not ok:
-        message = (f"the prediction is worse than the record's mean (R2 {r2:.3g} < 0): the fit does not describe "
-                   "this record (another operating point, a level or unit difference, or a missing effect)"
-                   + (f"; {note}" if note else ""))
-    return ValidationResult(record.name, model.name, err, rmse, r2, ok, message, tuple(map(float, x0)), y_sim,
-                            tr.integrator, effects)
+        message = (
+            f"the prediction is worse than the record's mean (R2 {r2:.3g} < 0): the fit does not describe "
+            "this record (another operating point, a level or unit difference, or a missing effect)"
+            + (f"; {note}" if note else "")
+        )
+    return ValidationResult(
+        record.name, model.name, err, rmse, r2, ok, message, tuple(map(float, x0)), y_sim, tr.integrator, effects
+    )
 
 
 #: The estimated initial state may lie this many times the range of the data-based states beyond that range.
@@ -129,7 +151,8 @@ def _bounded_x0(x0, X) -> tuple[np.ndarray, str]:
         return x0, ""
     return np.asarray(X[0], dtype=float), (
         f"the initial state estimated from the first period ({', '.join(f'{v:.3g}' for v in x0[out])}) lay far outside "
-        "the range of the record's states (it would absorb a level difference): the free run starts from the data")
+        "the range of the record's states (it would absorb a level difference): the free run starts from the data"
+    )
 
 
 def _estimate_x0(model, p, record, guess):

@@ -30,10 +30,11 @@ References
 - R. Stanway, J. L. Sproston, N. G. Stevens, J. Electrostatics 20 (1987) 167-184 (Bingham damper).
 - N. M. Wereley, L. Pang, G. M. Kamath, J. Intell. Mater. Syst. Struct. 9 (1998) 642-649 (biviscous).
 """
+
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import sympy as sp
 
@@ -44,8 +45,8 @@ from duffsym.model.symbols import ParamSpec, state_symbol
 D = InputChannel("d", 0)
 D_DOT = InputChannel("d", 1)
 COMMAND = InputChannel("command", 0)
-Z = state_symbol("z")            # hysteretic (or friction bristle) state
-Y_INT = state_symbol("y_int")    # Spencer's internal displacement y
+Z = state_symbol("z")  # hysteretic (or friction bristle) state
+Y_INT = state_symbol("y_int")  # Spencer's internal displacement y
 CARRIER = state_symbol("s_carrier")
 FIELD = state_symbol("u_field")  # the same field symbol as mr-damper-current (u' = -eta (u - command))
 
@@ -54,13 +55,24 @@ EPS_V = 1e-3
 #: Default smoothing of |z|, in units of the hysteretic state.
 EPS_Z = 1e-3
 #: Why a scale parameter is held by the fit: the classical z-scaling symmetry.
-REASON_A = ("held at Spencer et al.'s A: z -> s z with alpha -> alpha/s, A -> s A, gamma, beta -> gamma/s^n, "
-            "beta/s^n leaves the force unchanged, so A and alpha are not identifiable together")
+REASON_A = (
+    "held at Spencer et al.'s A: z -> s z with alpha -> alpha/s, A -> s A, gamma, beta -> gamma/s^n, "
+    "beta/s^n leaves the force unchanged, so A and alpha are not identifiable together"
+)
 
 
 def _p(name, latex, default, lower, upper, description, unit="1", scale=None, held="") -> ParamSpec:
-    return ParamSpec(name=name, latex=latex, default=default, lower=lower, upper=upper, unit=unit, scale=scale,
-                     description=description, held=held)
+    return ParamSpec(
+        name=name,
+        latex=latex,
+        default=default,
+        lower=lower,
+        upper=upper,
+        unit=unit,
+        scale=scale,
+        description=description,
+        held=held,
+    )
 
 
 def _eps(value: float, what: str) -> sp.Expr:
@@ -130,22 +142,32 @@ def bouc_wen(n: float = 2, *, eps: float = EPS_V, eps_z: float = EPS_Z) -> Symbo
     params = (
         _p("c0", "c_{0}", 21.0, -1e7, 1e7, "viscous damping (post-yield slope)", scale=10.0),
         _p("k0", "k_{0}", 46.9, -1e7, 1e7, "linear stiffness (accumulator)", scale=10.0),
-        _p("x0", "x_{0}", 14.3, -1e6, 1e6, "initial displacement of the accumulator spring", unit="d unit",
-           scale=1.0),
-        _p("A", "A", alpha * 301.0, 0.0, 1e12, "initial hysteretic stiffness (alpha A' of Spencer et al.)",
-           scale=alpha * 301.0),
-        _p("gamma", r"\gamma", 363.0 / alpha**2, -1e6, 1e6, "shape of the loop (|v| term)",
-           scale=363.0 / alpha**2),
+        _p("x0", "x_{0}", 14.3, -1e6, 1e6, "initial displacement of the accumulator spring", unit="d unit", scale=1.0),
+        _p(
+            "A",
+            "A",
+            alpha * 301.0,
+            0.0,
+            1e12,
+            "initial hysteretic stiffness (alpha A' of Spencer et al.)",
+            scale=alpha * 301.0,
+        ),
+        _p("gamma", r"\gamma", 363.0 / alpha**2, -1e6, 1e6, "shape of the loop (|v| term)", scale=363.0 / alpha**2),
         _p("beta", r"\beta", 363.0 / alpha**2, -1e6, 1e6, "shape of the loop (v term)", scale=363.0 / alpha**2),
     )
     c0, k0, x0, A, gamma, beta = (p.symbol for p in params)
     dd = D_DOT.symbol
     return SymbolicModel(
-        name="bouc-wen", states=(Z,), inputs=(D, D_DOT), params=params,
+        name="bouc-wen",
+        states=(Z,),
+        inputs=(D, D_DOT),
+        params=params,
         rhs=(bouc_wen_rate(dd, Z, gamma, beta, A, n, eps=eps, eps_z=eps_z),),
-        output=c0 * dd + k0 * (D.symbol - x0) + Z, output_name="y", structural=_structural(n),
+        output=c0 * dd + k0 * (D.symbol - x0) + Z,
+        output_name="y",
+        structural=_structural(n),
         description=f"Bouc-Wen damper (Spencer et al. 1997 Fig. 3), z in force units, n = {n}; "
-                    f"|d'| ~ sqrt(d'^2 + {eps:g}^2), |z| ~ sqrt(z^2 + {eps_z:g}^2)",
+        f"|d'| ~ sqrt(d'^2 + {eps:g}^2), |z| ~ sqrt(z^2 + {eps_z:g}^2)",
     )
 
 
@@ -172,19 +194,42 @@ def spencer(n: float = 2, *, eps: float = EPS_V, eps_z: float = EPS_Z) -> Symbol
         _p("alpha_u", r"\alpha^{(u)}", 695.0, -1e7, 1e7, "change of alpha per command unit", scale=100.0),
         _p("c0", "c_{0}", 21.0, -1e7, 1e7, "viscous damping at large velocity, zero field", scale=10.0),
         _p("c0_u", "c_{0}^{(u)}", 3.50, -1e7, 1e7, "change of c0 per command unit", scale=10.0),
-        _p("c1", "c_{1}", 283.0, -1e7, 1e7, "viscous damping producing the roll-off at low velocity",
-           scale=100.0),
+        _p("c1", "c_{1}", 283.0, -1e7, 1e7, "viscous damping producing the roll-off at low velocity", scale=100.0),
         _p("c1_u", "c_{1}^{(u)}", 2.95, -1e7, 1e7, "change of c1 per command unit", scale=100.0),
         _p("k0", "k_{0}", 46.9, -1e7, 1e7, "stiffness at large velocity", scale=10.0),
         _p("k1", "k_{1}", 5.0, -1e7, 1e7, "accumulator stiffness", scale=10.0),
-        _p("x0", "x_{0}", 14.3, -1e6, 1e6, "initial displacement of the accumulator spring k1", unit="d unit",
-           scale=1.0),
+        _p(
+            "x0",
+            "x_{0}",
+            14.3,
+            -1e6,
+            1e6,
+            "initial displacement of the accumulator spring k1",
+            unit="d unit",
+            scale=1.0,
+        ),
         _p("gamma", r"\gamma", 363.0, -1e7, 1e7, "shape of the loop (|v| term)", scale=100.0),
         _p("beta", r"\beta", 363.0, -1e7, 1e7, "shape of the loop (v term)", scale=100.0),
-        _p("A", "A", 301.0, 1e-9, 1e9, "initial slope of z against the relative displacement", scale=100.0,
-           held=REASON_A),
-        _p("eta", r"\eta", 190.0, 0.1, 1e5, "rate of the field's first-order lag behind the command",
-           unit="1/s", scale=100.0),
+        _p(
+            "A",
+            "A",
+            301.0,
+            1e-9,
+            1e9,
+            "initial slope of z against the relative displacement",
+            scale=100.0,
+            held=REASON_A,
+        ),
+        _p(
+            "eta",
+            r"\eta",
+            190.0,
+            0.1,
+            1e5,
+            "rate of the field's first-order lag behind the command",
+            unit="1/s",
+            scale=100.0,
+        ),
     )
     al, al_u, c0, c0_u, c1, c1_u, k0, k1, x0, gamma, beta, A, eta = (p.symbol for p in params)
     u = FIELD
@@ -193,11 +238,16 @@ def spencer(n: float = 2, *, eps: float = EPS_V, eps_z: float = EPS_Z) -> Symbol
     y_rate = (alpha_f * Z + c0_f * dd + k0 * (d - Y_INT)) / (c0_f + c1_f)
     rel = dd - y_rate
     return SymbolicModel(
-        name="spencer", states=(Z, Y_INT, FIELD), inputs=(D, D_DOT, COMMAND), params=params,
+        name="spencer",
+        states=(Z, Y_INT, FIELD),
+        inputs=(D, D_DOT, COMMAND),
+        params=params,
         rhs=(bouc_wen_rate(rel, Z, gamma, beta, A, n, eps=eps, eps_z=eps_z), y_rate, -eta * (u - COMMAND.symbol)),
-        output=c1_f * y_rate + k1 * (d - x0), output_name="y", structural=_structural(n),
+        output=c1_f * y_rate + k1 * (d - x0),
+        output_name="y",
+        structural=_structural(n),
         description=f"Spencer's MR damper (modified Bouc-Wen, 1997), alpha, c0, c1 linear in the field u, "
-                    f"u' = -eta (u - command), n = {n}; |v| ~ sqrt(v^2 + {eps:g}^2), |z| ~ sqrt(z^2 + {eps_z:g}^2)",
+        f"u' = -eta (u - command), n = {n}; |v| ~ sqrt(v^2 + {eps:g}^2), |z| ~ sqrt(z^2 + {eps_z:g}^2)",
     )
 
 
@@ -219,8 +269,13 @@ def dahl(*, eps: float = EPS_V) -> SymbolicModel:
     s0, fc, s2 = (p.symbol for p in params)
     dd = D_DOT.symbol
     return SymbolicModel(
-        name="dahl", states=(Z,), inputs=(D, D_DOT), params=params,
-        rhs=(s0 * (dd - smooth_abs(dd, eps) * Z / fc),), output=Z + s2 * dd, output_name="y",
+        name="dahl",
+        states=(Z,),
+        inputs=(D, D_DOT),
+        params=params,
+        rhs=(s0 * (dd - smooth_abs(dd, eps) * Z / fc),),
+        output=Z + s2 * dd,
+        output_name="y",
         description=f"Dahl friction (1968) + viscous; |d'| ~ sqrt(d'^2 + {eps:g}^2)",
     )
 
@@ -249,8 +304,13 @@ def lugre(*, eps: float = EPS_V) -> SymbolicModel:
     g = fc + (fs - fc) * sp.exp(-((dd / vs) ** 2))
     zdot = dd - s0 * smooth_abs(dd, eps) / g * Z
     return SymbolicModel(
-        name="lugre", states=(Z,), inputs=(D, D_DOT), params=params, rhs=(zdot,),
-        output=s0 * Z + s1 * zdot + s2 * dd, output_name="y",
+        name="lugre",
+        states=(Z,),
+        inputs=(D, D_DOT),
+        params=params,
+        rhs=(zdot,),
+        output=s0 * Z + s1 * zdot + s2 * dd,
+        output_name="y",
         description=f"LuGre friction (Canudas de Wit et al. 1995); |d'| ~ sqrt(d'^2 + {eps:g}^2)",
     )
 
@@ -274,8 +334,13 @@ def bingham(*, eps: float = EPS_V) -> SymbolicModel:
     fc, c0, f0 = (p.symbol for p in params)
     dd = D_DOT.symbol
     return SymbolicModel(
-        name="bingham", states=(CARRIER,), inputs=(D, D_DOT), params=params, rhs=(-CARRIER,),
-        output=fc * smooth_sign(dd, eps) + c0 * dd + f0, output_name="y",
+        name="bingham",
+        states=(CARRIER,),
+        inputs=(D, D_DOT),
+        params=params,
+        rhs=(-CARRIER,),
+        output=fc * smooth_sign(dd, eps) + c0 * dd + f0,
+        output_name="y",
         description=f"Bingham damper (Stanway et al. 1987); sign(d') ~ tanh(d'/{eps:g})",
     )
 
@@ -302,8 +367,14 @@ def biviscous(*, eps: float = EPS_V) -> SymbolicModel:
     vy = fy / (cpr - cpo)
     out = cpo * dd + (cpr - cpo) / 2 * (smooth_abs(dd + vy, eps) - smooth_abs(dd - vy, eps)) + f0
     return SymbolicModel(
-        name="biviscous", states=(CARRIER,), inputs=(D, D_DOT), params=params, rhs=(-CARRIER,), output=out,
-        output_name="y", description=f"biviscous damper (Wereley et al. 1998); |a| ~ sqrt(a^2 + {eps:g}^2)",
+        name="biviscous",
+        states=(CARRIER,),
+        inputs=(D, D_DOT),
+        params=params,
+        rhs=(-CARRIER,),
+        output=out,
+        output_name="y",
+        description=f"biviscous damper (Wereley et al. 1998); |a| ~ sqrt(a^2 + {eps:g}^2)",
     )
 
 
@@ -317,17 +388,29 @@ def with_command(model: SymbolicModel, coefficients: Sequence[str], *, eta: floa
     extra, subs = [], {}
     for name in coefficients:
         spec = model.param(name)
-        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e9, 1e9, f"change of {name} per command unit",
-                   scale=spec.typical_scale)
+        slope = _p(
+            f"{name}_u",
+            spec.latex + "^{(u)}",
+            0.0,
+            -1e9,
+            1e9,
+            f"change of {name} per command unit",
+            scale=spec.typical_scale,
+        )
         extra.append(slope)
         subs[spec.symbol] = spec.symbol + slope.symbol * FIELD
-    rate = _p("eta", r"\eta", eta, 0.1, 1e5, "rate of the field's first-order lag behind the command", unit="1/s",
-              scale=100.0)
+    rate = _p(
+        "eta", r"\eta", eta, 0.1, 1e5, "rate of the field's first-order lag behind the command", unit="1/s", scale=100.0
+    )
     return SymbolicModel(
-        name=f"{model.name}-current", states=model.states + (FIELD,), inputs=model.inputs + (COMMAND,),
+        name=f"{model.name}-current",
+        states=model.states + (FIELD,),
+        inputs=model.inputs + (COMMAND,),
         params=model.params + tuple(extra) + (rate,),
         rhs=tuple(e.xreplace(subs) for e in model.rhs) + (-rate.symbol * (FIELD - COMMAND.symbol),),
-        output=model.output.xreplace(subs), output_name=model.output_name, structural=model.structural,
+        output=model.output.xreplace(subs),
+        output_name=model.output_name,
+        structural=model.structural,
         description=f"{model.description}; {', '.join(coefficients)} linear in a field u' = -eta (u - command)",
     )
 

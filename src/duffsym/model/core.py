@@ -1,4 +1,5 @@
 """The symbolic model: the single source of truth from which every numeric form is generated."""
+
 from __future__ import annotations
 
 import hashlib
@@ -162,8 +163,9 @@ class SymbolicModel:
     def defaults(self) -> dict[str, float]:
         return {p.name: p.default for p in self.params}
 
-    def param_vector(self, values: Mapping[str, float] | Sequence[float] | np.ndarray | None = None,
-                     *, fill_defaults: bool = False) -> np.ndarray:
+    def param_vector(
+        self, values: Mapping[str, float] | Sequence[float] | np.ndarray | None = None, *, fill_defaults: bool = False
+    ) -> np.ndarray:
         """Ordered parameter vector from a mapping (checked) or a sequence (checked for length).
 
         Raises
@@ -182,9 +184,7 @@ class SymbolicModel:
                 )
             missing = [n for n in self.param_names if n not in values]
             if missing and not fill_defaults:
-                raise ModelError(
-                    f"model {self.name}: missing value(s) for {missing}; give them or use the defaults"
-                )
+                raise ModelError(f"model {self.name}: missing value(s) for {missing}; give them or use the defaults")
             merged = {**self.defaults(), **values}
             vec = np.array([float(merged[n]) for n in self.param_names])
         else:

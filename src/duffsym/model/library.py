@@ -3,11 +3,12 @@
 The state-space form is not typed here: :func:`from_second_order` solves the equation for
 :math:`\\ddot x` and sets :math:`x_1 = x`, :math:`x_2 = \\dot x`.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from typing import Callable, Mapping, Sequence
 
 import sympy as sp
 
@@ -34,16 +35,20 @@ def check_power(name: str, n, *, allow_even: bool = False) -> int | sp.Symbol:
     """Validate a structural power: an odd positive integer (or a SymPy symbol for derivations)."""
     if isinstance(n, sp.Symbol):
         return n
-    if isinstance(n, bool) or not isinstance(n, (int, sp.Integer)) and not (
-        isinstance(n, float) and float(n).is_integer()
+    if (
+        isinstance(n, bool)
+        or not isinstance(n, (int, sp.Integer))
+        and not (isinstance(n, float) and float(n).is_integer())
     ):
         raise ModelError(f"{name} must be a positive odd integer (Eq. 3 of the paper); got {n!r}")
     n = int(n)
     if n < 1:
         raise ModelError(f"{name} must be a positive odd integer (Eq. 3 of the paper); got {n}")
     if n > MAX_POWER:
-        raise ModelError(f"{name} = {n} is above the largest supported power {MAX_POWER} (x^n overflows double "
-                         f"precision beyond |x| = 2^(1024/n); the paper uses 3 and 5); choose n <= {MAX_POWER}")
+        raise ModelError(
+            f"{name} = {n} is above the largest supported power {MAX_POWER} (x^n overflows double "
+            f"precision beyond |x| = 2^(1024/n); the paper uses 3 and 5); choose n <= {MAX_POWER}"
+        )
     if n % 2 == 0 and not allow_even:
         raise ModelError(
             f"{name} must be odd (Eq. 3: x^n and x'^n must keep the sign of x and x'); got {n}; "
@@ -92,8 +97,16 @@ def from_second_order(
 
 
 def _p(name, latex, default, lower, upper, description, unit="1", scale=None) -> ParamSpec:
-    return ParamSpec(name=name, latex=latex, default=default, lower=lower, upper=upper, unit=unit,
-                     scale=scale, description=description)
+    return ParamSpec(
+        name=name,
+        latex=latex,
+        default=default,
+        lower=lower,
+        upper=upper,
+        unit=unit,
+        scale=scale,
+        description=description,
+    )
 
 
 def duffing(*, gain: bool = False) -> SymbolicModel:
@@ -113,15 +126,27 @@ def duffing(*, gain: bool = False) -> SymbolicModel:
         w2 = (2 * math.pi * 60.0) ** 2
         gamma = _p("gamma", r"\gamma", 50.0, -1e5, 1e5, "linear damping (per unit mass)", unit="1/s", scale=50.0)
         alpha = _p("alpha", r"\alpha", w2, -1e8, 1e8, "linear stiffness (per unit mass)", unit="1/s^2", scale=w2)
-        beta = _p("beta", r"\beta", 0.0, -1e12, 1e12, "cubic stiffness (>0 hardening, <0 softening)",
-                  unit="1/(s^2 x^2)", scale=w2)
-        gp = _p("g", "g", w2, -1e9, 1e9, "input gain (force per unit mass per input unit)", unit="x/(s^2 F)",
-                scale=w2)
+        beta = _p(
+            "beta",
+            r"\beta",
+            0.0,
+            -1e12,
+            1e12,
+            "cubic stiffness (>0 hardening, <0 softening)",
+            unit="1/(s^2 x^2)",
+            scale=w2,
+        )
+        gp = _p("g", "g", w2, -1e9, 1e9, "input gain (force per unit mass per input unit)", unit="x/(s^2 F)", scale=w2)
         g, a, b, k = gamma.symbol, alpha.symbol, beta.symbol, gp.symbol
         eq = sp.Eq(X_DDOT + g * X_DOT + a * X + b * X**3, k * FORCE.symbol)
         return from_second_order(
-            "duffing-gain", eq, inputs=(FORCE,), params=(gamma, alpha, beta, gp), output=lambda x1, x2: x1,
-            output_name="x", description="Duffing oscillator, Eq. 1 with an input gain g (input F, output x)",
+            "duffing-gain",
+            eq,
+            inputs=(FORCE,),
+            params=(gamma, alpha, beta, gp),
+            output=lambda x1, x2: x1,
+            output_name="x",
+            description="Duffing oscillator, Eq. 1 with an input gain g (input F, output x)",
         )
     gamma = _p("gamma", r"\gamma", 0.5, 0.0, 1e4, "linear damping")
     alpha = _p("alpha", r"\alpha", 1.0, -1e6, 1e6, "linear stiffness")
@@ -129,8 +154,13 @@ def duffing(*, gain: bool = False) -> SymbolicModel:
     g, a, b = gamma.symbol, alpha.symbol, beta.symbol
     eq = sp.Eq(X_DDOT + g * X_DOT + a * X + b * X**3, FORCE.symbol)
     return from_second_order(
-        "duffing", eq, inputs=(FORCE,), params=(gamma, alpha, beta), output=lambda x1, x2: x1,
-        output_name="x", description="Duffing oscillator, Eq. 1 (input F, output x)",
+        "duffing",
+        eq,
+        inputs=(FORCE,),
+        params=(gamma, alpha, beta),
+        output=lambda x1, x2: x1,
+        output_name="x",
+        description="Duffing oscillator, Eq. 1 (input F, output x)",
     )
 
 
@@ -139,8 +169,13 @@ def duffing_gain() -> SymbolicModel:
     return duffing(gain=True)
 
 
-def duffing_like(n: int | sp.Symbol = 3, *, n_x: int | sp.Symbol | None = None, n_v: int | sp.Symbol | None = None,
-                 allow_even: bool = False) -> SymbolicModel:
+def duffing_like(
+    n: int | sp.Symbol = 3,
+    *,
+    n_x: int | sp.Symbol | None = None,
+    n_v: int | sp.Symbol | None = None,
+    allow_even: bool = False,
+) -> SymbolicModel:
     """The Duffing-like hysteresis equation, Eq. 3, with output Eq. 5.
 
     .. math:: \\ddot x + \\gamma\\dot x + \\alpha x + \\beta x^{n_x} + \\delta \\dot x^{n_v} = k_1 d + c_1 \\dot d,
@@ -163,8 +198,13 @@ def duffing_like(n: int | sp.Symbol = 3, *, n_x: int | sp.Symbol | None = None, 
     g, a, b, dl, k1, c1, af = (p.symbol for p in params)
     eq = sp.Eq(X_DDOT + g * X_DOT + a * X + b * X**n_x + dl * X_DOT**n_v, k1 * D.symbol + c1 * D_DOT.symbol)
     return from_second_order(
-        "duffing-like", eq, inputs=(D, D_DOT), params=params, output=lambda x1, x2: af * x2,
-        structural={"n_x": n_x, "n_v": n_v}, description="Duffing-like hysteresis model, Eq. 3 and 5",
+        "duffing-like",
+        eq,
+        inputs=(D, D_DOT),
+        params=params,
+        output=lambda x1, x2: af * x2,
+        structural={"n_x": n_x, "n_v": n_v},
+        description="Duffing-like hysteresis model, Eq. 3 and 5",
     )
 
 
@@ -179,8 +219,14 @@ def mr_damper_equation(n_x, n_v, m: sp.Expr = sp.Integer(1)):
     )
 
 
-def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v: int | sp.Symbol | None = None,
-              allow_even: bool = False, physical: bool = False) -> SymbolicModel:
+def mr_damper(
+    n: int | sp.Symbol = 5,
+    *,
+    n_x: int | sp.Symbol | None = None,
+    n_v: int | sp.Symbol | None = None,
+    allow_even: bool = False,
+    physical: bool = False,
+) -> SymbolicModel:
     """The MR damper model, Eq. 11, normalized by the mass m (Eq. 12), with output Eq. 14.
 
     .. math:: m\\ddot x + c_2\\dot x + k_2 x + k_3 x^{n} + c_3\\dot x^{n} = k_1(d - x) + c_1(\\dot d - \\dot x),
@@ -208,8 +254,13 @@ def mr_damper(n: int | sp.Symbol = 5, *, n_x: int | sp.Symbol | None = None, n_v
     eq = mr_damper_equation(n_x, n_v, m)
     af = params[-1].symbol
     return from_second_order(
-        "mr-damper-physical" if physical else "mr-damper", eq, inputs=(D, D_DOT), params=params,
-        output=lambda x1, x2: af * x2, output_name="y", structural={"n_x": n_x, "n_v": n_v},
+        "mr-damper-physical" if physical else "mr-damper",
+        eq,
+        inputs=(D, D_DOT),
+        params=params,
+        output=lambda x1, x2: af * x2,
+        output_name="y",
+        structural={"n_x": n_x, "n_v": n_v},
         description="MR damper model, Eq. 11" + ("" if physical else " normalized by m (Eq. 12), output Eq. 14"),
     )
 
@@ -249,16 +300,22 @@ def path_time(element: SymbolicModel, epsilon: float | ParamSpec) -> SymbolicMod
     The powers, parameters and output are the element's; the model name gets the suffix ``-path``.
     """
     if element.position is None or element.velocity is None or element.n_states < 2:
-        raise ModelError(f"path_time: the element must be a mechanical model (position and velocity states); "
-                         f"{element.name} has {element.n_states} state(s)")
+        raise ModelError(
+            f"path_time: the element must be a mechanical model (position and velocity states); "
+            f"{element.name} has {element.n_states} state(s)"
+        )
     if not {D, D_DOT} <= set(element.inputs):
-        raise ModelError(f"path_time: the element must be driven by d and d_dot; {element.name} has "
-                         f"{[c.name for c in element.inputs]}")
+        raise ModelError(
+            f"path_time: the element must be driven by d and d_dot; {element.name} has "
+            f"{[c.name for c in element.inputs]}"
+        )
     x1, x2 = element.position, element.velocity
     for s, e in zip(element.states, element.rhs):
         if s not in (x1, x2) and e.free_symbols & {x1, x2}:
-            raise ModelError(f"path_time: {element.name}'s state {s} depends on the mechanical states; only "
-                             f"states driven by the inputs (e.g. a field) can stay in clock time")
+            raise ModelError(
+                f"path_time: {element.name}'s state {s} depends on the mechanical states; only "
+                f"states driven by the inputs (e.g. a field) can stay in clock time"
+            )
     params = element.params
     if isinstance(epsilon, ParamSpec):
         eps = epsilon.symbol
@@ -274,10 +331,15 @@ def path_time(element: SymbolicModel, epsilon: float | ParamSpec) -> SymbolicMod
         raise ModelError(f"path_time: {element.name}'s first state equation must be dx1/dt = x2")
     acc = element.rhs[element.states.index(x2)].xreplace({D_DOT.symbol: D_DOT.symbol / rho})
     rhs = {x1: rho * x2, x2: sp.expand(rho * acc)}
-    return replace(element, name=element.name + PATH_SUFFIX, params=params,
-                   rhs=tuple(rhs.get(s, e) for s, e in zip(element.states, element.rhs)), equation=None,
-                   description=f"{element.description}, rate-independent: its time is the path of d "
-                               f"(ds = sqrt(d_dot^2 + eps^2) dt, {label})")
+    return replace(
+        element,
+        name=element.name + PATH_SUFFIX,
+        params=params,
+        rhs=tuple(rhs.get(s, e) for s, e in zip(element.states, element.rhs)),
+        equation=None,
+        description=f"{element.description}, rate-independent: its time is the path of d "
+        f"(ds = sqrt(d_dot^2 + eps^2) dt, {label})",
+    )
 
 
 def path_epsilon(model: SymbolicModel) -> float | None:
@@ -323,9 +385,17 @@ def _field_params(form: str) -> tuple[list[ParamSpec], dict[str, sp.Expr]]:
     u = FIELD
     g = u
     if form == "saturating":
-        us = _p("u_sat", "u_{sat}", 1.0, 1e-3, 1e3, "saturation scale of the field (command units); "
-                "theta(u) = theta + theta_u u_sat tanh(u/u_sat), linear as u_sat -> infinity", unit="command unit",
-                scale=1.0)
+        us = _p(
+            "u_sat",
+            "u_{sat}",
+            1.0,
+            1e-3,
+            1e3,
+            "saturation scale of the field (command units); "
+            "theta(u) = theta + theta_u u_sat tanh(u/u_sat), linear as u_sat -> infinity",
+            unit="command unit",
+            scale=1.0,
+        )
         extra.append(us)
         g = us.symbol * sp.tanh(u / us.symbol)
     exprs = {}
@@ -337,21 +407,35 @@ def _field_params(form: str) -> tuple[list[ParamSpec], dict[str, sp.Expr]]:
         # +-1e6 per command unit: wider bounds (the coefficient's whole range, 1e7 for c3) let a fit of tests at
         # only two currents (s11's smoke configuration) run to c3_u = 1e7 with c1, k1 ~ 0 at 1 A (500 iterations,
         # in-sample NRMSE 5); on the whole UTFSM campaign c3_u ends on this bound (flagged), c3 being ~3e6
-        slope = _p(f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6, f"{what} per unit field (command units)",
-                   scale=scale)
+        slope = _p(
+            f"{name}_u", spec.latex + "^{(u)}", 0.0, -1e6, 1e6, f"{what} per unit field (command units)", scale=scale
+        )
         extra.append(slope)
         e = slope.symbol * g
         if form == "quadratic":
-            curv = _p(f"{name}_uu", spec.latex + "^{(uu)}", 0.0, -1e6, 1e6,
-                      f"curvature of {name} in the field" + (" (relative)" if relative else ""), scale=scale)
+            curv = _p(
+                f"{name}_uu",
+                spec.latex + "^{(uu)}",
+                0.0,
+                -1e6,
+                1e6,
+                f"curvature of {name} in the field" + (" (relative)" if relative else ""),
+                scale=scale,
+            )
             extra.append(curv)
             e = e + curv.symbol * u**2
         exprs[name] = spec.symbol * (1 + e) if relative else spec.symbol + e
     return extra, exprs
 
 
-def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int | sp.Symbol | None = None,
-                      n_v: int | sp.Symbol | None = None, allow_even: bool = False) -> SymbolicModel:
+def mr_damper_current(
+    n: int | sp.Symbol = 5,
+    *,
+    field: str = "linear",
+    n_x: int | sp.Symbol | None = None,
+    n_v: int | sp.Symbol | None = None,
+    allow_even: bool = False,
+) -> SymbolicModel:
     r"""The MR damper model, Eq. 12, driven by its command (coil current or voltage).
 
     .. math:: \ddot x + c_2(u)\dot x + k_2(u) x + k_3 x^{n} + c_3(u)\dot x^{n}
@@ -371,18 +455,34 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
     n_v = check_power("n" if n_v is None else "n_v", n if n_v is None else n_v, allow_even=allow_even)
     base = mr_damper(n_x=n_x, n_v=n_v)
     extra, exprs = _field_params(field)
-    eta = _p("eta", r"\eta", 100.0, 0.1, 1e4, "rate of the field's first-order lag behind the command",
-             unit="1/s", scale=100.0)
+    eta = _p(
+        "eta",
+        r"\eta",
+        100.0,
+        0.1,
+        1e4,
+        "rate of the field's first-order lag behind the command",
+        unit="1/s",
+        scale=100.0,
+    )
     subs = {base.param(k).symbol: e for k, e in exprs.items()}
     acc = base.rhs[1].xreplace(subs)
     name = "mr-damper-current" + ("" if field == "linear" else f"-{field}")
     eq = mr_damper_equation(n_x, n_v).xreplace(subs)
     return SymbolicModel(
-        name=name, states=(X1, X2, FIELD), inputs=(D, D_DOT, COMMAND), params=base.params + tuple(extra) + (eta,),
-        rhs=(X2, acc, -eta.symbol * (FIELD - COMMAND.symbol)), output=base.output.xreplace(subs), output_name="y",
-        structural=tuple({"n_x": n_x, "n_v": n_v}.items()), position=X1, velocity=X2, equation=eq,
+        name=name,
+        states=(X1, X2, FIELD),
+        inputs=(D, D_DOT, COMMAND),
+        params=base.params + tuple(extra) + (eta,),
+        rhs=(X2, acc, -eta.symbol * (FIELD - COMMAND.symbol)),
+        output=base.output.xreplace(subs),
+        output_name="y",
+        structural=tuple({"n_x": n_x, "n_v": n_v}.items()),
+        position=X1,
+        velocity=X2,
+        equation=eq,
         description=f"MR damper, Eq. 12 driven by its command (current/voltage): coefficients {field} in a "
-                    "field u with u' = -eta (u - command)",
+        "field u with u' = -eta (u - command)",
     )
 
 
@@ -390,8 +490,9 @@ def mr_damper_current(n: int | sp.Symbol = 5, *, field: str = "linear", n_x: int
 EPS_PARAM = "v_eps"
 
 
-def mr_damper_current_path(n: int | sp.Symbol = 5, *, field: str = "linear", epsilon: float | None = None,
-                           viscous: bool = True, **kwargs) -> SymbolicModel:
+def mr_damper_current_path(
+    n: int | sp.Symbol = 5, *, field: str = "linear", epsilon: float | None = None, viscous: bool = True, **kwargs
+) -> SymbolicModel:
     r"""The command-driven MR damper (:func:`mr_damper_current`) with its mechanical element in path time
     (:func:`path_time`), the field u staying in clock time, plus a viscous force on the piston velocity:
 
@@ -410,17 +511,29 @@ def mr_damper_current_path(n: int | sp.Symbol = 5, *, field: str = "linear", eps
     """
     base = mr_damper_current(n, field=field, **kwargs)
     if epsilon is None:
-        eps: float | ParamSpec = _p(EPS_PARAM, r"v_{\varepsilon}", 1.0, 1e-6, 1e6,
-                                    "drive velocity where the element turns rate-independent (units of d/dt)",
-                                    unit="d unit/s", scale=1.0)
+        eps: float | ParamSpec = _p(
+            EPS_PARAM,
+            r"v_{\varepsilon}",
+            1.0,
+            1e-6,
+            1e6,
+            "drive velocity where the element turns rate-independent (units of d/dt)",
+            unit="d unit/s",
+            scale=1.0,
+        )
     else:
         eps = epsilon
     # the path element's coefficients scale with powers of the velocity unit (c3 ~ v_eps^(n-2)): bounds keep the signs only
     wide = {"c1": (1e-12, 1e30), "c3": (0.0, 1e30), "k1": (0.0, 1e30), "A_f": (1e-12, 1e30)}
-    base = replace(base, params=tuple(replace(p, lower=wide.get(p.name, (-1e30, 1e30))[0],
-                                              upper=wide.get(p.name, (-1e30, 1e30))[1])
-                                      if p.name in wide or p.name in ("c2", "k2", "k3") or p.name.endswith("_u")
-                                      and p.name != "A_f_u" else p for p in base.params))
+    base = replace(
+        base,
+        params=tuple(
+            replace(p, lower=wide.get(p.name, (-1e30, 1e30))[0], upper=wide.get(p.name, (-1e30, 1e30))[1])
+            if p.name in wide or p.name in ("c2", "k2", "k3") or p.name.endswith("_u") and p.name != "A_f_u"
+            else p
+            for p in base.params
+        ),
+    )
     model = path_time(base, eps)
     if not viscous:
         return model
@@ -429,14 +542,27 @@ def mr_damper_current_path(n: int | sp.Symbol = 5, *, field: str = "linear", eps
     if field == "saturating":
         us = model.param("u_sat").symbol
         g = us * sp.tanh(u / us)
-    c0 = _p("c0", "c_{0}", 0.0, -1e6, 1e6, "viscous force per unit piston velocity, y += c0(u) d_dot",
-            unit="force unit s/d unit", scale=1.0)
-    c0u = _p("c0_u", "c_{0}^{(u)}", 0.0, -1e6, 1e6, "change of c0 per unit field", unit="force unit s/d unit",
-             scale=1.0)
+    c0 = _p(
+        "c0",
+        "c_{0}",
+        0.0,
+        -1e6,
+        1e6,
+        "viscous force per unit piston velocity, y += c0(u) d_dot",
+        unit="force unit s/d unit",
+        scale=1.0,
+    )
+    c0u = _p(
+        "c0_u", "c_{0}^{(u)}", 0.0, -1e6, 1e6, "change of c0 per unit field", unit="force unit s/d unit", scale=1.0
+    )
     params = model.params[:-1] + (c0, c0u, model.params[-1]) if epsilon is None else model.params + (c0, c0u)
-    return replace(model, name=model.name + "-viscous", params=params,
-                   output=model.output + (c0.symbol + c0u.symbol * g) * D_DOT.symbol,
-                   description=model.description + "; plus a viscous force c0(u) d_dot")
+    return replace(
+        model,
+        name=model.name + "-viscous",
+        params=params,
+        output=model.output + (c0.symbol + c0u.symbol * g) * D_DOT.symbol,
+        description=model.description + "; plus a viscous force c0(u) d_dot",
+    )
 
 
 def mr_damper_current_path_viscous(n: int | sp.Symbol = 5, **kwargs) -> SymbolicModel:
@@ -450,14 +576,27 @@ def at_constant_command(model: SymbolicModel) -> SymbolicModel | None:
     depend on the current). None if ``model`` has no field state driven by the command."""
     if FIELD not in model.states or COMMAND not in model.inputs or model.n_states != 3 or model.position is None:
         return None
-    level = _p("i", "i", 0.5, -1e3, 1e3, "constant command level (current or voltage); the field equals it",
-               unit="command unit")
+    level = _p(
+        "i",
+        "i",
+        0.5,
+        -1e3,
+        1e3,
+        "constant command level (current or voltage); the field equals it",
+        unit="command unit",
+    )
     subs = {FIELD: level.symbol}
     return SymbolicModel(
-        name=f"{model.name} at a constant command i", states=(X1, X2),
-        inputs=tuple(c for c in model.inputs if c != COMMAND), params=model.params + (level,),
-        rhs=tuple(e.xreplace(subs) for e in model.rhs[:2]), output=model.output.xreplace(subs),
-        output_name=model.output_name, structural=model.structural, position=X1, velocity=X2,
+        name=f"{model.name} at a constant command i",
+        states=(X1, X2),
+        inputs=tuple(c for c in model.inputs if c != COMMAND),
+        params=model.params + (level,),
+        rhs=tuple(e.xreplace(subs) for e in model.rhs[:2]),
+        output=model.output.xreplace(subs),
+        output_name=model.output_name,
+        structural=model.structural,
+        position=X1,
+        velocity=X2,
         description=f"{model.name} with the field at its equilibrium u = i (constant command)",
     )
 

@@ -1,4 +1,5 @@
 """Parameter sets printed in the paper (Tables 1 and 2, Fig. 3)."""
+
 from __future__ import annotations
 
 from duffsym.errors import ModelError

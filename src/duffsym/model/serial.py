@@ -13,6 +13,7 @@ composition); values a model holds that are themselves models (the parts of a co
 through the ``encode_model``/``decode_model`` hooks the caller gives (the effects layer writes them as a
 base model plus effect objects: :mod:`duffsym.effects.spec`).
 """
+
 from __future__ import annotations
 
 import ast
@@ -28,8 +29,16 @@ from duffsym.model.core import InputChannel, SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
 #: SymPy's named singletons as ``srepr`` prints them.
-_CONSTANTS = {"pi": sp.pi, "E": sp.E, "I": sp.I, "oo": sp.oo, "zoo": sp.zoo, "nan": sp.nan,
-              "true": sp.true, "false": sp.false}
+_CONSTANTS = {
+    "pi": sp.pi,
+    "E": sp.E,
+    "I": sp.I,
+    "oo": sp.oo,
+    "zoo": sp.zoo,
+    "nan": sp.nan,
+    "true": sp.true,
+    "false": sp.false,
+}
 #: Longest expression text read (characters) and deepest nesting.
 MAX_TEXT = 2_000_000
 MAX_DEPTH = 200
@@ -40,10 +49,45 @@ MAX_EXPONENT = 1000
 
 #: The SymPy classes a stored expression may call: numbers, symbols, arithmetic, the elementary functions and
 #: relations (a whitelist: a class that evaluates on construction, e.g. ``factorial`` of a huge integer, is not here).
-_ALLOWED = ("Symbol", "Integer", "Rational", "Float", "Add", "Mul", "Pow", "Tuple", "Eq", "Equality", "Unequality",
-            "StrictGreaterThan", "StrictLessThan", "GreaterThan", "LessThan", "And", "Or", "Not", "Piecewise",
-            "ExprCondPair", "tanh", "sinh", "cosh", "exp", "log", "sin", "cos", "tan", "atan", "atan2", "asinh",
-            "Abs", "sign", "Heaviside", "Max", "Min", "erf")
+_ALLOWED = (
+    "Symbol",
+    "Integer",
+    "Rational",
+    "Float",
+    "Add",
+    "Mul",
+    "Pow",
+    "Tuple",
+    "Eq",
+    "Equality",
+    "Unequality",
+    "StrictGreaterThan",
+    "StrictLessThan",
+    "GreaterThan",
+    "LessThan",
+    "And",
+    "Or",
+    "Not",
+    "Piecewise",
+    "ExprCondPair",
+    "tanh",
+    "sinh",
+    "cosh",
+    "exp",
+    "log",
+    "sin",
+    "cos",
+    "tan",
+    "atan",
+    "atan2",
+    "asinh",
+    "Abs",
+    "sign",
+    "Heaviside",
+    "Max",
+    "Min",
+    "erf",
+)
 _CLASSES = {name: getattr(sp, name) for name in _ALLOWED if hasattr(sp, name)}
 _CLASSES["ExprCondPair"] = sp.functions.elementary.piecewise.ExprCondPair
 
@@ -69,8 +113,10 @@ def expr_from_text(text: str, *, source: str = "expression") -> sp.Basic:
     except ModelError:
         raise
     except (SyntaxError, TypeError, ValueError, AttributeError, RecursionError, sp.SympifyError) as exc:
-        raise ModelError(f"{source}: cannot read the expression {text[:60]!r} ({type(exc).__name__}: "
-                         f"{str(exc)[:80]}); the file is damaged or edited") from None
+        raise ModelError(
+            f"{source}: cannot read the expression {text[:60]!r} ({type(exc).__name__}: "
+            f"{str(exc)[:80]}); the file is damaged or edited"
+        ) from None
 
 
 def _refuse(source: str, what: str) -> ModelError:
@@ -102,8 +148,12 @@ def _build(node: ast.AST, depth: int, source: str):
         kwargs = {k.arg: _build(k.value, depth + 1, source) for k in node.keywords}
         if any(k is None for k in kwargs) or not all(isinstance(v, (bool, int, str)) for v in kwargs.values()):
             raise _refuse(source, "a keyword argument other than a flag or a precision")
-        if node.func.id == "Pow" and len(args) == 2 and all(isinstance(a, sp.Number) for a in args) \
-                and abs(args[1]) > MAX_EXPONENT:
+        if (
+            node.func.id == "Pow"
+            and len(args) == 2
+            and all(isinstance(a, sp.Number) for a in args)
+            and abs(args[1]) > MAX_EXPONENT
+        ):
             raise _refuse(source, "a power of two numbers with an exponent this large")
         return _CLASSES[node.func.id](*args, **kwargs)
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
@@ -127,21 +177,34 @@ def float_from_data(v, source: str) -> float:
 
 
 def param_to_data(p: ParamSpec) -> dict:
-    return {"name": p.name, "latex": p.latex, "default": float_to_data(p.default), "lower": float_to_data(p.lower),
-            "upper": float_to_data(p.upper), "unit": p.unit, "scale": None if p.scale is None else float(p.scale),
-            "description": p.description, "held": p.held}
+    return {
+        "name": p.name,
+        "latex": p.latex,
+        "default": float_to_data(p.default),
+        "lower": float_to_data(p.lower),
+        "upper": float_to_data(p.upper),
+        "unit": p.unit,
+        "scale": None if p.scale is None else float(p.scale),
+        "description": p.description,
+        "held": p.held,
+    }
 
 
 def param_from_data(d, source: str) -> ParamSpec:
     if not isinstance(d, dict) or not isinstance(d.get("name"), str):
         raise ModelError(f"{source}: a parameter must be an object with its name; got {str(d)[:60]}")
     where = f"{source}: parameter {d['name']}"
-    return ParamSpec(name=d["name"], latex=str(d.get("latex", d["name"])),
-                     default=float_from_data(d.get("default"), where),
-                     lower=float_from_data(d.get("lower", {"float": "-inf"}), where),
-                     upper=float_from_data(d.get("upper", {"float": "inf"}), where), unit=str(d.get("unit", "1")),
-                     scale=None if d.get("scale") is None else float_from_data(d["scale"], where),
-                     description=str(d.get("description", "")), held=str(d.get("held", "")))
+    return ParamSpec(
+        name=d["name"],
+        latex=str(d.get("latex", d["name"])),
+        default=float_from_data(d.get("default"), where),
+        lower=float_from_data(d.get("lower", {"float": "-inf"}), where),
+        upper=float_from_data(d.get("upper", {"float": "inf"}), where),
+        unit=str(d.get("unit", "1")),
+        scale=None if d.get("scale") is None else float_from_data(d["scale"], where),
+        description=str(d.get("description", "")),
+        held=str(d.get("held", "")),
+    )
 
 
 def value_to_data(v, encode_model: Callable[[SymbolicModel], Any]):
@@ -173,7 +236,7 @@ def value_from_data(v, decode_model: Callable[[Any], SymbolicModel], source: str
     if isinstance(v, list):
         return tuple(value_from_data(e, decode_model, source) for e in v)
     if isinstance(v, dict) and len(v) == 1:
-        (tag, body), = v.items()
+        ((tag, body),) = v.items()
         if tag == "sympy":
             return expr_from_text(body, source=source)
         if tag == "model":
@@ -191,14 +254,21 @@ def value_from_data(v, decode_model: Callable[[Any], SymbolicModel], source: str
 def model_to_data(model: SymbolicModel, encode_model: Callable[[SymbolicModel], Any]) -> dict:
     """Every field of ``model`` as JSON-safe data (its equations whole; see :func:`model_from_data`)."""
     text = expr_to_text
-    opt = (lambda e: None if e is None else text(e))
+    opt = lambda e: None if e is None else text(e)
     return {
-        "name": model.name, "states": [text(s) for s in model.states],
-        "inputs": [[c.signal, c.order] for c in model.inputs], "params": [param_to_data(p) for p in model.params],
-        "rhs": [text(e) for e in model.rhs], "output": text(model.output), "output_name": model.output_name,
+        "name": model.name,
+        "states": [text(s) for s in model.states],
+        "inputs": [[c.signal, c.order] for c in model.inputs],
+        "params": [param_to_data(p) for p in model.params],
+        "rhs": [text(e) for e in model.rhs],
+        "output": text(model.output),
+        "output_name": model.output_name,
         "structural": [[k, value_to_data(v, encode_model)] for k, v in model.structural],
-        "position": opt(model.position), "velocity": opt(model.velocity), "equation": opt(model.equation),
-        "effects": list(model.effects), "description": model.description,
+        "position": opt(model.position),
+        "velocity": opt(model.velocity),
+        "equation": opt(model.equation),
+        "effects": list(model.effects),
+        "description": model.description,
         "composition": [[k, value_to_data(v, encode_model)] for k, v in model.composition],
     }
 
@@ -210,19 +280,26 @@ def model_from_data(data, decode_model: Callable[[Any], SymbolicModel], *, sourc
         missing = [k for k in need if not isinstance(data, dict) or k not in data]
         raise ModelError(f"{source}: a stored model needs the fields {missing}; the file is damaged or edited")
     src = f"{source} ({data['name']})"
-    expr = (lambda t: expr_from_text(t, source=src))
-    opt = (lambda t: None if t is None else expr(t))
+    expr = lambda t: expr_from_text(t, source=src)
+    opt = lambda t: None if t is None else expr(t)
     try:
         return SymbolicModel(
-            name=str(data["name"]), states=tuple(expr(s) for s in data["states"]),
+            name=str(data["name"]),
+            states=tuple(expr(s) for s in data["states"]),
             inputs=tuple(InputChannel(str(s), int(o)) for s, o in data["inputs"]),
             params=tuple(param_from_data(p, src) for p in data["params"]),
-            rhs=tuple(expr(e) for e in data["rhs"]), output=expr(data["output"]), output_name=str(data["output_name"]),
+            rhs=tuple(expr(e) for e in data["rhs"]),
+            output=expr(data["output"]),
+            output_name=str(data["output_name"]),
             structural=tuple((str(k), value_from_data(v, decode_model, src)) for k, v in data["structural"]),
-            position=opt(data["position"]), velocity=opt(data["velocity"]), equation=opt(data["equation"]),
-            effects=tuple(str(e) for e in data["effects"]), description=str(data["description"]),
+            position=opt(data["position"]),
+            velocity=opt(data["velocity"]),
+            equation=opt(data["equation"]),
+            effects=tuple(str(e) for e in data["effects"]),
+            description=str(data["description"]),
             composition=tuple((str(k), value_from_data(v, decode_model, src)) for k, v in data["composition"]),
         )
     except (TypeError, ValueError) as exc:
-        raise ModelError(f"{src}: a stored field has the wrong shape ({str(exc)[:80]}); the file is damaged or "
-                         "edited") from None
+        raise ModelError(
+            f"{src}: a stored field has the wrong shape ({str(exc)[:80]}); the file is damaged or edited"
+        ) from None

@@ -4,6 +4,7 @@ Each equation is split into additive terms. A term ``coefficient * s`` whose coe
 of states and inputs and whose remaining factor is a single state (input) goes to A (B); every
 other term goes to the nonlinear part f(x, u). The output is split the same way into C, D and h.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,7 +64,12 @@ def state_space(model: SymbolicModel) -> StateSpace:
         f.append(rest)
     c, d, h = _split_linear(model.output, states, inputs)
     return StateSpace(
-        A=sp.Matrix(rows_a), f=sp.Matrix(f), B=sp.Matrix(rows_b),
-        C=sp.Matrix([c]), D=sp.Matrix([d]), h=h,
-        x=sp.Matrix(states), u=sp.Matrix(inputs),
+        A=sp.Matrix(rows_a),
+        f=sp.Matrix(f),
+        B=sp.Matrix(rows_b),
+        C=sp.Matrix([c]),
+        D=sp.Matrix([d]),
+        h=h,
+        x=sp.Matrix(states),
+        u=sp.Matrix(inputs),
     )

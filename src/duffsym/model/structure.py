@@ -18,6 +18,7 @@ extending it before composition, on the structure by extending the composed mode
 ``model.composition`` records the parts (read by the derivations, :mod:`duffsym.derive.coupled`,
 and by the data-based state guess of the fit).
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -38,8 +39,9 @@ FORCE_SYMBOL = FORCE.symbol
 
 
 def _sp(name, latex, default, lower, upper, description, unit) -> ParamSpec:
-    return ParamSpec(name=name, latex=latex, default=default, lower=lower, upper=upper, unit=unit,
-                     description=description)
+    return ParamSpec(
+        name=name, latex=latex, default=default, lower=lower, upper=upper, unit=unit, description=description
+    )
 
 
 def mass_spring_damper(powers: tuple[int, ...] = ()) -> tuple[sp.Eq, tuple[ParamSpec, ...]]:
@@ -49,16 +51,24 @@ def mass_spring_damper(powers: tuple[int, ...] = ()) -> tuple[sp.Eq, tuple[Param
         _sp("m", "m", 1.0, 1e-12, 1e12, "mass of the structure", "force/(length/s^2)"),
         _sp("c", "c", 1.0, -1e12, 1e12, "viscous damping of the structure", "force/(length/s)"),
         _sp("k", "k", 1.0, -1e12, 1e12, "stiffness of the structure", "force/length"),
-    ) + tuple(_sp(f"k_q{p}", f"k_{{q{p}}}", 0.0, -1e12, 1e12, f"stiffness of the structure in q^{p}",
-                  f"force/length^{p}") for p in powers)
+    ) + tuple(
+        _sp(f"k_q{p}", f"k_{{q{p}}}", 0.0, -1e12, 1e12, f"stiffness of the structure in q^{p}", f"force/length^{p}")
+        for p in powers
+    )
     m, c, k = (p.symbol for p in params[:3])
     poly = sum((spec.symbol * Q**p for spec, p in zip(params[3:], powers)), sp.Integer(0))
     return sp.Eq(m * Q_DDOT + c * Q_DOT + k * Q + poly + H, FORCE.symbol), params
 
 
-def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = None,
-              params: tuple[ParamSpec, ...] | None = None, length_unit: float = 1.0,
-              name: str = "structure", extra_elements: tuple = ()) -> SymbolicModel:
+def structure(
+    element: SymbolicModel | None = None,
+    *,
+    equation: sp.Eq | None = None,
+    params: tuple[ParamSpec, ...] | None = None,
+    length_unit: float = 1.0,
+    name: str = "structure",
+    extra_elements: tuple = (),
+) -> SymbolicModel:
     """Compose a structure (``equation`` in q, q', q'', the element force ``H`` and the input F) with
     a two-state hysteresis ``element`` driven by the structure's own motion.
 
@@ -100,17 +110,32 @@ def structure(element: SymbolicModel | None = None, *, equation: sp.Eq | None = 
     rest = sp.expand(expr - coeff * Q_DDOT)
     acc = (-rest / coeff).xreplace({Q: Q1, Q_DOT: Q2, H: force})
     el_rhs = tuple(e.xreplace(drive) for el in (element,) + extras for e in el.rhs)
-    comp = (("element", element.name), ("element_model", element), ("element_effects", element.effects),
-            ("elements", (element,) + extras),
-            ("element_states", element.states), ("structure_states", (Q1, Q2)), ("force", force),
-            ("length_unit", float(length_unit)), ("equation", equation), ("n_structure_params", len(params)))
+    comp = (
+        ("element", element.name),
+        ("element_model", element),
+        ("element_effects", element.effects),
+        ("elements", (element,) + extras),
+        ("element_states", element.states),
+        ("structure_states", (Q1, Q2)),
+        ("force", force),
+        ("length_unit", float(length_unit)),
+        ("equation", equation),
+        ("n_structure_params", len(params)),
+    )
     model = SymbolicModel(
-        name=name, states=(Q1, Q2) + sum((e.states for e in (element,) + extras), ()), inputs=(FORCE,),
+        name=name,
+        states=(Q1, Q2) + sum((e.states for e in (element,) + extras), ()),
+        inputs=(FORCE,),
         params=tuple(params) + sum((e.params for e in (element,) + extras), ()),
-        rhs=(Q2, acc) + el_rhs, output=Q1, output_name="q", structural=element.structural,
-        position=Q1, velocity=Q2, equation=None,
+        rhs=(Q2, acc) + el_rhs,
+        output=Q1,
+        output_name="q",
+        structural=element.structural,
+        position=Q1,
+        velocity=Q2,
+        equation=None,
         description=f"structure m q'' + c q' + k q + H = F with H the force of the {element.name} element "
-                    f"driven by (q, q'){'' if L == 1 else f' / {length_unit:g}'}",
+        f"driven by (q, q'){'' if L == 1 else f' / {length_unit:g}'}",
     )
     return replace(model, composition=comp)
 
@@ -124,19 +149,30 @@ def renamed(model: SymbolicModel, suffix: str) -> SymbolicModel:
     new_states = tuple(state_symbol(str(s) + suffix) for s in model.states)
     sub.update(dict(zip(model.states, new_states)))
     del param_symbol
-    return replace(model, states=new_states, params=specs, rhs=tuple(e.xreplace(sub) for e in model.rhs),
-                   output=model.output.xreplace(sub), position=sub.get(model.position),
-                   velocity=sub.get(model.velocity), name=model.name + suffix)
+    return replace(
+        model,
+        states=new_states,
+        params=specs,
+        rhs=tuple(e.xreplace(sub) for e in model.rhs),
+        output=model.output.xreplace(sub),
+        position=sub.get(model.position),
+        velocity=sub.get(model.velocity),
+        name=model.name + suffix,
+    )
 
 
 def _check_element(element: SymbolicModel) -> None:
     if element.n_states != 2 or element.position is None or element.velocity is None:
-        raise ModelError(f"structure: the element must be a two-state mechanical model; {element.name} has "
-                         f"{element.n_states} state(s)")
+        raise ModelError(
+            f"structure: the element must be a two-state mechanical model; {element.name} has "
+            f"{element.n_states} state(s)"
+        )
     bad = [c.name for c in element.inputs if c.signal != "d" or c.order > 1]
     if bad:
-        raise ModelError(f"structure: the element may be driven by d and d_dot only (the structure's q, q'); "
-                         f"{element.name} also needs {bad}: apply that effect to the composed model instead")
+        raise ModelError(
+            f"structure: the element may be driven by d and d_dot only (the structure's q, q'); "
+            f"{element.name} also needs {bad}: apply that effect to the composed model instead"
+        )
     if set(element.states) & {Q1, Q2}:
         raise ModelError("structure: the element's states must not be named q1, q2")
 

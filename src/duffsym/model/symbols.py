@@ -20,6 +20,7 @@ m          m                   suspended fluid mass (Eq. 11)
 A_f        A_f                 output gain, y = A_f x' (Eq. 5, 14)
 =========  ==================  =======================================================
 """
+
 from __future__ import annotations
 
 import math

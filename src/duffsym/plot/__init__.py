@@ -4,6 +4,7 @@
 - :func:`save_figure` — write a figure with the Agg backend, creating folders, and close it.
 - :func:`loop_metrics`, :func:`trajectory_loop_metrics` — numbers of one cycle (no plotting; :mod:`duffsym.plot.loops`).
 """
+
 from duffsym.plot.loops import LoopMetrics, loop_metrics, plot_loops, save_figure, trajectory_loop_metrics
 
 __all__ = ["plot_loops", "save_figure", "loop_metrics", "trajectory_loop_metrics", "LoopMetrics"]

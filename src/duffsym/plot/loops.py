@@ -7,12 +7,13 @@
   orientation, force amplitude and linearity; :func:`cycle_integral`, :func:`signed_area`.
 - :func:`plot_loops`: the d–y and d'–y planes drawn (matplotlib imported inside); :func:`save_figure`.
 """
+
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -58,7 +59,7 @@ def steady_window(d, *, skip: float = 0.25) -> slice | None:
     starts = [(a, b) for a, b in zip(rising[:-1], rising[1:]) if a >= skip * d.size]
     if len(starts) < 2:
         return None
-    strokes = [np.ptp(d[a:b + 2]) for a, b in starts]
+    strokes = [np.ptp(d[a : b + 2]) for a, b in starts]
     best = max(range(len(starts)), key=lambda i: (round(strokes[i] / max(strokes), 3), i))
     a, b = starts[best]
     return slice(int(a), int(b) + 2)
@@ -67,9 +68,16 @@ def steady_window(d, *, skip: float = 0.25) -> slice | None:
 _LABELS = {"d": r"$d$", "d_dot": r"$\dot d$", "F": r"$F$"}
 
 
-def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float | None = None,
-               labels: Sequence[str] | None = None, axes=None, styles: Sequence[dict] | None = None,
-               units: dict | None = None, title: str | None = None):
+def plot_loops(
+    traj_or_list: Trajectory | Sequence[Trajectory],
+    *,
+    period: float | None = None,
+    labels: Sequence[str] | None = None,
+    axes=None,
+    styles: Sequence[dict] | None = None,
+    units: dict | None = None,
+    title: str | None = None,
+):
     """Draw the d–y and d'–y hysteresis loops of the last full cycle of one or more trajectories.
 
     Parameters
@@ -110,8 +118,7 @@ def plot_loops(traj_or_list: Trajectory | Sequence[Trajectory], *, period: float
     cols = [_loop_columns(tr) for tr in trajs]
     two = any(c[1] is not None for c in cols)
     if axes is None:
-        fig, ax = plt.subplots(1, 2 if two else 1, figsize=(8.0, 3.4) if two else (4.2, 3.4),
-                               constrained_layout=True)
+        fig, ax = plt.subplots(1, 2 if two else 1, figsize=(8.0, 3.4) if two else (4.2, 3.4), constrained_layout=True)
         axes = list(np.atleast_1d(ax))
     else:
         axes = list(np.atleast_1d(axes))
@@ -178,8 +185,7 @@ def save_figure(fig, path: str | os.PathLike, *, dpi: int = 150, metadata: dict 
         FigureCanvasAgg(fig)  # attaches itself to the figure
     try:
         with atomic_path(path) as tmp:  # an interrupt or a failed draw leaves no half-written figure
-            fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower(),
-                        **({"metadata": metadata} if metadata else {}))
+            fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower(), **({"metadata": metadata} if metadata else {}))
     finally:
         plt.close(fig)
     return path
@@ -264,10 +270,12 @@ class LoopMetrics:
     linearity: float
 
     def summary(self) -> str:
-        return (f"peak {self.peak:.4g}, d-y area {self.area_d:.4g}, d'-y area {self.area_v:.4g} ({self.orientation}), "
-                f"width at y=0: d' {self.width_v:.4g}, d {self.width_d:.4g}; height at d'=0 {self.height_v:.4g}; "
-                f"slopes pre {self.pre_yield_slope:.4g}, post {self.post_yield_slope:.4g} (sharpness "
-                f"{self.sharpness:.3g}); linearity R^2 {self.linearity:.4f}")
+        return (
+            f"peak {self.peak:.4g}, d-y area {self.area_d:.4g}, d'-y area {self.area_v:.4g} ({self.orientation}), "
+            f"width at y=0: d' {self.width_v:.4g}, d {self.width_d:.4g}; height at d'=0 {self.height_v:.4g}; "
+            f"slopes pre {self.pre_yield_slope:.4g}, post {self.post_yield_slope:.4g} (sharpness "
+            f"{self.sharpness:.3g}); linearity R^2 {self.linearity:.4f}"
+        )
 
 
 def loop_metrics(d, d_dot, y, *, pre_fraction: float = 0.5, post_fraction: float = 0.8) -> LoopMetrics:
@@ -303,10 +311,15 @@ def loop_metrics(d, d_dot, y, *, pre_fraction: float = 0.5, post_fraction: float
     ss_tot = float(np.sum((y - y.mean()) ** 2))
     linearity = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else float("nan")
     return LoopMetrics(
-        peak=peak, area_d=area_d, area_v=area_v,
+        peak=peak,
+        area_d=area_d,
+        area_v=area_v,
         orientation="counter-clockwise" if area_v > 0 else "clockwise",
-        width_v=_gap(y, v), width_d=_gap(y, d), height_v=_gap(v, y),
-        pre_yield_slope=pre_slope, post_yield_slope=post_slope,
+        width_v=_gap(y, v),
+        width_d=_gap(y, d),
+        height_v=_gap(v, y),
+        pre_yield_slope=pre_slope,
+        post_yield_slope=post_slope,
         sharpness=pre_slope / post_slope if post_slope else float("nan"),
         linearity=linearity,
     )

@@ -1,4 +1,5 @@
 """Measured against predicted: the figure of ``duffsym validate --plot`` (and of any free run on a record)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -50,12 +51,21 @@ def plot_prediction(t, d, d_dot, y, y_hat, *, units: dict | None = None, title: 
     fig = plt.figure(figsize=(max(9.0, 2.6 * n_loop), 8.2), constrained_layout=True)
     grid = fig.add_gridspec(3, n_loop, height_ratios=(1.0, 1.0, 1.25))
     _time_panel(fig.add_subplot(grid[0, :]), t, y, y_hat, units, "whole record", shade=zoom)
-    _time_panel(fig.add_subplot(grid[1, :]), t[zoom], y[zoom], y_hat[zoom], units,
-                f"zoom on the largest error, t = {t[zoom][0]:.3g}-{t[zoom][-1]:.3g} s", err=err[zoom])
+    _time_panel(
+        fig.add_subplot(grid[1, :]),
+        t[zoom],
+        y[zoom],
+        y_hat[zoom],
+        units,
+        f"zoom on the largest error, t = {t[zoom][0]:.3g}-{t[zoom][-1]:.3g} s",
+        err=err[zoom],
+    )
     _loop_panels(fig, grid, windows, t, d, v, y, y_hat, units)
-    fig.suptitle(f"{title}{': ' if title else ''}free-run NRMSE {nrmse:.3g}\nloops below: "
-                 f"{'whole cycles' if windows.whole_cycles else 'windows, not cycles'}: {windows.reason}",
-                 fontsize="medium")
+    fig.suptitle(
+        f"{title}{': ' if title else ''}free-run NRMSE {nrmse:.3g}\nloops below: "
+        f"{'whole cycles' if windows.whole_cycles else 'windows, not cycles'}: {windows.reason}",
+        fontsize="medium",
+    )
     return fig
 
 

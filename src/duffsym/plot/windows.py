@@ -8,6 +8,7 @@ upward zero crossing to the next does not close (on a 1-15 Hz sweep: a jump at d
 windows of about one typical crossing interval, and says so, so a figure can say "window" and not
 "steady cycle".
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -55,9 +56,10 @@ def _repeating(d: np.ndarray, cycles: list[tuple[int, int]]) -> list[int]:
     record do not, and then no index is returned.
     """
     lengths = np.array([b - a for a, b in cycles], dtype=float)
-    strokes = np.array([np.ptp(d[a:b + 1]) for a, b in cycles])
-    ok = (np.abs(lengths - np.median(lengths)) <= REPEAT_TOL * np.median(lengths)) & \
-        (np.abs(strokes - np.median(strokes)) <= REPEAT_TOL * max(float(np.median(strokes)), 1e-300))
+    strokes = np.array([np.ptp(d[a : b + 1]) for a, b in cycles])
+    ok = (np.abs(lengths - np.median(lengths)) <= REPEAT_TOL * np.median(lengths)) & (
+        np.abs(strokes - np.median(strokes)) <= REPEAT_TOL * max(float(np.median(strokes)), 1e-300)
+    )
     keep = [int(i) for i in np.flatnonzero(ok)]
     return keep if len(keep) >= max(2, 0.6 * len(cycles)) else []
 
@@ -89,22 +91,26 @@ def loop_windows(d, *, count: int = 2, skip: float = 0.25, error=None) -> LoopWi
     else:
         width = int(np.median([b - a for a, b in cycles])) if cycles else max(d.size // 8, 2)
         start0 = int(skip * d.size)
-        cand = [(a, min(a + width, d.size - 1)) for a in range(start0, d.size - width, max(width // 2, 1))] or \
-            [(0, d.size - 1)]
+        cand = [(a, min(a + width, d.size - 1)) for a in range(start0, d.size - width, max(width // 2, 1))] or [
+            (0, d.size - 1)
+        ]
         whole = False
-        reason = ("the input does not repeat (cycles differ in length or stroke), so no loop closes"
-                  if cycles else "the input hardly crosses its mean")
+        reason = (
+            "the input does not repeat (cycles differ in length or stroke), so no loop closes"
+            if cycles
+            else "the input hardly crosses its mean"
+        )
     chosen = _choose(d, cand, count, error)
     return LoopWindows(tuple(slice(a, b + 2 if whole else b + 1) for a, b in sorted(chosen)), whole, reason)
 
 
 def _choose(d, cand, count, error) -> list[tuple[int, int]]:
-    stroke = [np.ptp(d[a:b + 1]) for a, b in cand]
+    stroke = [np.ptp(d[a : b + 1]) for a, b in cand]
     order = sorted(range(len(cand)), key=lambda i: (round(stroke[i] / max(max(stroke), 1e-300), 3), i), reverse=True)
     picked = [cand[order[0]]]
     if error is not None and count > 1:
         e = np.asarray(error, dtype=float)
-        rms = [float(np.sqrt(np.nanmean(e[a:b + 1] ** 2))) for a, b in cand]
+        rms = [float(np.sqrt(np.nanmean(e[a : b + 1] ** 2))) for a, b in cand]
         worst = cand[int(np.nanargmax(rms))]
         if worst not in picked:
             picked.append(worst)

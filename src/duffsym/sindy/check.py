@@ -32,12 +32,13 @@ What decides "inconclusive" (all measured on the data, none a rule on dt alone):
 - sampling: the change of the (normalised) coefficients when every other sample is dropped
   (for a second-order accurate scheme the error of the full-rate estimate is about a third of it).
 """
+
 from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -102,8 +103,10 @@ def _weak_rows(rs: ReconstructedStates, theta: np.ndarray, width: int, stride: i
     n = rs.t.size
     dt = float(rs.t[1] - rs.t[0])
     if n <= width:
-        raise DataError(f"record of {n} samples is shorter than one weak-form window ({width} samples); "
-                        "use a longer record or a smaller window")
+        raise DataError(
+            f"record of {n} samples is shorter than one weak-form window ({width} samples); "
+            "use a longer record or a smaller window"
+        )
     phi, dphi = _bump(width, dt)
     wq = np.full(width + 1, dt)
     wq[[0, -1]] = 0.5 * dt
@@ -141,7 +144,7 @@ def _system(parts, library: CandidateLibrary, method: str, width: int, stride: i
     C = np.zeros((n, 2 * len(parts)))
     row = 0
     for i, c in enumerate(cs):
-        C[row:row + c.shape[0], 2 * i:2 * i + 2] = c
+        C[row : row + c.shape[0], 2 * i : 2 * i + 2] = c
         row += c.shape[0]
     return np.vstack(Gs), np.concatenate(bs), C
 
@@ -235,41 +238,78 @@ class SindyCrossCheck:
         for t in self.terms:
             if t["in_model"] or t["inclusion"] < 0.5:
                 continue
-            rows.append({"term": t["name"], "source": t["source"], "effect": t["effect"],
-                         "inclusion": t["inclusion"], "coefficient": t["coefficient"],
-                         "supported": bool(self.conclusive and t["inclusion"] >= self.thresholds["include"]
-                                           and not self.diagnostics.get("model_terms_acceptable", False))})
+            rows.append(
+                {
+                    "term": t["name"],
+                    "source": t["source"],
+                    "effect": t["effect"],
+                    "inclusion": t["inclusion"],
+                    "coefficient": t["coefficient"],
+                    "supported": bool(
+                        self.conclusive
+                        and t["inclusion"] >= self.thresholds["include"]
+                        and not self.diagnostics.get("model_terms_acceptable", False)
+                    ),
+                }
+            )
         return sorted(rows, key=lambda r: -r["inclusion"])
 
     def evidence(self) -> dict:
         """The compact form the diagnosis reads: verdict, conclusive, missing_terms, reasons."""
-        return {"verdict": self.verdict, "conclusive": self.conclusive, "missing_terms": self.missing_terms(),
-                "absent_model_terms": list(self.absent), "reasons": list(self.reasons), "message": self.message}
+        return {
+            "verdict": self.verdict,
+            "conclusive": self.conclusive,
+            "missing_terms": self.missing_terms(),
+            "absent_model_terms": list(self.absent),
+            "reasons": list(self.reasons),
+            "message": self.message,
+        }
 
     def to_dict(self) -> dict:
-        return {"model": self.model, "method": self.method, "gain": self.gain, "gain_source": self.gain_source,
-                "verdict": self.verdict, "message": self.message, "reasons": list(self.reasons),
-                "selected": list(self.selected), "expected": list(self.expected), "missing": list(self.missing),
-                "absent": list(self.absent), "ambiguous": list(self.ambiguous),
-                "missing_terms": self.missing_terms(), "terms": list(self.terms),
-                "diagnostics": dict(self.diagnostics), "reference": self.reference,
-                "not_visible": dict(self.not_visible), "thresholds": dict(self.thresholds)}
+        return {
+            "model": self.model,
+            "method": self.method,
+            "gain": self.gain,
+            "gain_source": self.gain_source,
+            "verdict": self.verdict,
+            "message": self.message,
+            "reasons": list(self.reasons),
+            "selected": list(self.selected),
+            "expected": list(self.expected),
+            "missing": list(self.missing),
+            "absent": list(self.absent),
+            "ambiguous": list(self.ambiguous),
+            "missing_terms": self.missing_terms(),
+            "terms": list(self.terms),
+            "diagnostics": dict(self.diagnostics),
+            "reference": self.reference,
+            "not_visible": dict(self.not_visible),
+            "thresholds": dict(self.thresholds),
+        }
 
     def summary(self) -> str:
-        lines = [f"SINDy cross-check of {self.model} ({self.method} form, gain {self.gain:.6g} from {self.gain_source})",
-                 f"  verdict: {self.verdict}: {self.message}"]
+        lines = [
+            f"SINDy cross-check of {self.model} ({self.method} form, gain {self.gain:.6g} from {self.gain_source})",
+            f"  verdict: {self.verdict}: {self.message}",
+        ]
         for r in self.reasons:
             lines.append(f"    - {r}")
         d = self.diagnostics
-        lines.append(f"  condition {d['condition']:.3g} (max VIF {d['max_vif']:.3g}), sampling change "
-                     f"{d['sampling_change']:.3g}, r2 {d['r2']:.5f}, {d['n_rows']} rows, {d['n_models']} bootstrap fits")
+        lines.append(
+            f"  condition {d['condition']:.3g} (max VIF {d['max_vif']:.3g}), sampling change "
+            f"{d['sampling_change']:.3g}, r2 {d['r2']:.5f}, {d['n_rows']} rows, {d['n_models']} bootstrap fits"
+        )
         lines.append(f"  {'term':<22} {'source':<24} {'incl':>5} {'SINDy':>12} {'+-':>9} {'model':>12} {'+-':>9}")
         for t in self.terms:
+
             def f(v, w=12):
                 return f"{v:>{w}.4g}" if v is not None and math.isfinite(v) else f"{'-':>{w}}"
+
             mark = "*" if t["name"] in self.selected else " "
-            lines.append(f" {mark}{t['name']:<22} {t['source']:<24} {t['inclusion']:>5.2f} {f(t['coefficient'])} "
-                         f"{f(t['coefficient_std'], 9)} {f(t['model_coefficient'])} {f(t['model_stderr'], 9)}")
+            lines.append(
+                f" {mark}{t['name']:<22} {t['source']:<24} {t['inclusion']:>5.2f} {f(t['coefficient'])} "
+                f"{f(t['coefficient_std'], 9)} {f(t['model_coefficient'])} {f(t['model_stderr'], 9)}"
+            )
         return "\n".join(lines)
 
 
@@ -314,7 +354,7 @@ class CrossCheckOptions:
     thresholds: Thresholds | None = None
     rng: np.random.Generator | int | None = 0
 
-    def with_settings(self, **settings) -> "CrossCheckOptions":
+    def with_settings(self, **settings) -> CrossCheckOptions:
         """These options with ``settings`` replaced.
 
         Raises
@@ -325,8 +365,10 @@ class CrossCheckOptions:
         names = [f.name for f in dataclasses.fields(self)]
         unknown = [k for k in settings if k not in names]
         if unknown:
-            raise TypeError(f"crosscheck() got an unexpected keyword argument {unknown[0]!r}; "
-                            f"its settings are {', '.join(names)}, fit and params")
+            raise TypeError(
+                f"crosscheck() got an unexpected keyword argument {unknown[0]!r}; "
+                f"its settings are {', '.join(names)}, fit and params"
+            )
         return dataclasses.replace(self, **settings) if settings else self
 
 
@@ -412,8 +454,12 @@ def _model_terms(reg: _Regression, expected: np.ndarray, method: str, thr: Thres
     # the target has unit norm: |b|^2 = 1
     excess = (rss_exp - rss_full) / allowance(len(exp_cols), len(cols), rss_full, 1.0, reg.n_eff, thr.tolerance)
     correlation = _residual_correlation(bn - Gu @ c_all, reg.C, method, reg.width, reg.stride, reg.periods, reg.dts)
-    return {"excess": excess, "ok": excess <= 1.0, "residual_correlation": correlation,
-            "systematic": rss_full / float(bn @ bn) * correlation}
+    return {
+        "excess": excess,
+        "ok": excess <= 1.0,
+        "residual_correlation": correlation,
+        "systematic": rss_full / float(bn @ bn) * correlation,
+    }
 
 
 def _agreement(selected, coef, coef_std, model_coef, model_se, thr: Thresholds) -> np.ndarray:
@@ -422,36 +468,57 @@ def _agreement(selected, coef, coef_std, model_coef, model_se, thr: Thresholds) 
     agrees = np.full(selected.size, None, dtype=object)
     for j in range(selected.size):
         if selected[j] and np.isfinite(model_coef[j]) and model_coef[j] != 0:
-            tol = max(thr.coefficient_rtol * abs(model_coef[j]),
-                      3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])))
+            tol = max(
+                thr.coefficient_rtol * abs(model_coef[j]),
+                3.0 * math.hypot(np.nan_to_num(model_se[j]), np.nan_to_num(coef_std[j])),
+            )
             agrees[j] = bool(abs(coef[j] - model_coef[j]) <= tol)
     return agrees
 
 
 def _term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees) -> list[dict]:
     """One dict per candidate term (see :attr:`SindyCrossCheck.terms`)."""
-    return [{"name": t.name, "source": t.source, "effect": t.effect, "in_model": bool(in_model[j]),
-             "expected": bool(expected[j]), "inclusion": float(inclusion[j]),
-             "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
-             "coefficient_std": float(coef_std[j]), "model_coefficient": float(model_coef[j]),
-             "model_stderr": float(model_se[j]), "agrees": agrees[j],
-             "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient)}
-            for j, t in enumerate(lib.terms)]
+    return [
+        {
+            "name": t.name,
+            "source": t.source,
+            "effect": t.effect,
+            "in_model": bool(in_model[j]),
+            "expected": bool(expected[j]),
+            "inclusion": float(inclusion[j]),
+            "coefficient": float(coef[j]) if coef[j] != 0 else 0.0,
+            "coefficient_std": float(coef_std[j]),
+            "model_coefficient": float(model_coef[j]),
+            "model_stderr": float(model_se[j]),
+            "agrees": agrees[j],
+            "model_expression": None if t.coefficient is None or not t.in_model else str(t.coefficient),
+        }
+        for j, t in enumerate(lib.terms)
+    ]
 
 
 def _term_sets(lib, selected, expected, in_model) -> dict:
     """The names of the expected, selected, missing (selected, not in the model), absent (expected, not
     selected) and extra model terms (selected model terms held at zero)."""
     names = lib.names
-    return {"expected": [names[j] for j in np.flatnonzero(expected)],
-            "selected": [names[j] for j in np.flatnonzero(selected)],
-            "missing": [n for j, n in enumerate(names) if selected[j] and not in_model[j]],
-            "absent": [n for j, n in enumerate(names) if expected[j] and not selected[j]],
-            "extra_model": [n for j, n in enumerate(names) if selected[j] and in_model[j] and not expected[j]]}
+    return {
+        "expected": [names[j] for j in np.flatnonzero(expected)],
+        "selected": [names[j] for j in np.flatnonzero(selected)],
+        "missing": [n for j, n in enumerate(names) if selected[j] and not in_model[j]],
+        "absent": [n for j, n in enumerate(names) if expected[j] and not selected[j]],
+        "extra_model": [n for j, n in enumerate(names) if selected[j] and in_model[j] and not expected[j]],
+    }
 
 
-def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *, fit=None,
-               params: Mapping[str, float] | None = None, **settings) -> SindyCrossCheck:
+def crosscheck(
+    records,
+    model=None,
+    options: CrossCheckOptions | None = None,
+    *,
+    fit=None,
+    params: Mapping[str, float] | None = None,
+    **settings,
+) -> SindyCrossCheck:
     """SINDy cross-check of the velocity equation of ``model`` on one or several records.
 
     Parameters
@@ -503,21 +570,44 @@ def crosscheck(records, model=None, options: CrossCheckOptions | None = None, *,
     sets = _term_sets(lib, selected, expected, in_model)
     agrees = _agreement(selected, coef, coef_std, model_coef, model_se, thr)
     verdict, message = _verdict(reasons, thr, sampling_change, r2, fits, sets, lib, agrees, ref)
-    diagnostics = {"condition": cond, "max_vif": max_vif,
-                   "condition_library": cond_all, "sampling_change": sampling_change,
-                   "sampling_change_all": noise_change, "r2": r2,
-                   "n_rows": int(reg.n_rows), "window_s": reg.width * max(reg.dts), "window_samples": int(reg.width),
-                   "n_models": int(opts.n_models), "n_records": len(records), "dt": max(reg.dts),
-                   "model_terms_excess": fits["excess"], "model_terms_acceptable": bool(fits["ok"]),
-                   "systematic": fits["systematic"], "residual_correlation": fits["residual_correlation"],
-                   "relevant": [lib.names[j] for j in relevant], "extra_model_terms": sets["extra_model"]}
+    diagnostics = {
+        "condition": cond,
+        "max_vif": max_vif,
+        "condition_library": cond_all,
+        "sampling_change": sampling_change,
+        "sampling_change_all": noise_change,
+        "r2": r2,
+        "n_rows": int(reg.n_rows),
+        "window_s": reg.width * max(reg.dts),
+        "window_samples": int(reg.width),
+        "n_models": int(opts.n_models),
+        "n_records": len(records),
+        "dt": max(reg.dts),
+        "model_terms_excess": fits["excess"],
+        "model_terms_acceptable": bool(fits["ok"]),
+        "systematic": fits["systematic"],
+        "residual_correlation": fits["residual_correlation"],
+        "relevant": [lib.names[j] for j in relevant],
+        "extra_model_terms": sets["extra_model"],
+    }
     return SindyCrossCheck(
-        model=model.name + (" + " + ", ".join(model.effects) if model.effects else ""), method=opts.method,
-        gain=gain_value, gain_source=gain_source,
+        model=model.name + (" + " + ", ".join(model.effects) if model.effects else ""),
+        method=opts.method,
+        gain=gain_value,
+        gain_source=gain_source,
         terms=tuple(_term_rows(lib, in_model, expected, inclusion, coef, coef_std, model_coef, model_se, agrees)),
-        selected=tuple(sets["selected"]), expected=tuple(sets["expected"]), missing=tuple(sets["missing"]),
-        absent=tuple(sets["absent"]), ambiguous=tuple(amb), diagnostics=diagnostics, verdict=verdict, message=message,
-        reasons=tuple(reasons), reference=ref_source, not_visible=dict(lib.not_visible), thresholds=dict(thr.__dict__),
+        selected=tuple(sets["selected"]),
+        expected=tuple(sets["expected"]),
+        missing=tuple(sets["missing"]),
+        absent=tuple(sets["absent"]),
+        ambiguous=tuple(amb),
+        diagnostics=diagnostics,
+        verdict=verdict,
+        message=message,
+        reasons=tuple(reasons),
+        reference=ref_source,
+        not_visible=dict(lib.not_visible),
+        thresholds=dict(thr.__dict__),
     )
 
 
@@ -580,14 +670,14 @@ def _bootstrap(reg: _Regression, n_models: int, thr: Thresholds, selection: str,
     usable = reg.usable
     n_terms = usable.size
     boot = np.zeros((n_models, n_terms))
-    boot[:, usable] = bagged(reg.Gn[:, usable], reg.bn, n_models, rng, reg.n_eff, thr.tolerance, selection,
-                             thr.stlsq_threshold)
+    boot[:, usable] = bagged(
+        reg.Gn[:, usable], reg.bn, n_models, rng, reg.n_eff, thr.tolerance, selection, thr.stlsq_threshold
+    )
     inclusion = np.mean(boot != 0, axis=0)
     scale = reg.bnorm / reg.norms
     with np.errstate(invalid="ignore"):
         boot_c = np.where(boot != 0, boot * scale, np.nan)
-        coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan
-                             for j in range(n_terms)])
+        coef_std = np.array([np.nanstd(boot_c[:, j]) if np.any(boot[:, j] != 0) else np.nan for j in range(n_terms)])
     return inclusion, coef_std, scale
 
 
@@ -643,27 +733,39 @@ def _reasons(thr, lib, relevant, cond, vif, fits: dict, r2, n_models, amb, sampl
     reasons = []
     if cond > thr.max_condition or max_vif > thr.max_vif:
         worst = lib.names[relevant[int(np.argmax(vif))]] if vif.size else "-"
-        reasons.append(f"the relevant terms are nearly collinear on these data (condition number {cond:.3g}, "
-                       f"limit {thr.max_condition:.3g}; largest variance inflation {max_vif:.3g} for {worst}, "
-                       f"limit {thr.max_vif:.3g}): excitation too poor to tell them apart")
+        reasons.append(
+            f"the relevant terms are nearly collinear on these data (condition number {cond:.3g}, "
+            f"limit {thr.max_condition:.3g}; largest variance inflation {max_vif:.3g} for {worst}, "
+            f"limit {thr.max_vif:.3g}): excitation too poor to tell them apart"
+        )
     if systematic > thr.max_systematic:
-        reasons.append(f"the full library leaves {systematic:.3g} of the target unexplained in a systematic way "
-                       f"(residual correlation {residual_correlation:.2f} beyond one window or one input period; limit "
-                       f"{thr.max_systematic:g}): something outside the library shapes these data, so which "
-                       "candidates stand in for it says little about the physics")
+        reasons.append(
+            f"the full library leaves {systematic:.3g} of the target unexplained in a systematic way "
+            f"(residual correlation {residual_correlation:.2f} beyond one window or one input period; limit "
+            f"{thr.max_systematic:g}): something outside the library shapes these data, so which "
+            "candidates stand in for it says little about the physics"
+        )
     if r2 < thr.min_r2:
-        reasons.append(f"the selected terms explain only {r2:.3f} of the velocity equation's target (limit "
-                       f"{thr.min_r2:g}): the library or the rebuilt states miss what dominates these data")
+        reasons.append(
+            f"the selected terms explain only {r2:.3f} of the velocity equation's target (limit "
+            f"{thr.min_r2:g}): the library or the rebuilt states miss what dominates these data"
+        )
     if n_models < MIN_MODELS_CONCLUSIVE:
-        reasons.append(f"only {n_models} bootstrap fits: too few to measure how stable the selection is "
-                       f"(inclusion resolution 1/{n_models}); use at least {MIN_MODELS_CONCLUSIVE}")
+        reasons.append(
+            f"only {n_models} bootstrap fits: too few to measure how stable the selection is "
+            f"(inclusion resolution 1/{n_models}); use at least {MIN_MODELS_CONCLUSIVE}"
+        )
     if amb:
-        reasons.append(f"inclusion unstable under bootstrap for {', '.join(amb)} (probability between "
-                       f"{thr.exclude:g} and {thr.include:g})")
+        reasons.append(
+            f"inclusion unstable under bootstrap for {', '.join(amb)} (probability between "
+            f"{thr.exclude:g} and {thr.include:g})"
+        )
     if sampling_change > thr.max_sampling_change:
-        reasons.append(f"coefficients move by {sampling_change:.3g} (relative) when every other sample is dropped, "
-                       f"beyond 3 bootstrap standard deviations (limit {thr.max_sampling_change:g}): sampling too "
-                       "coarse for the derivatives")
+        reasons.append(
+            f"coefficients move by {sampling_change:.3g} (relative) when every other sample is dropped, "
+            f"beyond 3 bootstrap standard deviations (limit {thr.max_sampling_change:g}): sampling too "
+            "coarse for the derivatives"
+        )
     return reasons
 
 
@@ -677,7 +779,9 @@ def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agr
         verdict = "inconclusive"
         advice = []
         beyond = (r2 < thr.min_r2) or systematic > thr.max_systematic
-        if len(reasons) > (sampling_change > thr.max_sampling_change) + (r2 < thr.min_r2) + (systematic > thr.max_systematic):
+        if len(reasons) > (sampling_change > thr.max_sampling_change) + (r2 < thr.min_r2) + (
+            systematic > thr.max_systematic
+        ):
             advice.append("use random or multi-amplitude excitation")
         if sampling_change > thr.max_sampling_change:
             advice.append("sample faster")
@@ -686,12 +790,17 @@ def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agr
         message = "the data cannot decide which terms the velocity equation needs; " + " and ".join(advice) + "."
     elif model_ok and (missing or absent or extra_model):
         verdict = "consistent"
-        message = (f"the model's terms ({', '.join(exp_names)}) fit the data as well as SINDy's sparsest choice "
-                   f"({', '.join(sel_names)}); the data do not single out either, so they do not contradict the model.")
+        message = (
+            f"the model's terms ({', '.join(exp_names)}) fit the data as well as SINDy's sparsest choice "
+            f"({', '.join(sel_names)}); the data do not single out either, so they do not contradict the model."
+        )
     elif missing:
         verdict = "missing-terms"
-        message = (f"the data support term(s) the model lacks: {', '.join(missing)}"
-                   + (f"; model terms not supported: {', '.join(absent)}" if absent else "") + ".")
+        message = (
+            f"the data support term(s) the model lacks: {', '.join(missing)}"
+            + (f"; model terms not supported: {', '.join(absent)}" if absent else "")
+            + "."
+        )
     elif absent or extra_model:
         verdict = "disagrees"
         parts_msg = []
@@ -703,14 +812,21 @@ def _verdict(reasons, thr, sampling_change, r2, fits: dict, sets: dict, lib, agr
     else:
         verdict = "consistent"
         bad = [lib.names[j] for j in range(lib.n_terms) if agrees[j] is False]
-        message = (f"SINDy selects exactly the model's terms ({', '.join(sel_names)})"
-                   + (f"; coefficients differ for {', '.join(bad)}" if bad else
-                      ("; coefficients agree" if ref is not None else "")) + ".")
+        message = (
+            f"SINDy selects exactly the model's terms ({', '.join(sel_names)})"
+            + (
+                f"; coefficients differ for {', '.join(bad)}"
+                if bad
+                else ("; coefficients agree" if ref is not None else "")
+            )
+            + "."
+        )
     return verdict, message
 
 
-def _sampling_change(records, model, lib, method: str, reg: _Regression, gain: float, relevant,
-                     params=None) -> np.ndarray:
+def _sampling_change(
+    records, model, lib, method: str, reg: _Regression, gain: float, relevant, params=None
+) -> np.ndarray:
     """Relative change of each relevant coefficient when every other sample is dropped.
 
     Both systems use the same windows in time (``width`` and ``stride`` are even) and the same
@@ -723,8 +839,15 @@ def _sampling_change(records, model, lib, method: str, reg: _Regression, gain: f
         half = []
         for r in records:
             v = np.asarray(r.velocity())
-            half.append(r.replace(t=r.t[::2], d=r.d[::2], y=r.y[::2], d_dot=v[::2],
-                                       command=None if r.command is None else r.command[::2]))
+            half.append(
+                r.replace(
+                    t=r.t[::2],
+                    d=r.d[::2],
+                    y=r.y[::2],
+                    d_dot=v[::2],
+                    command=None if r.command is None else r.command[::2],
+                )
+            )
         parts = [reconstruct_states(r, model, gain, params) for r in half]
         G2, b2, C2 = _system(parts, lib, method, reg.width // 2, reg.stride // 2)
     except DataError:

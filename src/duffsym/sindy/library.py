@@ -13,10 +13,11 @@ inputs (never typed in by hand for a given model):
 - ``generic``: odd powers of position and velocity up to ``max_power`` and the quadratic damping
   :math:`\\dot x|\\dot x|`, plus (optionally) even powers.
 """
+
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 import sympy as sp
@@ -49,8 +50,10 @@ class Term:
 
 def _velocity_index(model) -> int:
     if model.position is None or model.velocity is None:
-        raise ModelError(f"the SINDy cross-check needs a mechanical model (position and velocity states); "
-                         f"model {model.name} has none")
+        raise ModelError(
+            f"the SINDy cross-check needs a mechanical model (position and velocity states); "
+            f"model {model.name} has none"
+        )
     return model.states.index(model.velocity)
 
 
@@ -132,8 +135,9 @@ def _pysindy_library(lib: CandidateLibrary):
     return _CACHE[key]
 
 
-def candidate_library(model, *, effects: Mapping | None = None, max_power: int = 7, even: bool = False,
-                      generic: bool = True) -> CandidateLibrary:
+def candidate_library(
+    model, *, effects: Mapping | None = None, max_power: int = 7, even: bool = False, generic: bool = True
+) -> CandidateLibrary:
     """The candidate terms for the velocity equation of ``model``.
 
     Parameters
@@ -169,8 +173,7 @@ def candidate_library(model, *, effects: Mapping | None = None, max_power: int =
 
     def order(item):  # position terms, velocity terms, then inputs; by degree within each
         basis = item[0]
-        first = min((variables.index(s) if s in variables else len(variables) for s in basis.free_symbols),
-                    default=-1)
+        first = min((variables.index(s) if s in variables else len(variables) for s in basis.free_symbols), default=-1)
         return first, sp.Poly(basis, *variables).total_degree() if basis.is_polynomial(*variables) else 99
 
     for basis, coeff in sorted(_coefficients(model.rhs[iv], variables).items(), key=order):

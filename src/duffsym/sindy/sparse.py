@@ -24,6 +24,7 @@ picks a size on it:
   :func:`bagged`: :func:`sparsest_acceptable` on bootstrap resamples of the rows (the cross-check's
   inclusion probabilities).
 """
+
 from __future__ import annotations
 
 import math
@@ -68,18 +69,20 @@ def _grid(frac: float, rms: float) -> str:
     return f"{float(f'{frac * rms:.2g}'):g}"
 
 
-def switches(rms: float, eps_fractions: Sequence[float],
-             stribeck_fractions: Sequence[float]) -> list[tuple[str, object]]:
+def switches(
+    rms: float, eps_fractions: Sequence[float], stribeck_fractions: Sequence[float]
+) -> list[tuple[str, object]]:
     """The switching functions of one velocity ``v`` (RMS ``rms``), as (printable template, function):
     smooth signs ``tanh(v/ε)`` (ε = each of ``eps_fractions`` of the RMS), Stribeck shapes
     ``exp(-(v/v_s)**2)·tanh(v/ε)`` (v_s = each of ``stribeck_fractions``, ε the first eps fraction), the
     smooth ``|v|`` and ``v|v|`` (``v·tanh(v/ε)``, ``v**2·tanh(v/ε)``, ε the second eps fraction). The
     template has ``{v}`` for the signal's name; grid constants are rounded to two significant digits."""
+
     def sign(e):
         return lambda v: np.tanh(v / e)
 
     def stribeck(vs, e):
-        return lambda v: np.exp(-(v / vs) ** 2) * np.tanh(v / e)
+        return lambda v: np.exp(-((v / vs) ** 2)) * np.tanh(v / e)
 
     def power(k, e):
         return lambda v: v**k * np.tanh(v / e)
@@ -102,9 +105,16 @@ def _namer(template: str):
     return lambda v: template.format(v=v)
 
 
-def switching_library(cols: Mapping[str, np.ndarray], *, positions: Sequence[str], velocities: Sequence[str],
-                      plain_degree: int, position_degree: int, eps_fractions: Sequence[float],
-                      stribeck_fractions: Sequence[float]):
+def switching_library(
+    cols: Mapping[str, np.ndarray],
+    *,
+    positions: Sequence[str],
+    velocities: Sequence[str],
+    plain_degree: int,
+    position_degree: int,
+    eps_fractions: Sequence[float],
+    stribeck_fractions: Sequence[float],
+):
     """(pysindy ``GeneralizedLibrary``, the signal names it takes, in order) over the non-constant signals
     of ``cols``: a ``PolynomialLibrary`` (degree ``plain_degree``, with bias) in every signal, plus each
     velocity's switching functions (:func:`switches`) alone and times a ``PolynomialLibrary`` (degree
@@ -118,16 +128,16 @@ def switching_library(cols: Mapping[str, np.ndarray], *, positions: Sequence[str
     inputs.append(pos)
     for key in (k for k in velocities if k in names):
         sw = switches(_rms(cols[key]), eps_fractions, stribeck_fractions)
-        libs.append(ps.CustomLibrary(library_functions=[f for _, f in sw],
-                                     function_names=[_namer(t) for t, _ in sw]))
+        libs.append(ps.CustomLibrary(library_functions=[f for _, f in sw], function_names=[_namer(t) for t, _ in sw]))
         inputs.append([names.index(key)])
         tensor.append([0, 1] + [int(i == len(libs) - 1) for i in range(2, len(libs))])
     tensor = [row + [0] * (len(libs) - len(row)) for row in tensor]
     return ps.GeneralizedLibrary(libs, tensor_array=tensor or None, inputs_per_library=inputs), names
 
 
-def named_matrix(library, cols: Mapping[str, np.ndarray], names: Sequence[str],
-                 symbols: Mapping[str, sp.Symbol]) -> tuple[list[sp.Expr], np.ndarray]:
+def named_matrix(
+    library, cols: Mapping[str, np.ndarray], names: Sequence[str], symbols: Mapping[str, sp.Symbol]
+) -> tuple[list[sp.Expr], np.ndarray]:
     """(terms, matrix ``(n_times, n_terms)``): ``library`` evaluated on the signals ``names`` of ``cols``, its
     feature names read back as SymPy expressions in ``symbols``; a repeated or non-finite column is dropped."""
     X = np.column_stack([np.asarray(cols[k], float) for k in names])
@@ -204,8 +214,9 @@ def _omp(G: np.ndarray, b: np.ndarray, max_terms: int) -> list[tuple[np.ndarray,
     return out
 
 
-def sparse_path(G: np.ndarray, b: np.ndarray, method: str = "best-subset",
-                max_terms: int | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+def sparse_path(
+    G: np.ndarray, b: np.ndarray, method: str = "best-subset", max_terms: int | None = None
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Supports of ``b ≈ G c`` from the sparsest up: ``[(columns, coefficients over all columns), ...]``.
 
     ``"best-subset"``: the support with the smallest residual of each size 1..p (exhaustive; greedy
@@ -247,8 +258,9 @@ def acceptable(rss: float, k: int, p: int, rss_full: float, bb: float, n_eff: fl
     return rss - rss_full <= allowance(k, p, rss_full, bb, n_eff, tolerance)
 
 
-def sparsest_acceptable(G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float, method: str = "best-subset",
-                        threshold: float = 0.05) -> np.ndarray:
+def sparsest_acceptable(
+    G: np.ndarray, b: np.ndarray, n_eff: float, tolerance: float, method: str = "best-subset", threshold: float = 0.05
+) -> np.ndarray:
     """Coefficients of the sparsest support on the path whose residual is :func:`acceptable`.
 
     ``method``: ``"best-subset"`` (exhaustive for at most :data:`MAX_EXHAUSTIVE` columns, else pysindy's
@@ -289,8 +301,17 @@ def validated_support(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms:
     return supports[k], scores, others
 
 
-def stability_selection(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray], groups: Sequence[str], *,
-                        resamples: int, max_terms: int, parsimony: float, seed: int = 0) -> dict:
+def stability_selection(
+    Theta: np.ndarray,
+    r: np.ndarray,
+    parts: list[np.ndarray],
+    groups: Sequence[str],
+    *,
+    resamples: int,
+    max_terms: int,
+    parsimony: float,
+    seed: int = 0,
+) -> dict:
     """Stability selection over resampled blocks of rows: ``resamples`` times, half the blocks (``parts``) train
     the path and the other half choose its size (:func:`validated_support`); returns the inclusion probability
     of every group of columns (``groups[j]`` labels column j; any member selected) and of every column, and
@@ -301,7 +322,7 @@ def stability_selection(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray
     for _ in range(resamples):
         order = rng.permutation(len(parts))
         tr = np.concatenate([parts[i] for i in order[: len(parts) // 2]])
-        va = np.concatenate([parts[i] for i in order[len(parts) // 2:]])
+        va = np.concatenate([parts[i] for i in order[len(parts) // 2 :]])
         rows = np.concatenate([tr, va])
         support, _, _ = validated_support(Theta[rows], r[rows], tr.size, max_terms, parsimony)
         hits[support] += 1
@@ -314,8 +335,16 @@ def stability_selection(Theta: np.ndarray, r: np.ndarray, parts: list[np.ndarray
     return {"family": {f: n / resamples for f, n in group_hits.items()}, "term": hits / resamples, "best": best}
 
 
-def bagged(G: np.ndarray, b: np.ndarray, n_models: int, rng: np.random.Generator, n_eff: float, tolerance: float,
-           method: str = "best-subset", threshold: float = 0.05) -> np.ndarray:
+def bagged(
+    G: np.ndarray,
+    b: np.ndarray,
+    n_models: int,
+    rng: np.random.Generator,
+    n_eff: float,
+    tolerance: float,
+    method: str = "best-subset",
+    threshold: float = 0.05,
+) -> np.ndarray:
     """:func:`sparsest_acceptable` on ``n_models`` bootstrap resamples of the rows (drawn from ``rng``):
     the ``(n_models, n_columns)`` coefficients; ``np.mean(out != 0, axis=0)`` is each column's inclusion
     probability."""

@@ -8,6 +8,7 @@ ramp per record as nuisance columns, so what the line removal gets wrong is abso
 the terms linear in x. No model equation is used: the cross-check must not borrow its derivatives
 from the model it checks.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,7 +34,7 @@ class ReconstructedStates:
     velocity: np.ndarray
     gain: float
 
-    def decimated(self, q: int) -> "ReconstructedStates":
+    def decimated(self, q: int) -> ReconstructedStates:
         """Every q-th sample (states re-integrated by the caller when needed; see :func:`reconstruct_states`)."""
         return ReconstructedStates(self.t[::q], self.states[::q], self.inputs[::q], self.velocity[::q], self.gain)
 
@@ -51,8 +52,10 @@ def output_split(model) -> tuple[sp.Expr, sp.Expr]:
         If the model has no velocity state, or its output depends on a state otherwise.
     """
     if model.position is None or model.velocity is None:
-        raise ModelError(f"the SINDy cross-check needs a mechanical model (position and velocity states); "
-                         f"model {model.name} has none")
+        raise ModelError(
+            f"the SINDy cross-check needs a mechanical model (position and velocity states); "
+            f"model {model.name} has none"
+        )
     out = sp.expand(model.output)
     v = model.velocity
     gain = sp.simplify(out.coeff(v, 1))
@@ -91,8 +94,10 @@ def reconstruct_states(record, model, gain: float, params=None) -> Reconstructed
     if not (np.isfinite(gain) and gain != 0):
         raise ModelError(f"the output gain must be finite and non-zero; got {gain}")
     if model.n_states != 2:
-        raise ModelError(f"the SINDy cross-check rebuilds two states (x, x'); model {model.name} has "
-                         f"{model.n_states} ({', '.join(model.state_names)})")
+        raise ModelError(
+            f"the SINDy cross-check rebuilds two states (x, x'); model {model.name} has "
+            f"{model.n_states} ({', '.join(model.state_names)})"
+        )
     record.require_uniform("the SINDy cross-check")
     t = np.asarray(record.t, dtype=float)
     inputs = record.inputs_for(model)
@@ -102,8 +107,10 @@ def reconstruct_states(record, model, gain: float, params=None) -> Reconstructed
         known = {p.symbol: params[p.name] for p in model.params if params is not None and p.name in params}
         missing = sorted(str(s) for s in offset.free_symbols - set(model.input_symbols) - set(known))
         if missing:
-            raise ModelError(f"the output of model {model.name} has an offset {offset}; give values for {missing} "
-                             "(a fit or params) to rebuild the velocity")
+            raise ModelError(
+                f"the output of model {model.name} has an offset {offset}; give values for {missing} "
+                "(a fit or params) to rebuild the velocity"
+            )
         fn = sp.lambdify(model.input_symbols, offset.xreplace(known), modules="numpy")
         y = y - np.broadcast_to(np.asarray(fn(*U.T), dtype=float), y.shape)
     v = y / float(gain)

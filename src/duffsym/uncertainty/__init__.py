@@ -5,12 +5,26 @@
 - :func:`identifiability_report` (scaling symmetry + Fisher information + posterior correlations);
 - :mod:`duffsym.uncertainty.plots`: corner plot, predictive bands.
 """
+
 from duffsym.uncertainty.options import SampleOptions
 from duffsym.uncertainty.posterior import LogPosterior, Prior, make_prior
-from duffsym.uncertainty.sampler import ChainTooShort, Chains, autocorr_time, load_chains, load_partial_chain, sample
+from duffsym.uncertainty.sampler import Chains, ChainTooShort, autocorr_time, load_chains, load_partial_chain, sample
 
-__all__ = ["sample", "SampleOptions", "Chains", "load_chains", "load_partial_chain", "ChainTooShort", "LogPosterior", "Prior", "make_prior",
-           "autocorr_time", "posterior_predictive", "identifiability_report", "fisher_information"]
+__all__ = [
+    "sample",
+    "SampleOptions",
+    "Chains",
+    "load_chains",
+    "load_partial_chain",
+    "ChainTooShort",
+    "LogPosterior",
+    "Prior",
+    "make_prior",
+    "autocorr_time",
+    "posterior_predictive",
+    "identifiability_report",
+    "fisher_information",
+]
 
 
 def __getattr__(name):  # the heavier parts are imported on use

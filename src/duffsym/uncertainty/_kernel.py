@@ -7,6 +7,7 @@ and then held for every walker and every step. A walker whose state becomes stif
 that schedule resolves (``h rho(J) > hrho_max``) is stopped and reported as *too stiff* instead of
 returning a silently wrong trajectory; a non-finite state is a *blow-up*.
 """
+
 from __future__ import annotations
 
 from functools import lru_cache
@@ -48,16 +49,18 @@ class ScheduleSimulator:
     hrho_max, blowup : limits beyond which a set is stopped (status 2, 1).
     """
 
-    def __init__(self, model, t, U, x0, schedule, *, hold: bool = False, hrho_max: float = HRHO_MAX,
-                 blowup: float = BLOWUP):
+    def __init__(
+        self, model, t, U, x0, schedule, *, hold: bool = False, hrho_max: float = HRHO_MAX, blowup: float = BLOWUP
+    ):
         self.model = model
         self.t = np.ascontiguousarray(t, dtype=float)
         self.U = np.ascontiguousarray(U, dtype=float)
         self.x0 = np.ascontiguousarray(x0, dtype=float).reshape(-1)
         self.schedule = np.ascontiguousarray(schedule, dtype=np.int64)
         if self.schedule.shape != (self.t.size - 1,) or np.any(self.schedule < 1):
-            raise ModelError(f"schedule must hold {self.t.size - 1} positive substep counts; got shape "
-                             f"{self.schedule.shape}")
+            raise ModelError(
+                f"schedule must hold {self.t.size - 1} positive substep counts; got shape {self.schedule.shape}"
+            )
         self.hold = bool(hold)
         self.hrho_max = float(hrho_max)
         self.blowup = float(blowup)
@@ -84,6 +87,7 @@ class ScheduleSimulator:
         status = np.zeros(n, dtype=np.int64)
         fail = np.zeros(n, dtype=np.int64)
         worst = np.zeros(n)
-        self._mod.integrate_schedule_batch(self.t, self.U, X0, P, self.schedule, self.hold, self.blowup,
-                                           self.hrho_max, Y, status, fail, worst)
+        self._mod.integrate_schedule_batch(
+            self.t, self.U, X0, P, self.schedule, self.hold, self.blowup, self.hrho_max, Y, status, fail, worst
+        )
         return Y, status, fail, worst

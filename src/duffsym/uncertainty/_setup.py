@@ -1,8 +1,9 @@
 """Building the log-posterior of a fit: records, initial states, masks, substep schedules, priors."""
+
 from __future__ import annotations
 
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -53,8 +54,10 @@ def stiffness_schedule(model, p, t, U, x0, *, h_rho: float, margin_neighbours: b
 
     ref = simulate(model, p, t, U, x0=x0, h_lambda=0.1, on_failure="return")
     if not ref.success:
-        raise DataError(f"the fitted parameters do not simulate on this record ({ref.message}); "
-                        "check that the fit belongs to this record")
+        raise DataError(
+            f"the fitted parameters do not simulate on this record ({ref.message}); "
+            "check that the fit belongs to this record"
+        )
     J = numpy_model(model).jac_states(ref.x, U, p)
     rho = spectral_bound(model, J)
     dt = np.diff(t)
@@ -87,9 +90,19 @@ def record_mask(result, i, record, mask):
     return m
 
 
-def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[float, float]] | None = None,
-                    noise: str = "gaussian", mask=None, h_rho: float = 1.0, hrho_max: float = _kernel.HRHO_MAX,
-                    reconstruction: str = "linear", sample_x0: bool = False):
+def build_posterior(
+    result,
+    records,
+    *,
+    model=None,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    noise: str = "gaussian",
+    mask=None,
+    h_rho: float = 1.0,
+    hrho_max: float = _kernel.HRHO_MAX,
+    reconstruction: str = "linear",
+    sample_x0: bool = False,
+):
     """The :class:`LogPosterior` of ``result``'s free parameters on ``records`` plus setup details."""
     from duffsym.identify import model_from_result
     from duffsym.simulate import input_matrix
@@ -97,8 +110,10 @@ def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[f
     check_result(result)
     records = as_records(records)
     if result.records and len(result.records) != len(records):
-        raise DataError(f"the fit was made on {len(result.records)} record(s) {list(result.records)}; "
-                        f"give the same records (got {len(records)})")
+        raise DataError(
+            f"the fit was made on {len(result.records)} record(s) {list(result.records)}; "
+            f"give the same records (got {len(records)})"
+        )
     model = model if model is not None else model_from_result(result)
     base = model.param_vector(result.params)
     free = tuple(result.free)
@@ -122,13 +137,21 @@ def build_posterior(result, records, *, model=None, bounds: Mapping[str, tuple[f
                 w = max(float(span[j]), 1e-6)
                 label = f"x0_{sname}" if len(records) == 1 else f"x0[{i}]_{sname}"
                 x0_priors.append(Prior(label, "uniform", float(x0[j]) - w, float(x0[j]) + w))
-        sims.append(_kernel.ScheduleSimulator(model, t, U, x0, sched, hold=reconstruction == "hold",
-                                              hrho_max=hrho_max))
+        sims.append(_kernel.ScheduleSimulator(model, t, U, x0, sched, hold=reconstruction == "hold", hrho_max=hrho_max))
         ys.append(np.asarray(rec.y, dtype=float))
         weights.append((~m).astype(float))
-        info.append({"record": rec.name, "n_times": int(t.size), "n_obs": int((~m).sum()), "n_masked": int(m.sum()),
-                     "x0": x0.tolist(), "schedule_total_substeps": int(sched.sum()),
-                     "schedule_max_substeps": int(sched.max()), "adaptive_total_substeps": int(ref.substeps.sum())})
+        info.append(
+            {
+                "record": rec.name,
+                "n_times": int(t.size),
+                "n_obs": int((~m).sum()),
+                "n_masked": int(m.sum()),
+                "x0": x0.tolist(),
+                "schedule_total_substeps": int(sched.sum()),
+                "schedule_max_substeps": int(sched.max()),
+                "adaptive_total_substeps": int(ref.substeps.sum()),
+            }
+        )
     priors += x0_priors
     if noise == "ar1":
         priors.append(Prior(PHI_NAME, "uniform", -PHI_BOUND, PHI_BOUND))

@@ -23,6 +23,7 @@ References
 Raue et al. (2009), structural and practical identifiability analysis of partially observed dynamical
 models by exploiting the profile likelihood, Bioinformatics 25, 1923, doi:10.1093/bioinformatics/btp358.
 """
+
 from __future__ import annotations
 
 import math
@@ -63,11 +64,19 @@ class IdentifiabilityReport:
     params: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
-        return {"free": list(self.free), "coordinates": list(self.coordinates), "symmetry": self.symmetry,
-                "eigenvalues": self.eigenvalues.tolist(), "directions": self.directions,
-                "posterior_correlations": self.correlations, "findings": self.findings,
-                "excitation": self.excitation, "text": self.text,
-                "fisher_correlation": self.fisher_correlation.tolist(), "params": self.params}
+        return {
+            "free": list(self.free),
+            "coordinates": list(self.coordinates),
+            "symmetry": self.symmetry,
+            "eigenvalues": self.eigenvalues.tolist(),
+            "directions": self.directions,
+            "posterior_correlations": self.correlations,
+            "findings": self.findings,
+            "excitation": self.excitation,
+            "text": self.text,
+            "fisher_correlation": self.fisher_correlation.tolist(),
+            "params": self.params,
+        }
 
 
 def _coordinate(prior):
@@ -146,11 +155,18 @@ def excitation_summary(records) -> dict:
             peaks.extend(s[k].tolist())
         peaks = np.asarray(peaks)
         spread = float(np.std(peaks) / np.mean(peaks)) if peaks.size >= 2 else math.nan
-        out.append({"record": rec.name, "n_peaks": int(peaks.size), "peak_spread": spread,
-                    "max_abs_input": float(np.max(np.abs(d)))})
+        out.append(
+            {
+                "record": rec.name,
+                "n_peaks": int(peaks.size),
+                "peak_spread": spread,
+                "max_abs_input": float(np.max(np.abs(d))),
+            }
+        )
     amps = [o["max_abs_input"] for o in out]
     single = all(o["peak_spread"] < SINGLE_AMPLITUDE_SPREAD for o in out if math.isfinite(o["peak_spread"])) and (
-        len(amps) == 1 or (max(amps) - min(amps)) / max(amps) < SINGLE_AMPLITUDE_SPREAD)
+        len(amps) == 1 or (max(amps) - min(amps)) / max(amps) < SINGLE_AMPLITUDE_SPREAD
+    )
     return {"records": out, "single_amplitude": bool(single)}
 
 
@@ -183,9 +199,21 @@ def identifiability_report(result, records, *, chains=None, model=None, post=Non
     degrees = {n: _state_degree(model, n) for n in free}
     findings = _findings(sym, sym_info, free, params_info, degrees, corr_pairs, exc)
     text = _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings)
-    return IdentifiabilityReport(free=tuple(free), coordinates=tuple(labels), symmetry=sym_info, eigenvalues=w,
-                                 eigenvectors=V, directions=directions, correlations=corr_pairs, findings=findings,
-                                 excitation=exc, text=text, fisher=F, fisher_correlation=fcorr, params=params_info)
+    return IdentifiabilityReport(
+        free=tuple(free),
+        coordinates=tuple(labels),
+        symmetry=sym_info,
+        eigenvalues=w,
+        eigenvectors=V,
+        directions=directions,
+        correlations=corr_pairs,
+        findings=findings,
+        excitation=exc,
+        text=text,
+        fisher=F,
+        fisher_correlation=fcorr,
+        params=params_info,
+    )
 
 
 def _symmetry(model, post, free, kinds, scales):
@@ -201,12 +229,17 @@ def _symmetry(model, post, free, kinds, scales):
         tangent = {k: float(sp.sympify(e).xreplace(values)) for k, e in sym.tangent.items()}
         moved = [k for k, v in tangent.items() if abs(v) > 0]
         fixed_moved = [k for k in moved if k not in free]
-        sym_info.update(moved=moved, fixed_moved=fixed_moved, broken=bool(fixed_moved),
-                        mapping={k: str(e) for k, e in sym.mapping.items()})
+        sym_info.update(
+            moved=moved,
+            fixed_moved=fixed_moved,
+            broken=bool(fixed_moved),
+            mapping={k: str(e) for k, e in sym.mapping.items()},
+        )
         if not fixed_moved:
             theta = post.base[post.index]
-            v = np.array([tangent[n] / theta[j] if kinds[j] == "log" else tangent[n] / scales[j]
-                          for j, n in enumerate(free)])
+            v = np.array(
+                [tangent[n] / theta[j] if kinds[j] == "log" else tangent[n] / scales[j] for j, n in enumerate(free)]
+            )
             sym_dir = v / np.linalg.norm(v)
     return sym, sym_info, sym_dir
 
@@ -219,13 +252,23 @@ def _directions(w, V, free, fcorr, labels, sym_dir) -> list[dict]:
         v = V[:, k] * (1 if V[np.argmax(np.abs(V[:, k])), k] > 0 else -1)
         comps = {free[j]: float(v[j]) for j in np.argsort(-np.abs(v)) if abs(v[j]) >= 0.2}
         lead = int(np.argmax(np.abs(v)))
-        partners = {free[j]: float(fcorr[lead, j]) for j in np.argsort(-np.abs(fcorr[lead]))
-                    if j != lead and abs(fcorr[lead, j]) >= 0.8}
+        partners = {
+            free[j]: float(fcorr[lead, j])
+            for j in np.argsort(-np.abs(fcorr[lead]))
+            if j != lead and abs(fcorr[lead, j]) >= 0.8
+        }
         status = "unidentifiable" if sd > UNIDENTIFIABLE_SD else ("weak" if sd > WEAK_SD else "identified")
-        directions.append({"eigenvalue": float(w[k]), "sd": sd, "status": status, "components": comps,
-                           "correlated_with": partners,
-                           "label": " ".join(f"{c:+.2f} {labels[free.index(n)]}" for n, c in comps.items()),
-                           "symmetry_overlap": float(abs(sym_dir @ v)) if sym_dir is not None else None})
+        directions.append(
+            {
+                "eigenvalue": float(w[k]),
+                "sd": sd,
+                "status": status,
+                "components": comps,
+                "correlated_with": partners,
+                "label": " ".join(f"{c:+.2f} {labels[free.index(n)]}" for n, c in comps.items()),
+                "symmetry_overlap": float(abs(sym_dir @ v)) if sym_dir is not None else None,
+            }
+        )
     return directions
 
 
@@ -246,13 +289,17 @@ def _params_info(post, free, kinds, scales, fcorr, csd, vif) -> dict:
     """Per free parameter: its variance inflation, relative sd, strongly correlated partners and status."""
     params_info = {}
     for j, n in enumerate(free):
-        partners = {free[i]: float(fcorr[j, i]) for i in np.argsort(-np.abs(fcorr[j]))
-                    if i != j and abs(fcorr[j, i]) >= 0.8}
+        partners = {
+            free[i]: float(fcorr[j, i]) for i in np.argsort(-np.abs(fcorr[j])) if i != j and abs(fcorr[j, i]) >= 0.8
+        }
         theta_j = float(post.base[post.index[j]])
         # csd is in the report's coordinates: log (relative) for log-scale parameters, value/scale otherwise
         rel = float(csd[j]) if kinds[j] == "log" else float(csd[j] * scales[j] / max(abs(theta_j), 1e-300))
-        status = ("unidentifiable" if vif[j] > VIF_UNIDENTIFIABLE and rel > REL_SD_UNIDENTIFIABLE
-                  else ("weak" if vif[j] > VIF_WEAK else "identified"))
+        status = (
+            "unidentifiable"
+            if vif[j] > VIF_UNIDENTIFIABLE and rel > REL_SD_UNIDENTIFIABLE
+            else ("weak" if vif[j] > VIF_WEAK else "identified")
+        )
         params_info[n] = {"vif": float(vif[j]), "relative_sd": rel, "partners": partners, "status": status}
     return params_info
 
@@ -262,13 +309,23 @@ def _findings(sym, sym_info, free, params_info, degrees, corr_pairs, exc) -> lis
     and the posterior correlations no group covers."""
     findings = []
     if sym.exists and not sym_info["broken"]:
-        findings.append({"kind": "symmetry", "params": sym_info["moved"],
-                         "evidence": "x -> s x leaves the output unchanged along this family (found symbolically)",
-                         "resolve": "no data can: fix one of them (the paper fixes A_f = max|y|)"})
+        findings.append(
+            {
+                "kind": "symmetry",
+                "params": sym_info["moved"],
+                "evidence": "x -> s x leaves the output unchanged along this family (found symbolically)",
+                "resolve": "no data can: fix one of them (the paper fixes A_f = max|y|)",
+            }
+        )
     elif sym.exists:
-        findings.append({"kind": "symmetry broken", "params": sym_info["moved"],
-                         "evidence": f"the scaling symmetry is broken by fixing {', '.join(sym_info['fixed_moved'])}",
-                         "resolve": "nothing needed; the gains are relative to the fixed value"})
+        findings.append(
+            {
+                "kind": "symmetry broken",
+                "params": sym_info["moved"],
+                "evidence": f"the scaling symmetry is broken by fixing {', '.join(sym_info['fixed_moved'])}",
+                "resolve": "nothing needed; the gains are relative to the fixed value",
+            }
+        )
     done: set = set()
     for n in sorted(free, key=lambda k: (_RANK[params_info[k]["status"]], -params_info[k]["vif"])):
         info = params_info[n]
@@ -279,9 +336,14 @@ def _findings(sym, sym_info, free, params_info, degrees, corr_pairs, exc) -> lis
         findings.append(_weak_finding(n, info, involved, params_info, degrees, corr_pairs, exc))
     for p in corr_pairs:
         if not any(set(p["pair"]) <= set(f["params"]) for f in findings):
-            findings.append({"kind": "correlated", "params": p["pair"],
-                             "evidence": f"posterior correlation {p['correlation']:+.2f}",
-                             "resolve": "richer excitation (several amplitudes and frequencies)"})
+            findings.append(
+                {
+                    "kind": "correlated",
+                    "params": p["pair"],
+                    "evidence": f"posterior correlation {p['correlation']:+.2f}",
+                    "resolve": "richer excitation (several amplitudes and frequencies)",
+                }
+            )
     return findings
 
 
@@ -293,40 +355,71 @@ def _weak_finding(n, info, involved, params_info, degrees, corr_pairs, exc) -> d
     nonlinear = [m for m in involved if degrees.get(m, 1) > 1]
     linear = [m for m in involved if degrees.get(m, 1) <= 1]
     pairs = [p for p in corr_pairs if set(p["pair"]) <= set(involved)]
-    ev = (f"the correlations with {', '.join(f'{m} ({c:+.2f})' for m, c in info['partners'].items()) or 'the others'} "
-          f"inflate the variance of {n} {info['vif']:.3g}-fold (Cramer-Rao)")
+    ev = (
+        f"the correlations with {', '.join(f'{m} ({c:+.2f})' for m, c in info['partners'].items()) or 'the others'} "
+        f"inflate the variance of {n} {info['vif']:.3g}-fold (Cramer-Rao)"
+    )
     if pairs:
-        ev += "; posterior correlations " + ", ".join(f"{a}-{b} {c['correlation']:+.2f}"
-                                                    for c in pairs for a, b in [c["pair"]])
+        ev += "; posterior correlations " + ", ".join(
+            f"{a}-{b} {c['correlation']:+.2f}" for c in pairs for a, b in [c["pair"]]
+        )
     if nonlinear and linear:
-        why = (f"the x^n-type term(s) of {', '.join(nonlinear)} can be mimicked by the linear one(s) of "
-               f"{', '.join(linear)} at a single amplitude")
+        why = (
+            f"the x^n-type term(s) of {', '.join(nonlinear)} can be mimicked by the linear one(s) of "
+            f"{', '.join(linear)} at a single amplitude"
+        )
         if exc["single_amplitude"]:
             why += " (every record here has one amplitude)"
-        resolve = ("records at several amplitudes: an amplitude-stepped sine, a multisine or a band-limited "
-                   "random input")
+        resolve = "records at several amplitudes: an amplitude-stepped sine, a multisine or a band-limited random input"
     else:
         why = "the record does not separate these terms"
         resolve = "records at several frequencies and amplitudes (band-limited random excitation)"
-    return {"kind": min((params_info[m]["status"] for m in involved), key=_RANK.get), "params": involved,
-            "evidence": ev, "why": why, "resolve": resolve, "vif": info["vif"]}
+    return {
+        "kind": min((params_info[m]["status"] for m in involved), key=_RANK.get),
+        "params": involved,
+        "evidence": ev,
+        "why": why,
+        "resolve": resolve,
+        "vif": info["vif"],
+    }
 
 
 def _report_text(model, free, records, exc, sym, sym_info, params_info, directions, findings) -> str:
     """The identifiability report for people (``IdentifiabilityReport.text``)."""
-    lines = [f"identifiability of {model.name} ({', '.join(free)} free) on {len(records)} record(s)"
-             + (" at a single amplitude" if exc["single_amplitude"] else "")]
-    lines.append("  scaling symmetry: " + ("none" if not sym.exists else (
-        f"moves {', '.join(sym_info['moved'])}; " + ("broken by fixing " + ", ".join(sym_info["fixed_moved"])
-                                                      if sym_info["broken"] else "UNBROKEN (all free)"))))
-    lines.append("  variance inflation (Cramer-Rao): " + ", ".join(f"{n} {p['vif']:.3g}" for n, p in params_info.items()))
-    lines.append("  Fisher sd along eigen-directions (weakest first): "
-                 + "; ".join(f"{d['sd']:.2g} [{d['label']}]" for d in directions[:3]))
+    lines = [
+        f"identifiability of {model.name} ({', '.join(free)} free) on {len(records)} record(s)"
+        + (" at a single amplitude" if exc["single_amplitude"] else "")
+    ]
+    lines.append(
+        "  scaling symmetry: "
+        + (
+            "none"
+            if not sym.exists
+            else (
+                f"moves {', '.join(sym_info['moved'])}; "
+                + (
+                    "broken by fixing " + ", ".join(sym_info["fixed_moved"])
+                    if sym_info["broken"]
+                    else "UNBROKEN (all free)"
+                )
+            )
+        )
+    )
+    lines.append(
+        "  variance inflation (Cramer-Rao): " + ", ".join(f"{n} {p['vif']:.3g}" for n, p in params_info.items())
+    )
+    lines.append(
+        "  Fisher sd along eigen-directions (weakest first): "
+        + "; ".join(f"{d['sd']:.2g} [{d['label']}]" for d in directions[:3])
+    )
     if not [f for f in findings if f["kind"] not in ("symmetry broken",)]:
         lines.append("  every free parameter is identified by this data")
     for f in findings:
         if f["kind"] == "symmetry broken":
             continue
-        lines.append(f"  {f['kind'].upper()}: {', '.join(f['params'])}: {f['evidence']}"
-                     + (f"; {f['why']}" if "why" in f else "") + f". Resolve: {f['resolve']}")
+        lines.append(
+            f"  {f['kind'].upper()}: {', '.join(f['params'])}: {f['evidence']}"
+            + (f"; {f['why']}" if "why" in f else "")
+            + f". Resolve: {f['resolve']}"
+        )
     return "\n".join(lines)

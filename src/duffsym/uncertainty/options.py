@@ -1,8 +1,10 @@
 """The settings of :func:`~duffsym.uncertainty.sample` as an options object (:mod:`duffsym.options`)."""
+
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,5 @@
 """Figures of the posterior: corner plot and predictive bands on loops and time series."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -11,9 +12,20 @@ def plot_corner(chains, *, truths=None, names=None, fig=None):
 
     s = chains.get_samples(thin=1)
     labels = list(names or chains.names)
-    fig = corner.corner(s, labels=labels, quantiles=(0.05, 0.5, 0.95), show_titles=True, title_fmt=".3g",
-                        title_kwargs={"fontsize": 8}, label_kwargs={"fontsize": 9}, fig=fig,
-                        plot_datapoints=False, fill_contours=True, levels=(0.68, 0.95), color="tab:blue")
+    fig = corner.corner(
+        s,
+        labels=labels,
+        quantiles=(0.05, 0.5, 0.95),
+        show_titles=True,
+        title_fmt=".3g",
+        title_kwargs={"fontsize": 8},
+        label_kwargs={"fontsize": 9},
+        fig=fig,
+        plot_datapoints=False,
+        fill_contours=True,
+        levels=(0.68, 0.95),
+        color="tab:blue",
+    )
     ndim = s.shape[1]
     axes = np.array(fig.axes).reshape(ndim, ndim)
     opt = chains.optimum

@@ -24,11 +24,12 @@ parameters -- positive ones whose bounds span at least two decades (lower bound 
 positive value) -- and uniform otherwise. The sampler works in the coordinates in which the prior is
 flat (:math:`\log\theta` for log-uniform ones), so the prior is the box of those coordinates.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
@@ -105,8 +106,19 @@ class LogPosterior:
     noise : ``"gaussian"`` or ``"ar1"``.
     """
 
-    def __init__(self, model, base, free: Sequence[str], priors: Sequence[Prior], simulators, ys, weights, *,
-                 noise: str = "gaussian", x0_free: bool = False):
+    def __init__(
+        self,
+        model,
+        base,
+        free: Sequence[str],
+        priors: Sequence[Prior],
+        simulators,
+        ys,
+        weights,
+        *,
+        noise: str = "gaussian",
+        x0_free: bool = False,
+    ):
         if noise not in ("gaussian", "ar1"):
             raise ModelError(f"noise must be one of {{'gaussian', 'ar1'}}; got {noise!r}")
         self.model = model
@@ -148,7 +160,7 @@ class LogPosterior:
             return None
         ns = self.model.n_states
         z = np.atleast_2d(z)
-        return z[:, self.n_free + r * ns:self.n_free + (r + 1) * ns]
+        return z[:, self.n_free + r * ns : self.n_free + (r + 1) * ns]
 
     def natural(self, z: np.ndarray) -> np.ndarray:
         """Sampled quantities in natural units (n, n_dim) from coordinates."""
@@ -199,7 +211,7 @@ class LogPosterior:
             if self.noise == "ar1":
                 phi = z[:, self.n_dim - 1]
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    lp += 0.5 * st.size * np.log1p(-phi**2)
+                    lp += 0.5 * st.size * np.log1p(-(phi**2))
         lp[code != 0] = -np.inf
         lp[~np.isfinite(lp)] = -np.inf
         return lp, code

@@ -1,4 +1,5 @@
 """Posterior predictive bands of the output: simulations at posterior draws, with and without noise."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -69,8 +70,11 @@ def posterior_predictive(chains, result, records, *, model=None, n_draws: int = 
         t = np.asarray(rec.t, dtype=float)
         U = input_matrix(model, t, rec.inputs_for(model))
         names = list(chains.names)
-        cols = [names.index(f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}") for s in model.state_names
-                if (f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}") in names]
+        cols = [
+            names.index(f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}")
+            for s in model.state_names
+            if (f"x0_{s}" if len(records) == 1 else f"x0[{i}]_{s}") in names
+        ]
         x0 = draws[:, cols] if len(cols) == model.n_states else np.asarray(info["x0"], dtype=float)
         batch = simulate_batch(model, P, t, U, x0=x0)
         ok = batch.success
@@ -86,7 +90,17 @@ def posterior_predictive(chains, result, records, *, model=None, n_draws: int = 
             e = noise
         q = np.asarray(BAND_QUANTILES)
         m = record_mask(result, i, rec, None)
-        out.append(PredictiveBands(record=rec.name, t=t, u=U, y=np.asarray(rec.y, dtype=float), mask=m,
-                                   model_bands=np.quantile(Y, q, axis=0), predictive_bands=np.quantile(Y + e, q, axis=0),
-                                   n_draws=int(ok.sum()), input_names=tuple(c.name for c in model.inputs)))
+        out.append(
+            PredictiveBands(
+                record=rec.name,
+                t=t,
+                u=U,
+                y=np.asarray(rec.y, dtype=float),
+                mask=m,
+                model_bands=np.quantile(Y, q, axis=0),
+                predictive_bands=np.quantile(Y + e, q, axis=0),
+                n_draws=int(ok.sum()),
+                input_names=tuple(c.name for c in model.inputs),
+            )
+        )
     return out

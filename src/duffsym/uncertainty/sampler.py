@@ -12,6 +12,7 @@ References
 Foreman-Mackey, Hogg, Lang & Goodman (2013), emcee: the MCMC hammer, PASP 125, 306,
 doi:10.1086/670067. Goodman & Weare (2010), doi:10.2140/camcos.2010.5.65.
 """
+
 from __future__ import annotations
 
 import json
@@ -121,8 +122,9 @@ class Chains:
     def converged(self) -> bool:
         """Kept chain >= 50 tau of every quantity and a healthy mean acceptance."""
         a = float(np.mean(self.acceptance))
-        return bool(np.all(self.n_steps - self.burn >= MIN_TAUS * self.tau)
-                    and ACCEPTANCE_RANGE[0] <= a <= ACCEPTANCE_RANGE[1])
+        return bool(
+            np.all(self.n_steps - self.burn >= MIN_TAUS * self.tau) and ACCEPTANCE_RANGE[0] <= a <= ACCEPTANCE_RANGE[1]
+        )
 
     def quantiles(self, q=(0.05, 0.16, 0.5, 0.84, 0.95)) -> dict[str, dict[float, float]]:
         s = self.get_samples(thin=1)
@@ -137,8 +139,16 @@ class Chains:
     def correlation(self) -> np.ndarray:
         """Posterior correlation matrix (in the sampling coordinates: log for log-uniform priors)."""
         s = self.get_samples(thin=1)
-        z = np.column_stack([Prior(**p).to_coord(s[:, j]) if isinstance(p, dict) else p.to_coord(s[:, j])
-                             for j, p in enumerate(self.priors)]) if self.priors else s
+        z = (
+            np.column_stack(
+                [
+                    Prior(**p).to_coord(s[:, j]) if isinstance(p, dict) else p.to_coord(s[:, j])
+                    for j, p in enumerate(self.priors)
+                ]
+            )
+            if self.priors
+            else s
+        )
         return np.corrcoef(z, rowvar=False)
 
     # ------------------------------------------------------------ comparison and report
@@ -168,9 +178,16 @@ class Chains:
                 why.append(f"posterior {1 / ratio:.2g}x narrower than Laplace")
             if math.isfinite(sh) and abs(sh) > shift:
                 why.append(f"median shifted by {sh:+.2g} posterior half-widths from the optimum")
-            out[n] = {"optimum": float(self.optimum[j]), "laplace_stderr": se, "median": q[n][0.5],
-                      "posterior_halfwidth68": half, "width_ratio": ratio, "shift": sh, "disagree": bool(why),
-                      "reason": "; ".join(why)}
+            out[n] = {
+                "optimum": float(self.optimum[j]),
+                "laplace_stderr": se,
+                "median": q[n][0.5],
+                "posterior_halfwidth68": half,
+                "width_ratio": ratio,
+                "shift": sh,
+                "disagree": bool(why),
+                "reason": "; ".join(why),
+            }
         return out
 
     def to_dict(self) -> dict:
@@ -189,10 +206,18 @@ class Chains:
             "acceptance": float(np.mean(self.acceptance)),
             "acceptance_range": [float(np.min(self.acceptance)), float(np.max(self.acceptance))],
             "converged": self.converged,
-            "n_walkers": self.n_walkers, "n_steps": self.n_steps, "burn": self.burn, "thin": self.thin,
+            "n_walkers": self.n_walkers,
+            "n_steps": self.n_steps,
+            "burn": self.burn,
+            "thin": self.thin,
             "chain_over_tau": float((self.n_steps - self.burn) / np.max(self.tau)),
-            "sigma": {"median": np.median(sig, axis=0).tolist(), "q05": np.quantile(sig, 0.05, axis=0).tolist(),
-                      "q95": np.quantile(sig, 0.95, axis=0).tolist()} if sig.size else {},
+            "sigma": {
+                "median": np.median(sig, axis=0).tolist(),
+                "q05": np.quantile(sig, 0.05, axis=0).tolist(),
+                "q95": np.quantile(sig, 0.95, axis=0).tolist(),
+            }
+            if sig.size
+            else {},
             "evaluations": dict(self.counts),
             "laplace": self.laplace_comparison(),
             "correlation": {"names": list(self.names), "matrix": self.correlation().tolist()},
@@ -207,14 +232,18 @@ class Chains:
 
     def summary(self) -> str:
         q = self.quantiles((0.025, 0.05, 0.16, 0.5, 0.84, 0.95, 0.975))
-        lines = [f"posterior of {self.fit.get('model', '?')}: {self.n_walkers} walkers x {self.n_steps} steps "
-                 f"(burn {self.burn}), acceptance {np.mean(self.acceptance):.2f}, "
-                 f"{'converged' if self.converged else 'NOT converged'}"]
+        lines = [
+            f"posterior of {self.fit.get('model', '?')}: {self.n_walkers} walkers x {self.n_steps} steps "
+            f"(burn {self.burn}), acceptance {np.mean(self.acceptance):.2f}, "
+            f"{'converged' if self.converged else 'NOT converged'}"
+        ]
         lines.append(f"  {'':>8} {'median':>11} {'68% interval':>25} {'95% interval':>25} {'tau':>6} {'ESS':>7}")
         for j, n in enumerate(self.names):
             a = q[n]
-            lines.append(f"  {n:>8} {a[0.5]:11.5g} [{a[0.16]:11.5g}, {a[0.84]:11.5g}] "
-                         f"[{a[0.025]:11.5g}, {a[0.975]:11.5g}] {self.tau[j]:6.1f} {self.ess[j]:7.0f}")
+            lines.append(
+                f"  {n:>8} {a[0.5]:11.5g} [{a[0.16]:11.5g}, {a[0.84]:11.5g}] "
+                f"[{a[0.025]:11.5g}, {a[0.975]:11.5g}] {self.tau[j]:6.1f} {self.ess[j]:7.0f}"
+            )
         c = self.counts
         total = sum(c.values())
         if total:
@@ -232,18 +261,36 @@ class Chains:
         path = Path(path)
         if path.suffix != ".npz":
             path = path.with_suffix(path.suffix + ".npz") if path.suffix else path.with_suffix(".npz")
-        meta = {"names": list(self.names), "burn": self.burn, "thin": self.thin,
-                "priors": [p if isinstance(p, dict) else p.to_dict() for p in self.priors], "counts": self.counts,
-                "recheck": self.recheck, "setup": self.setup, "warnings": list(self.warnings),
-                "settings": self.settings, "timings": self.timings, "fit": self.fit, "format": "duffsym-chains-1"}
+        meta = {
+            "names": list(self.names),
+            "burn": self.burn,
+            "thin": self.thin,
+            "priors": [p if isinstance(p, dict) else p.to_dict() for p in self.priors],
+            "counts": self.counts,
+            "recheck": self.recheck,
+            "setup": self.setup,
+            "warnings": list(self.warnings),
+            "settings": self.settings,
+            "timings": self.timings,
+            "fit": self.fit,
+            "format": "duffsym-chains-1",
+        }
         from duffsym._io import atomic_path
 
         with atomic_path(path) as tmp:
             with open(tmp, "wb") as fh:  # a file object: np.savez would append ".npz" to the temporary name
-                np.savez_compressed(fh, chain=self.chain, log_prob=self.log_prob, acceptance=self.acceptance,
-                                    tau=self.tau, optimum=self.optimum, laplace_stderr=self.laplace_stderr,
-                                    laplace_cov=self.laplace_cov, sigma=self.sigma,
-                                    meta=np.array(json.dumps(jsonable(meta))))
+                np.savez_compressed(
+                    fh,
+                    chain=self.chain,
+                    log_prob=self.log_prob,
+                    acceptance=self.acceptance,
+                    tau=self.tau,
+                    optimum=self.optimum,
+                    laplace_stderr=self.laplace_stderr,
+                    laplace_cov=self.laplace_cov,
+                    sigma=self.sigma,
+                    meta=np.array(json.dumps(jsonable(meta))),
+                )
         return path
 
 
@@ -274,9 +321,15 @@ def save_partial_chain(path, sampler, post, n_planned: int, result) -> Path:
     path = Path(path)
     z = sampler.get_chain()
     chain = np.stack([post.natural(z[i]) for i in range(z.shape[0])])
-    meta = {"format": PARTIAL_FORMAT, "names": [p.name for p in post.priors], "steps_done": int(z.shape[0]),
-            "steps_planned": int(n_planned), "model": result.model, "effects": list(result.effects),
-            "free": list(result.free)}
+    meta = {
+        "format": PARTIAL_FORMAT,
+        "names": [p.name for p in post.priors],
+        "steps_done": int(z.shape[0]),
+        "steps_planned": int(n_planned),
+        "model": result.model,
+        "effects": list(result.effects),
+        "free": list(result.free),
+    }
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, chain=chain, log_prob=sampler.get_log_prob(), meta=np.array(json.dumps(meta)))
@@ -310,13 +363,27 @@ def load_chains(path) -> Chains:
     if "meta" not in arrays or "chain" not in arrays:
         raise DataError(f"{path}: not a duffsym chains file (no chain/meta); write it with Chains.save")
     meta = json.loads(str(arrays["meta"]))
-    return Chains(names=tuple(meta["names"]), chain=arrays["chain"], log_prob=arrays["log_prob"],
-                  acceptance=arrays["acceptance"], tau=arrays["tau"], burn=int(meta["burn"]), thin=int(meta["thin"]),
-                  optimum=arrays["optimum"], laplace_stderr=arrays["laplace_stderr"], laplace_cov=arrays["laplace_cov"],
-                  priors=tuple(Prior(**p) for p in meta["priors"]), counts=dict(meta["counts"]),
-                  sigma=arrays["sigma"], recheck=meta["recheck"], setup=meta["setup"],
-                  warnings=tuple(meta["warnings"]), settings=meta["settings"], timings=meta["timings"],
-                  fit=meta["fit"])
+    return Chains(
+        names=tuple(meta["names"]),
+        chain=arrays["chain"],
+        log_prob=arrays["log_prob"],
+        acceptance=arrays["acceptance"],
+        tau=arrays["tau"],
+        burn=int(meta["burn"]),
+        thin=int(meta["thin"]),
+        optimum=arrays["optimum"],
+        laplace_stderr=arrays["laplace_stderr"],
+        laplace_cov=arrays["laplace_cov"],
+        priors=tuple(Prior(**p) for p in meta["priors"]),
+        counts=dict(meta["counts"]),
+        sigma=arrays["sigma"],
+        recheck=meta["recheck"],
+        setup=meta["setup"],
+        warnings=tuple(meta["warnings"]),
+        settings=meta["settings"],
+        timings=meta["timings"],
+        fit=meta["fit"],
+    )
 
 
 # ---------------------------------------------------------------------------------------- tau
@@ -353,8 +420,9 @@ def _initial_walkers(post: LogPosterior, result, n_walkers: int, spread: float, 
     L = None
     if ok_cov:
         L = V * np.sqrt(np.maximum(w, 0))
-    scale_fallback = np.array([1e-3 if p.kind == "log-uniform" else 1e-3 * max(abs(th), 1.0)
-                               for p, th in zip(post.priors[:n_free], theta)])
+    scale_fallback = np.array(
+        [1e-3 if p.kind == "log-uniform" else 1e-3 * max(abs(th), 1.0) for p, th in zip(post.priors[:n_free], theta)]
+    )
     extra = np.array([1e-3 * (p.upper - p.lower) for p in post.priors[n_free:]])
     walkers = np.empty((n_walkers, post.n_dim))
     filled = 0
@@ -369,14 +437,16 @@ def _initial_walkers(post: LogPosterior, result, n_walkers: int, spread: float, 
         lp, _ = post.evaluate(cand)
         good = cand[np.isfinite(lp)]
         take = good[:need]
-        walkers[filled:filled + take.shape[0]] = take
+        walkers[filled : filled + take.shape[0]] = take
         filled += take.shape[0]
         if filled == n_walkers:
             return walkers, z0
         if attempt in (20, 60):  # the covariance may be far too wide (a ridge): shrink the ball
             spread *= 0.3
-    raise ModelError(f"could not start {n_walkers} walkers with finite posterior around the optimum "
-                     f"({filled} found); is the fit converged and are its bounds wide enough?")
+    raise ModelError(
+        f"could not start {n_walkers} walkers with finite posterior around the optimum "
+        f"({filled} found); is the fit converged and are its bounds wide enough?"
+    )
 
 
 def sample(result, records, model=None, options: SampleOptions | None = None, **settings) -> Chains:
@@ -439,23 +509,48 @@ def sample(result, records, model=None, options: SampleOptions | None = None, **
     burn, thin, tau = _burn_thin_tau(zchain, o)
     acc = np.asarray(sampler.acceptance_fraction, dtype=float)
     counts = dict(post.counts)
-    flat_z = zchain[burn::max(thin, 1)].reshape(-1, post.n_dim)
+    flat_z = zchain[burn :: max(thin, 1)].reshape(-1, post.n_dim)
     recheck = _recheck(post, model, flat_z, o.recheck_draws, rng)
     recheck["posterior_max_hrho"] = _posterior_hrho(post, flat_z)
     recheck["hrho_max"] = o.hrho_max
     warn = _chain_warnings(post, o, tau, burn, acc, counts, recheck)
-    se = np.array([float(result.stderr.get(n, math.nan)) for n in result.free]
-                  + [math.nan] * (post.n_dim - len(result.free)))
+    se = np.array(
+        [float(result.stderr.get(n, math.nan)) for n in result.free] + [math.nan] * (post.n_dim - len(result.free))
+    )
     chains = Chains(
-        names=tuple(p.name for p in post.priors), chain=np.stack([post.natural(z) for z in zchain]),
-        log_prob=sampler.get_log_prob(), acceptance=acc, tau=tau, burn=int(burn), thin=thin,
-        optimum=post.natural(z_opt)[0], laplace_stderr=se, laplace_cov=np.asarray(result.covariance, dtype=float),
-        priors=tuple(post.priors), counts=counts, sigma=_sigma_draws(post, flat_z, o.sigma_draws, rng),
-        recheck=recheck, setup=setup, warnings=tuple(warn), settings=_settings_record(o, vectorize, move_label),
-        timings={"setup": t_setup, "sampling": t_run, "sampling_cpu": cpu_run, "per_step": t_run / o.n_steps,
-                 "per_walker_step": t_run / (o.n_steps * o.n_walkers), "total": time.perf_counter() - t_start},
-        fit={"model": result.model, "effects": list(result.effects), "params": dict(result.params),
-             "free": list(result.free), "fixed": dict(result.fixed), "nrmse": float(result.nrmse)},
+        names=tuple(p.name for p in post.priors),
+        chain=np.stack([post.natural(z) for z in zchain]),
+        log_prob=sampler.get_log_prob(),
+        acceptance=acc,
+        tau=tau,
+        burn=int(burn),
+        thin=thin,
+        optimum=post.natural(z_opt)[0],
+        laplace_stderr=se,
+        laplace_cov=np.asarray(result.covariance, dtype=float),
+        priors=tuple(post.priors),
+        counts=counts,
+        sigma=_sigma_draws(post, flat_z, o.sigma_draws, rng),
+        recheck=recheck,
+        setup=setup,
+        warnings=tuple(warn),
+        settings=_settings_record(o, vectorize, move_label),
+        timings={
+            "setup": t_setup,
+            "sampling": t_run,
+            "sampling_cpu": cpu_run,
+            "per_step": t_run / o.n_steps,
+            "per_walker_step": t_run / (o.n_steps * o.n_walkers),
+            "total": time.perf_counter() - t_start,
+        },
+        fit={
+            "model": result.model,
+            "effects": list(result.effects),
+            "params": dict(result.params),
+            "free": list(result.free),
+            "fixed": dict(result.fixed),
+            "nrmse": float(result.nrmse),
+        },
     )
     if warn and o.n_steps - burn < MIN_TAUS * np.max(tau) and o.on_short == "raise":
         raise ChainTooShort(warn[0], tau=dict(zip(chains.names, tau.tolist())), chains=chains)
@@ -467,8 +562,11 @@ def sample(result, records, model=None, options: SampleOptions | None = None, **
 def _check_counts(o: SampleOptions) -> None:
     if o.on_short not in ("warn", "raise"):
         raise ModelError(f"on_short must be 'warn' or 'raise'; got {o.on_short!r}")
-    for label, v, least in (("n_steps", o.n_steps, 2), ("recheck_draws", o.recheck_draws, 0),
-                            ("sigma_draws", o.sigma_draws, 0)):
+    for label, v, least in (
+        ("n_steps", o.n_steps, 2),
+        ("recheck_draws", o.recheck_draws, 0),
+        ("sigma_draws", o.sigma_draws, 0),
+    ):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < least:
             raise ModelError(f"{label} must be an integer >= {least}; got {v!r}")
 
@@ -478,9 +576,17 @@ def _build(result, records, model, o: SampleOptions):
     count checked against its dimension."""
     from duffsym.uncertainty._setup import build_posterior
 
-    post, model, records, setup = build_posterior(result, records, model=model, bounds=o.bounds, noise=o.noise,
-                                                  mask=o.mask, h_rho=o.h_rho, hrho_max=o.hrho_max,
-                                                  sample_x0=o.sample_x0)
+    post, model, records, setup = build_posterior(
+        result,
+        records,
+        model=model,
+        bounds=o.bounds,
+        noise=o.noise,
+        mask=o.mask,
+        h_rho=o.h_rho,
+        hrho_max=o.hrho_max,
+        sample_x0=o.sample_x0,
+    )
     n_walkers = o.n_walkers
     if isinstance(n_walkers, bool) or not isinstance(n_walkers, (int, np.integer)) or n_walkers < 2 * post.n_dim:
         raise ModelError(f"n_walkers must be an integer >= 2 x {post.n_dim} (the dimension); got {n_walkers!r}")
@@ -505,12 +611,14 @@ def _sampler(post: LogPosterior, o: SampleOptions, rng):
     if vectorize:
         fn, pool_arg = _Vectorized(post), None
     else:
-        fn, pool_arg = _Serial(post), (_CountingPool(o.pool, post) if o.pool is not None else _CountingPool(_Map(), post))
+        fn, pool_arg = (
+            _Serial(post),
+            (_CountingPool(o.pool, post) if o.pool is not None else _CountingPool(_Map(), post)),
+        )
     moves = o.moves
     move_label = "de+snooker" if moves is None else ("stretch" if moves == "stretch" else str(moves))
     moves = default_moves() if moves is None else (None if moves == "stretch" else moves)
-    sampler = emcee.EnsembleSampler(int(o.n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg,
-                                    moves=moves)
+    sampler = emcee.EnsembleSampler(int(o.n_walkers), post.n_dim, fn, vectorize=vectorize, pool=pool_arg, moves=moves)
     if not getattr(sampler.log_prob_fn, "args", ()) and not getattr(sampler.log_prob_fn, "kwargs", {}):
         # emcee's wrapper prints a traceback for any exception, Ctrl-C included; our function needs no wrapper
         sampler.log_prob_fn = getattr(sampler.log_prob_fn, "f", sampler.log_prob_fn)
@@ -554,20 +662,26 @@ def _chain_warnings(post, o: SampleOptions, tau, burn: int, acc, counts: dict, r
     kept = o.n_steps - burn
     if kept < MIN_TAUS * np.max(tau):
         worst = post.priors[int(np.argmax(tau))].name
-        warn.append(f"chain of {kept} kept steps is shorter than {MIN_TAUS} tau (tau = {np.max(tau):.0f} steps for "
-                    f"{worst}): run at least {int(math.ceil(MIN_TAUS * np.max(tau) + burn))} steps")
+        warn.append(
+            f"chain of {kept} kept steps is shorter than {MIN_TAUS} tau (tau = {np.max(tau):.0f} steps for "
+            f"{worst}): run at least {int(math.ceil(MIN_TAUS * np.max(tau) + burn))} steps"
+        )
     if not ACCEPTANCE_RANGE[0] <= float(np.mean(acc)) <= ACCEPTANCE_RANGE[1]:
         warn.append(f"mean acceptance fraction {np.mean(acc):.2f} is outside {ACCEPTANCE_RANGE}")
     n_eval = sum(counts.values())
     n_fail = counts[Status.BLOW_UP.value] + counts[Status.TOO_STIFF.value]
     if n_fail and recheck["posterior_max_hrho"] > 0.75 * o.hrho_max:
-        warn.append(f"{n_fail} of {n_eval} proposals failed to simulate ({counts[Status.BLOW_UP.value]} blow-up, "
-                    f"{counts[Status.TOO_STIFF.value]} too stiff for the fixed substep schedule) and the posterior "
-                    f"reaches h*rho = {recheck['posterior_max_hrho']:.2g} (stop at {o.hrho_max:g}): the stiffness "
-                    "limit may cut the posterior; rerun with a smaller h_rho")
+        warn.append(
+            f"{n_fail} of {n_eval} proposals failed to simulate ({counts[Status.BLOW_UP.value]} blow-up, "
+            f"{counts[Status.TOO_STIFF.value]} too stiff for the fixed substep schedule) and the posterior "
+            f"reaches h*rho = {recheck['posterior_max_hrho']:.2g} (stop at {o.hrho_max:g}): the stiffness "
+            "limit may cut the posterior; rerun with a smaller h_rho"
+        )
     if recheck.get("max_bias", 0.0) > 0.1:
-        warn.append(f"the fixed substep schedule is off at some posterior draws (bias statistic "
-                    f"{recheck['max_bias']:.2g} > 0.1 noise sd / sqrt(N)): rerun with a smaller h_rho")
+        warn.append(
+            f"the fixed substep schedule is off at some posterior draws (bias statistic "
+            f"{recheck['max_bias']:.2g} > 0.1 noise sd / sqrt(N)): rerun with a smaller h_rho"
+        )
     return warn
 
 
@@ -575,10 +689,20 @@ def _settings_record(o: SampleOptions, vectorize: bool, move_label: str) -> dict
     """The settings a chain records (``Chains.settings``)."""
     import emcee
 
-    return {"n_walkers": int(o.n_walkers), "n_steps": int(o.n_steps), "noise": o.noise, "h_rho": o.h_rho,
-            "sample_x0": bool(o.sample_x0), "hrho_max": o.hrho_max, "init_spread": o.init_spread,
-            "vectorize": vectorize, "pool": type(o.pool).__name__ if o.pool is not None else None,
-            "moves": move_label, "emcee": emcee.__version__, "threads": o.threads}
+    return {
+        "n_walkers": int(o.n_walkers),
+        "n_steps": int(o.n_steps),
+        "noise": o.noise,
+        "h_rho": o.h_rho,
+        "sample_x0": bool(o.sample_x0),
+        "hrho_max": o.hrho_max,
+        "init_spread": o.init_spread,
+        "vectorize": vectorize,
+        "pool": type(o.pool).__name__ if o.pool is not None else None,
+        "moves": move_label,
+        "emcee": emcee.__version__,
+        "threads": o.threads,
+    }
 
 
 class _Map:
