@@ -59,3 +59,53 @@ def test_ctrl_c_of_a_batch_is_one_line(tmp_path, delay):
     _, err = proc.communicate(timeout=120)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert proc.returncode == 130 and lines == ["interrupted"], (proc.returncode, lines[:5])
+
+
+def test_an_interrupt_swallowed_by_a_gc_callback_still_stops_the_command():
+    """CI saw it (the 3.5 s case above): Ctrl-C landed inside Dask's garbage-collector callback, Python printed
+    "Exception ignored in ... GCDiagnosis._gc_callback ... KeyboardInterrupt", and the batch ran on and exited 0.
+    Here a collector callback raises the interrupt: the command's work must stop, and nothing is printed."""
+    import gc
+
+    from duffsym.cli import interrupts_reach_main
+
+    fired: list[int] = []
+
+    def callback(phase, info):
+        if not fired:
+            fired.append(1)
+            raise KeyboardInterrupt
+
+    steps = 0
+    gc.callbacks.append(callback)
+    try:
+        with pytest.raises(KeyboardInterrupt), interrupts_reach_main():
+            gc.collect()
+            for steps in range(1, 501):  # the redelivered interrupt (after 50 ms) stops this 5 s loop
+                time.sleep(0.01)
+    finally:
+        gc.callbacks.remove(callback)
+    assert fired == [1] and steps < 50, steps
+
+
+def test_outside_the_guard_python_swallows_that_interrupt():
+    """The trap above is real: without :func:`interrupts_reach_main` the same callback's interrupt is lost."""
+    import gc
+
+    fired: list[int] = []
+    seen: list[type] = []
+
+    def callback(phase, info):
+        if not fired:
+            fired.append(1)
+            raise KeyboardInterrupt
+
+    previous, sys.unraisablehook = sys.unraisablehook, lambda u: seen.append(type(u.exc_value))
+    gc.callbacks.append(callback)
+    try:
+        gc.collect()
+        finished = True
+    finally:
+        gc.callbacks.remove(callback)
+        sys.unraisablehook = previous
+    assert finished and fired == [1] and seen == [KeyboardInterrupt]

@@ -10,9 +10,12 @@ nothing else there; messages go to stderr. Bad input exits non-zero with one lin
 
 from __future__ import annotations
 
+import _thread
 import argparse
+import contextlib
 import importlib
 import sys
+import threading
 
 from duffsym.cli.common import EXIT_ERROR, err
 from duffsym.errors import DuffsymError
@@ -130,11 +133,45 @@ def build_parser(argv=None) -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Run the command line; Ctrl-C at any point (imports, a cluster starting) is one line and exit 130."""
     try:
-        return _main(argv)
+        with interrupts_reach_main():
+            return _main(argv)
     except KeyboardInterrupt:
         _quiet_dask_shutdown()
         err("interrupted")
         return 130
+
+
+@contextlib.contextmanager
+def interrupts_reach_main():
+    """Within the block, a Ctrl-C that Python would swallow is delivered again to the main thread.
+
+    A ``KeyboardInterrupt`` that lands inside a garbage-collector callback or a ``__del__`` (Dask's
+    ``GCDiagnosis`` is one) cannot propagate: Python prints "Exception ignored in ..." with a traceback and
+    carries on, so a batch interrupted at that instant ran to its end and exited 0. Such an interrupt is
+    raised again in the main thread 50 ms later, once the swallowing code has returned (a timer thread
+    delivers it; one swallowed again is delivered again), and nothing is printed for it.
+    """
+    previous = sys.unraisablehook
+
+    def redeliver() -> None:
+        timer = threading.Timer(0.05, _thread.interrupt_main)  # after this hook and its caller have returned
+        timer.daemon = True
+        timer.start()
+
+    def hook(unraisable) -> None:
+        try:
+            if isinstance(unraisable.exc_value, KeyboardInterrupt):
+                redeliver()
+            else:
+                previous(unraisable)
+        except KeyboardInterrupt:  # the interrupt arrived while this hook ran: deliver it after
+            redeliver()
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        sys.unraisablehook = previous
 
 
 def _quiet_dask_shutdown() -> None:
