@@ -10,10 +10,10 @@ nothing else there; messages go to stderr. Bad input exits non-zero with one lin
 
 from __future__ import annotations
 
-import _thread
 import argparse
 import contextlib
 import importlib
+import signal
 import sys
 import threading
 
@@ -154,7 +154,8 @@ def interrupts_reach_main():
     previous = sys.unraisablehook
 
     def redeliver() -> None:
-        timer = threading.Timer(0.05, _thread.interrupt_main)  # after this hook and its caller have returned
+        # a real SIGINT to the main thread (it also wakes a blocking wait), once this hook and its caller returned
+        timer = threading.Timer(0.05, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT))
         timer.daemon = True
         timer.start()
 
