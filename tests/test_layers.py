@@ -61,8 +61,8 @@ def layer(module: str) -> str | None:
     return parts[1] if len(parts) > 1 else None
 
 
-def _module_name(path: Path) -> str:
-    rel = path.relative_to(SRC.parent).with_suffix("")
+def _module_name(path: Path, root: Path = SRC) -> str:
+    rel = path.relative_to(root.parent).with_suffix("")
     parts = rel.parts[:-1] if rel.name == "__init__" else rel.parts
     return ".".join(parts)
 
@@ -160,10 +160,8 @@ def test_effects_never_import_the_fitting_code():
     assert not bad, bad
 
 
-def test_no_import_circle_between_packages():
-    graph: dict[str, set[str]] = {}
-    for s, d, _, _ in edges():
-        graph.setdefault(s, set()).add(d)
+def find_circle(graph: dict[str, set[str]]) -> list[str] | None:
+    """One import circle of ``graph`` (node -> the nodes it imports) as a closed path, or None."""
     state: dict[str, int] = {}
     path: list[str] = []
 
@@ -180,9 +178,90 @@ def test_no_import_circle_between_packages():
         return None
 
     for start in sorted(graph):
-        if start not in state:
-            cycle = visit(start)
-            assert cycle is None, "import circle: " + " -> ".join(cycle)
+        if start not in state and (cycle := visit(start)):
+            return cycle
+    return None
+
+
+def test_no_import_circle_between_packages():
+    graph: dict[str, set[str]] = {}
+    for s, d, _, _ in edges():
+        graph.setdefault(s, set()).add(d)
+    cycle = find_circle(graph)
+    assert cycle is None, "import circle: " + " -> ".join(cycle)
+
+
+def module_graph(root: Path = SRC) -> dict[str, set[str]]:
+    """Module -> the ``duffsym`` modules it imports (function-level imports included). A package's
+    ``__init__`` is its facade (it re-exports its modules), so imports *of* a package name are followed to
+    the facade, but the facade's own imports are not: a module importing ``from duffsym.effects import X``
+    depends on the facade, not on every module behind it."""
+    modules, packages = {}, set()
+    for path in sorted(root.rglob("*.py")):
+        name = _module_name(path, root)
+        modules[name] = path
+        if path.name == "__init__.py":
+            packages.add(name)
+
+    def known(target: str) -> str:
+        while target not in modules and "." in target:
+            target = target.rsplit(".", 1)[0]
+        return target
+
+    graph = {}
+    for name, path in modules.items():
+        if name not in packages:
+            graph[name] = {known(t) for t, _ in imports_of(path)} - {name} - packages
+    return graph
+
+
+def test_no_import_circle_between_modules():
+    """Inside a package too: two modules that import each other (even in a function) are one module in two
+    files, and the order they load in decides what works."""
+    cycle = find_circle(module_graph())
+    assert cycle is None, "import circle: " + " -> ".join(cycle)
+
+
+#: duffsym's own private helper modules (``duffsym._io`` ...): private to the distribution, shared by its
+#: packages by design (atomic writes, JSON, checks); an underscore *name* or a private module of another
+#: package is still refused
+SHARED_INTERNALS = ("duffsym._io", "duffsym._json", "duffsym._checks", "duffsym._typing", "duffsym._progress")
+
+
+def private_imports_across_packages(root: Path = SRC) -> list[str]:
+    """Every underscore name, or private module, that a module takes from another package."""
+    bad = []
+    for path in sorted(root.rglob("*.py")):
+        module = _module_name(path, root)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not (isinstance(node, ast.ImportFrom) and node.level == 0 and node.module):
+                continue
+            if node.module.split(".")[0] != "duffsym" or layer(node.module) == layer(module):
+                continue
+            names = [a.name for a in node.names if a.name.startswith("_") and not a.name.startswith("__")]
+            private_module = any(p.startswith("_") for p in node.module.split(".")[1:])
+            if names or (private_module and node.module not in SHARED_INTERNALS):
+                bad.append(f"{module}:{node.lineno} imports {names or node.module} from {node.module}")
+    return bad
+
+
+def test_no_private_name_crosses_a_package():
+    bad = private_imports_across_packages()
+    assert not bad, "private names used across packages (make them public or move them):\n" + "\n".join(bad)
+
+
+def test_the_checks_see_a_planted_circle_and_a_planted_private_import(tmp_path):
+    pkg = tmp_path / "duffsym"
+    (pkg / "diagnose").mkdir(parents=True)
+    (pkg / "identify").mkdir()
+    (pkg / "diagnose" / "a.py").write_text("from duffsym.diagnose.b import g\n")
+    (pkg / "diagnose" / "b.py").write_text("def g():\n    from duffsym.diagnose.a import f\n")
+    (pkg / "identify" / "c.py").write_text("from duffsym.diagnose.a import _hidden\n")
+    assert find_circle(module_graph(pkg)) in (
+        ["duffsym.diagnose.a", "duffsym.diagnose.b", "duffsym.diagnose.a"],
+        ["duffsym.diagnose.b", "duffsym.diagnose.a", "duffsym.diagnose.b"],
+    )
+    assert private_imports_across_packages(pkg) == ["duffsym.identify.c:1 imports ['_hidden'] from duffsym.diagnose.a"]
 
 
 def test_the_check_sees_a_planted_upward_import(tmp_path):
