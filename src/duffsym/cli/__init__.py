@@ -148,15 +148,17 @@ def interrupts_reach_main():
     A ``KeyboardInterrupt`` that lands inside a garbage-collector callback or a ``__del__`` (Dask's
     ``GCDiagnosis`` is one) cannot propagate: Python prints "Exception ignored in ..." with a traceback and
     carries on, so a batch interrupted at that instant ran to its end and exited 0. Such an interrupt is
-    raised again in the main thread 50 ms later, once the swallowing code has returned (a timer thread
-    delivers it; one swallowed again is delivered again), and nothing is printed for it.
+    raised again in the main thread 50 ms later, once the swallowing code has returned (a timer thread sends
+    SIGINT, which also wakes a blocking wait; one swallowed again is delivered again), or when the block ends,
+    whichever comes first; nothing is printed for it.
     """
     previous = sys.unraisablehook
+    timers: list[threading.Timer] = []
 
     def redeliver() -> None:
-        # a real SIGINT to the main thread (it also wakes a blocking wait), once this hook and its caller returned
         timer = threading.Timer(0.05, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT))
         timer.daemon = True
+        timers.append(timer)
         timer.start()
 
     def hook(unraisable) -> None:
@@ -173,6 +175,11 @@ def interrupts_reach_main():
         yield
     finally:
         sys.unraisablehook = previous
+        for timer in timers:  # a signal already sent raises here; one not yet sent must not outlive the block
+            timer.cancel()
+            timer.join()
+    if timers:
+        raise KeyboardInterrupt
 
 
 def _quiet_dask_shutdown() -> None:
