@@ -23,6 +23,7 @@ from duffsym._typing import Float1D, Float2D
 from duffsym.errors import DataError, ModelError, SimulationError
 from duffsym.excitation import Excitation
 from duffsym.model.core import SymbolicModel
+from duffsym.options import resolve
 from duffsym.status import Status
 
 #: Default stiffness target h*rho(J) per RK4 substep, at both ends of each sample interval (RK4's
@@ -218,22 +219,35 @@ def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup, method
     )
 
 
+@dataclass(frozen=True)
+class SimulateOptions:
+    """The settings of :func:`simulate` (every field has the default ``simulate`` uses; pass the object as
+    ``simulate(model, params, t, inputs, options=opts)`` or any field as a keyword,
+    ``simulate(model, params, t, inputs, method="rk4")``). The fields are described under :func:`simulate`."""
+
+    method: str = "auto"
+    substeps: int | str = "auto"
+    h_lambda: float = H_LAMBDA
+    max_substeps: int = MAX_SUBSTEPS
+    reconstruction: str = "linear"
+    blowup: float = BLOWUP
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    on_failure: str = "raise"
+
+
+_DEFAULT_OPTIONS = SimulateOptions()
+
+
 def simulate(
     model: SymbolicModel,
     params: Mapping[str, float] | Sequence[float],
     t,
     inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray,
     *,
-    x0: Sequence[float] | None = None,
-    method: str = "auto",
-    substeps: int | str = "auto",
-    h_lambda: float = H_LAMBDA,
-    max_substeps: int = MAX_SUBSTEPS,
-    reconstruction: str = "linear",
-    blowup: float = BLOWUP,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    on_failure: str = "raise",
+    x0: Sequence[float] | np.ndarray | None = None,
+    options: SimulateOptions | None = None,
+    **settings,
 ) -> Trajectory:
     """Simulate ``model`` with ``params`` at sample times ``t``.
 
@@ -245,6 +259,10 @@ def simulate(
     inputs : an :class:`~duffsym.excitation.Excitation` (exact derivatives), a mapping from
         channel name (``"d"``, ``"d_dot"``) to samples, or an array ``(n_times, n_inputs)``.
     x0 : initial state (default zeros).
+    options : the integrator settings below, a :class:`SimulateOptions` (default: its defaults).
+    **settings : any :class:`SimulateOptions` field by name, replacing that field of ``options``; an
+        unknown name raises :class:`TypeError`:
+
     method : ``"auto"`` (default): the compiled stiffness-aware RK4, and if it stops (blow-up or too
         stiff) the run is redone with the compiled implicit ROS2 integrator and the trajectory's
         ``fallback`` says why; a failure of both is a divergence of the trajectory itself.
@@ -267,6 +285,13 @@ def simulate(
     structure's equation-error start) asks for ``"rk4"``: an implicit rerun of every rejected
     trial costs up to a few hundred times an explicit one and buys nothing there.
     """
+    opts = (
+        _DEFAULT_OPTIONS
+        if options is None and not settings
+        else resolve(SimulateOptions, options, settings, "simulate")
+    )
+    method, reconstruction, on_failure = opts.method, opts.reconstruction, opts.on_failure
+    h_lambda, max_substeps, blowup = opts.h_lambda, opts.max_substeps, opts.blowup
     if method not in METHODS:
         raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
     if reconstruction not in RECONSTRUCTIONS:
@@ -276,17 +301,17 @@ def simulate(
     t = check_time(t)
     p = model.param_vector(params)
     U = input_matrix(model, t, inputs)
-    x0 = _initial_state(model, x0)
-    fixed = _substep_setting(substeps)
+    x_start = _initial_state(model, x0)
+    fixed = _substep_setting(opts.substeps)
     _check_integrator_options(h_lambda, max_substeps, blowup)
     fallback = ""
     if method == "radau":
-        X, Y, st, idx = _radau(model, t, U, x0, p, reconstruction == "hold", rtol, atol, blowup)
+        X, Y, st, idx = _radau(model, t, U, x_start, p, reconstruction == "hold", opts.rtol, opts.atol, blowup)
         subs, ran = np.zeros(0, dtype=np.int64), "radau"
     else:
         ran = "rosenbrock" if method == "rosenbrock" else "rk4"
         X, Y, st, idx, subs = _compiled_run(
-            model, ran, t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+            model, ran, t, U, x_start, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
         )
         if method == "auto" and st != 0:
             fallback = (
@@ -295,7 +320,7 @@ def simulate(
             )
             first = _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
             X, Y, st, idx, subs = _compiled_run(
-                model, "rosenbrock", t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+                model, "rosenbrock", t, U, x_start, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
             )
             ran = "rosenbrock"
             if st != 0:
