@@ -102,8 +102,8 @@ class Engine:
         self.scheduler = scheduler
         self.silence_logs = silence_logs
         self.kind = "cluster" if scheduler else ("local" if self.workers >= 1 else "serial")
-        self._client = None
-        self._cluster = None
+        self._client: Any = None  # a dask.distributed Client once started (dask is imported on start)
+        self._cluster: Any = None  # its LocalCluster when local
         self._scattered: dict[int, tuple[Any, Any]] = {}
 
     # ------------------------------------------------------------------ life cycle

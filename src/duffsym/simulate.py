@@ -126,7 +126,7 @@ def check_time(t) -> np.ndarray:
 
 
 def input_matrix(
-    model: SymbolicModel, t: np.ndarray, inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray
+    model: SymbolicModel, t: np.ndarray, inputs: Excitation | Mapping[str, Sequence[float] | np.ndarray] | np.ndarray
 ) -> np.ndarray:
     """The model's input matrix ``(n_times, n_inputs)`` from an excitation, a mapping or an array."""
     if isinstance(inputs, Excitation):
@@ -241,9 +241,9 @@ _DEFAULT_OPTIONS = SimulateOptions()
 
 def simulate(
     model: SymbolicModel,
-    params: Mapping[str, float] | Sequence[float],
+    params: Mapping[str, float] | Sequence[float] | np.ndarray,
     t,
-    inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray,
+    inputs: Excitation | Mapping[str, Sequence[float] | np.ndarray] | np.ndarray,
     *,
     x0: Sequence[float] | np.ndarray | None = None,
     options: SimulateOptions | None = None,
@@ -351,10 +351,10 @@ def simulate(
 
 def simulate_record(
     model: SymbolicModel,
-    params: Mapping[str, float] | Sequence[float],
+    params: Mapping[str, float] | Sequence[float] | np.ndarray,
     record,
     *,
-    x0: Sequence[float] | None = None,
+    x0: Sequence[float] | np.ndarray | None = None,
     **options,
 ) -> Trajectory:
     """The free run of ``model`` with ``params`` on a measured ``record``: the one public way to run a model

@@ -29,10 +29,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from duffsym.benchmark.result import BenchmarkResult, Published
+
+if TYPE_CHECKING:
+    from duffsym.model.core import SymbolicModel
 
 #: Published RMSE on the validation sets [m] (sources: ``shared/data/external/README.md``).
 PUBLISHED = (
@@ -163,7 +167,7 @@ def _free_element(model, options) -> list[str]:
     return [p for p in model.param_names[n_s:] if not p.startswith(("A_f", "k3"))]
 
 
-def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -> tuple[object, dict, dict]:
+def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -> tuple[SymbolicModel, dict, dict]:
     """``(model, params, details)`` estimated on the training record (output in mm)."""
     from duffsym.identify import Problem, fit
     from duffsym.identify.structure import equation_error_start, scaled_to
