@@ -39,8 +39,8 @@ METHODS = ("auto", "rk4", "rosenbrock", "radau")
 #: Error tolerances of the compiled implicit integrator (ROS2, second order): scaled RMS of the
 #: embedded error per step. At these values the Dyke record's free run agrees with the Radau
 #: reference to 3.5e-4 of the force's standard deviation (RK4 at h*rho <= 0.6 elsewhere: 1.5e-3);
-#: it costs ~20x a well-chosen fixed-substep RK4 run there and 229x the automatic RK4 on a non-stiff
-#: record (it runs only when RK4 stops); 1e-5 gives 3e-5 at ~3x more (benchmarks/bench_stiff.py).
+#: it costs far more than an RK4 run (it runs only when RK4 stops); 1e-5 gives 3e-5 at a higher cost
+#: (the costs: benchmarks/bench_stiff.py and its results).
 IMPLICIT_RTOL = 1e-4
 IMPLICIT_ATOL = 1e-7
 #: Step attempts the implicit integrator may take within one sample interval (its own budget: it
@@ -165,7 +165,8 @@ _EXCITATION_CACHE_SIZE = 16
 
 def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> np.ndarray:
     """``exc.channels(t, model)``, checked, remembered for repeated calls with the same excitation and
-    times (fits and samplers simulate one input thousands of times; the sines cost ~20 us)."""
+    times (fits and samplers simulate one input thousands of times, and evaluating the sines each time
+    would repeat the same work)."""
     try:
         key = (exc, tuple(c.order for c in model.inputs), t.tobytes())
         hit = _EXCITATION_CACHE.get(key)

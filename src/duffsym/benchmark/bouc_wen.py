@@ -81,7 +81,7 @@ class BoucWenOptions:
     ee_samples: int = 8192  # samples of the equation-error start
     ee_random_starts: int = 8  # random starts of the equation-error start (besides the explicit ones;
     # measured: 0, 8 and 32 give the same start, with or without the directional
-    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8;
+    # damping, whose explicit starts at -gain/2 win; 32 costs 4x the random starts of 8;
     # the rate element needs 32: 6.8e-5 m, with 8 1.2e-4 m; RATE_RANDOM_STARTS)
     ee_spread: float = 1000.0  # ... log-uniform within this factor of the element's defaults
     oe_samples: int = 3000  # samples of the output-error collocation fit (0: none)
