@@ -40,7 +40,8 @@ BOUC_WEN = dict(m=2.0, c=10.0, k=5e4, alpha=5e4, beta=1e3, gamma=0.8, delta=-1.1
 def multisine(
     n: int, fs: float, *, f_lo: float = 5.0, f_hi: float = 150.0, rms: float = 50.0, seed: int = 0
 ) -> np.ndarray:
-    """One period of a random-phase multisine of ``n`` samples, flat amplitude on ``[f_lo, f_hi]``, scaled to ``rms``."""
+    """One period of a random-phase multisine of ``n`` samples, flat amplitude on ``[f_lo, f_hi]``, scaled to
+    ``rms``."""
     rng = np.random.default_rng(seed)
     k = np.arange(n // 2 + 1)
     f = k * fs / n

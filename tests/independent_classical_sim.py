@@ -5,7 +5,8 @@ so the smooth forms duffsym fits (|v| ~ sqrt(v^2 + eps^2), sign ~ tanh(v/eps)) a
 approximate. Parameter names are the papers' (Spencer's alpha, alpha_u = alpha_b, ...):
 
 - Bouc-Wen (z in force units):  y = c0 v + k0 (d - x0) + z,  z' = -gamma |v| z |z|^(n-1) - beta v |z|^n + A v
-- Spencer et al. 1997:           y = c1(u) y' + k1 (d - x0),  y' = (alpha(u) z + c0(u) v + k0 (d - y)) / (c0(u) + c1(u)),
+- Spencer et al. 1997:           y = c1(u) y' + k1 (d - x0),
+                                 y' = (alpha(u) z + c0(u) v + k0 (d - y)) / (c0(u) + c1(u)),
                                  z' = BW(v - y'),  u' = -eta (u - i),  theta(u) = theta + theta_u u
 - Dahl:                          y = z + sigma2 v,  z' = sigma0 (v - |v| z / Fc)
 - LuGre:                         z' = v - sigma0 |v| z / g(v),  g = Fc + (Fs - Fc) exp(-(v/vs)^2),

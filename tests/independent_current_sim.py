@@ -107,7 +107,7 @@ def integrate(rhs_fn, disp: Sines, command, *, dt: float, duration: float, settl
             tt = np.array([t0, t0 + h / 2, t0 + h])
             d, dd, ii = disp(tt), disp(tt, 1), command(tt)
 
-            def f(state, m):
+            def f(state, m, d=d, dd=dd, ii=ii):
                 return np.array(rhs_fn(state[0], state[1], state[2], d[m], dd[m], ii[m]))
 
             q1 = f(s, 0)

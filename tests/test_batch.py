@@ -55,7 +55,7 @@ def cluster():
 @pytest.fixture(scope="module")
 def data(tmp_path_factory):
     folder = tmp_path_factory.mktemp("batch")
-    paths = _records(folder / "recs", 3)
+    _records(folder / "recs", 3)
     (folder / "recs" / "short.csv").write_text("time,displacement,force\n0,0,0\n0.01,0.1,0.2\n")
     return folder
 

@@ -29,7 +29,7 @@ def test_a_record_named_summary_keeps_its_result(tmp_path):
     val = batch(
         [tmp_path / "recs"], command="validate", fit=out, out=tmp_path / "val", workers=0, progress=False, figure=False
     )
-    assert val.all_ok, [r for r in val]
+    assert val.all_ok, list(val)
 
 
 def test_start_up_leaves_another_live_batchs_temporary_files(tmp_path):

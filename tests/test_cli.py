@@ -23,29 +23,28 @@ def test_models_json_lists_the_paper_models(capsys):
     code, out, err = run(["models", "--json"], capsys)
     assert code == 0
     names = [m["model"] for m in json.loads(out)["models"]]
-    assert (
-        names
-        == [
-            "mr-damper",
-            "mr-damper-current",
-            "mr-damper-current-quadratic",
-            "mr-damper-current-saturating",
-            "mr-damper-current-path-viscous",
-            "duffing-like",
-            "duffing",
-            "duffing-gain",
-            "structure",
-            "bouc-wen",
-            "bouc-wen-current",
-            "spencer",
-            "dahl",
-            "lugre",
-            "bingham",
-            "bingham-current",
-            "biviscous",
-            "biviscous-current",
-        ]
-    )  # the classical models (issue 25) follow the paper's; duffing-gain: Eq. 1 with an input gain; structure: a mass carrying the element; *-current: driven by the coil command
+    # the classical models (issue 25) follow the paper's; duffing-gain: Eq. 1 with an input gain; structure: a
+    # mass carrying the element; *-current: driven by the coil command
+    assert names == [
+        "mr-damper",
+        "mr-damper-current",
+        "mr-damper-current-quadratic",
+        "mr-damper-current-saturating",
+        "mr-damper-current-path-viscous",
+        "duffing-like",
+        "duffing",
+        "duffing-gain",
+        "structure",
+        "bouc-wen",
+        "bouc-wen-current",
+        "spencer",
+        "dahl",
+        "lugre",
+        "bingham",
+        "bingham-current",
+        "biviscous",
+        "biviscous-current",
+    ]
 
 
 def test_simulate_table2_row_matches_python_api(tmp_path, capsys):

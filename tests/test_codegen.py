@@ -185,8 +185,8 @@ def test_jacobians_match_central_differences(model):
     mod = compiled_module(model)
     n = model.n_states
     for x, u, p in zip(X, U, P):
-        fd_x = _central_difference(lambda v: nm.rhs(v, u, p), x)
-        fd_p = _central_difference(lambda v: nm.rhs(x, u, v), p)
+        fd_x = _central_difference(lambda v, u=u, p=p: nm.rhs(v, u, p), x)
+        fd_p = _central_difference(lambda v, x=x, u=u: nm.rhs(x, u, v), p)
         Jc = np.empty((n, n))
         mod.jac(x, u, p, Jc)
         for got, fd, what in (

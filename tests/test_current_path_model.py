@@ -89,9 +89,9 @@ def test_recovers_the_parameters_from_tests_at_three_constant_currents_at_differ
     """A campaign from the independent simulator (1 % noise): three tests at 0.2, 0.5, 0.8 A whose drives differ in
     frequency (x1, x2.5, x0.4), one parameter set (eta held: a constant current does not show the lag). Every free
     parameter, the transition velocity v_eps and the viscous c0, c0_u included, within 3 standard errors of the
-    truth, with standard errors under 5 % of the value (20 % for the field slopes), so the check can fail. The start is every parameter
-    0.6-1.6x off the truth: from the model's defaults the fit does not converge (as on the UTFSM campaign, where
-    ``path_start`` from a clock-time fit is the start that works)."""
+    truth, with standard errors under 5 % of the value (20 % for the field slopes), so the check can fail. The start
+    is every parameter 0.6-1.6x off the truth: from the model's defaults the fit does not converge (as on the UTFSM
+    campaign, where ``path_start`` from a clock-time fit is the start that works)."""
     recs = [
         _record(
             gen.constant(c),

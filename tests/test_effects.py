@@ -111,7 +111,10 @@ def test_each_effect_adds_the_hand_written_terms(name):
         exp_rhs, exp_out = [v, accel(d - tau * dd, dd - tau * dddot)], A_f * v
     else:  # backlash
         b, h = sym("b_backlash"), sp.Float(0.87) * P["bl_h"]  # calibrated to the exact play (Backlash doc)
-        sig = lambda u: (1 + sp.tanh(u)) / 2
+
+        def sig(u):
+            return (1 + sp.tanh(u)) / 2
+
         eps, g, w = h / 5, d - b, sp.Rational(1, 10) * dd / h
         b_dot = dd * (sig((g - h) / eps + 1) * sig(w) + sig((-g - h) / eps + 1) * sig(-w))
         exp_rhs, exp_out = [v, accel(b, b_dot), b_dot], A_f * v

@@ -89,7 +89,7 @@ def check_loader(path: Path, broken: bool, name: str) -> str:
         assert "\n" not in msg and len(msg) < 800, msg[:300]
         assert str(path) in msg or "sampling must" in msg, msg
         if not broken:
-            raise AssertionError(f"{name}: a valid file was refused: {msg}")
+            raise AssertionError(f"{name}: a valid file was refused: {msg}") from exc
         return "refused"
     if broken:
         raise AssertionError(f"{name}: a broken file was accepted silently")

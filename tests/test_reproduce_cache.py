@@ -1,4 +1,5 @@
-"""``duffsym reproduce`` / ``studies/run_all.py``: unchanged studies are skipped, changed ones rerun, studies in parallel.
+"""``duffsym reproduce`` / ``studies/run_all.py``: unchanged studies are skipped, changed ones rerun, studies in
+parallel.
 
 Runs the fast studies s03 and s04 (seconds each, smoke settings) into a temporary output root.
 """

@@ -23,7 +23,7 @@ def _imported_after(code: str) -> set[str]:
 def test_help_and_version_import_no_heavy_package():
     for argv in (["--help"], ["--version"]):
         mods = _imported_after(
-            "import sys\nfrom duffsym.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n    pass" % (argv,)
+            f"import sys\nfrom duffsym.cli import main\ntry:\n    main({argv!r})\nexcept SystemExit:\n    pass"
         )
         assert not {m.split(".")[0] for m in mods} & set(HEAVY), argv
 

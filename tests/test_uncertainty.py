@@ -119,7 +119,7 @@ def test_sample_recovers_laplace_and_truth(sine_fit, chains):
     assert sum(chains.counts.values()) == 24 * 400 + 24  # every proposal + the start ensemble
     assert 0.08 < d["acceptance"] < 0.5  # DE moves: ~0.1-0.3
     assert set(d["laplace"]) == set(FREE)
-    for j, n in enumerate(FREE):
+    for n in FREE:
         q = d["median"][n]
         se = res.stderr[n]
         # the posterior agrees with the independent Laplace approximation of the IPOPT fit ...

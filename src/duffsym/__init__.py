@@ -15,7 +15,8 @@ from duffsym.errors import DataError, DuffsymError, ModelError, SimulationError,
 
 #: The facade's names and where they live: imported on first use, so that ``import duffsym`` (and with
 #: it every ``duffsym`` command, ``duffsym --help`` included) does not pay for SymPy, NumPy or CasADi
-#: until they are needed (``python -X importtime``: 2.0 s of 2.0 s before, under load).
+#: until they are needed (``python -X importtime`` shows what an import costs; tests/test_startup.py checks that
+#: ``--help`` and ``--version`` import none of them).
 _LAZY = {
     "Sine": "duffsym.excitation",
     "SymbolicModel": "duffsym.model",

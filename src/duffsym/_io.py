@@ -23,7 +23,7 @@ import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 from duffsym.errors import DataError
 
@@ -56,7 +56,7 @@ def atomic_write(path, mode: str = "w", *, encoding: str | None = "utf-8", newli
     """
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_write: mode must be 'w' or 'wb'; got {mode!r}")
-    kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}
+    kwargs: dict[str, Any] = {} if "b" in mode else {"encoding": encoding, "newline": newline}
     with atomic_path(path, keep_suffix=False) as tmp, open(tmp, mode, **kwargs) as fh:
         yield fh
         fh.flush()
@@ -111,7 +111,8 @@ def write_text_atomic(path, text: str) -> Path:
 
 
 def write_json_atomic(path, obj, **kwargs) -> Path:
-    """Write ``obj`` as JSON (indent 2, no NaN) to ``path`` atomically; serialisation errors leave ``path`` untouched."""
+    """Write ``obj`` as JSON (indent 2, no NaN) to ``path`` atomically; serialisation errors leave ``path``
+    untouched."""
     text = json.dumps(obj, indent=kwargs.pop("indent", 2), allow_nan=kwargs.pop("allow_nan", False), **kwargs)
     return write_text_atomic(path, text)
 

@@ -11,7 +11,7 @@ engine; duffsym adds no scheduler of its own)::
     for outcome in engine.run(tasks): ...        # Task(func, args, kwargs) objects, as each finishes
 
 A worker process imports duffsym and compiles its generated code once, then serves every task it
-is given: the start-up (~2 s of imports and compilation per ``duffsym`` command) is paid once per
+is given: the start-up (the imports and compilation every ``duffsym`` command pays) is paid once per
 worker instead of once per piece of work. ``func`` and the items must be picklable (module-level
 functions; cloudpickle also takes lambdas and closures). ``map`` has the signature emcee expects of
 a pool, so an engine can be passed as ``pool=`` to :func:`duffsym.uncertainty.sample`.
@@ -102,8 +102,8 @@ class Engine:
         self.scheduler = scheduler
         self.silence_logs = silence_logs
         self.kind = "cluster" if scheduler else ("local" if self.workers >= 1 else "serial")
-        self._client = None
-        self._cluster = None
+        self._client: Any = None  # a dask.distributed Client once started (dask is imported on start)
+        self._cluster: Any = None  # its LocalCluster when local
         self._scattered: dict[int, tuple[Any, Any]] = {}
 
     # ------------------------------------------------------------------ life cycle

@@ -23,6 +23,7 @@ from duffsym._typing import Float1D, Float2D
 from duffsym.errors import DataError, ModelError, SimulationError
 from duffsym.excitation import Excitation
 from duffsym.model.core import SymbolicModel
+from duffsym.options import resolve
 from duffsym.status import Status
 
 #: Default stiffness target h*rho(J) per RK4 substep, at both ends of each sample interval (RK4's
@@ -38,8 +39,8 @@ METHODS = ("auto", "rk4", "rosenbrock", "radau")
 #: Error tolerances of the compiled implicit integrator (ROS2, second order): scaled RMS of the
 #: embedded error per step. At these values the Dyke record's free run agrees with the Radau
 #: reference to 3.5e-4 of the force's standard deviation (RK4 at h*rho <= 0.6 elsewhere: 1.5e-3);
-#: it costs ~20x a well-chosen fixed-substep RK4 run there and 229x the automatic RK4 on a non-stiff
-#: record (it runs only when RK4 stops); 1e-5 gives 3e-5 at ~3x more (benchmarks/bench_stiff.py).
+#: it costs far more than an RK4 run (it runs only when RK4 stops); 1e-5 gives 3e-5 at a higher cost
+#: (the costs: benchmarks/bench_stiff.py and its results).
 IMPLICIT_RTOL = 1e-4
 IMPLICIT_ATOL = 1e-7
 #: Step attempts the implicit integrator may take within one sample interval (its own budget: it
@@ -125,7 +126,7 @@ def check_time(t) -> np.ndarray:
 
 
 def input_matrix(
-    model: SymbolicModel, t: np.ndarray, inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray
+    model: SymbolicModel, t: np.ndarray, inputs: Excitation | Mapping[str, Sequence[float] | np.ndarray] | np.ndarray
 ) -> np.ndarray:
     """The model's input matrix ``(n_times, n_inputs)`` from an excitation, a mapping or an array."""
     if isinstance(inputs, Excitation):
@@ -164,7 +165,8 @@ _EXCITATION_CACHE_SIZE = 16
 
 def _excitation_matrix(model: SymbolicModel, t: np.ndarray, exc: Excitation) -> np.ndarray:
     """``exc.channels(t, model)``, checked, remembered for repeated calls with the same excitation and
-    times (fits and samplers simulate one input thousands of times; the sines cost ~20 us)."""
+    times (fits and samplers simulate one input thousands of times, and evaluating the sines each time
+    would repeat the same work)."""
     try:
         key = (exc, tuple(c.order for c in model.inputs), t.tobytes())
         hit = _EXCITATION_CACHE.get(key)
@@ -218,22 +220,35 @@ def _failure_message(model, status, k, t, h_lambda, max_substeps, blowup, method
     )
 
 
+@dataclass(frozen=True)
+class SimulateOptions:
+    """The settings of :func:`simulate` (every field has the default ``simulate`` uses; pass the object as
+    ``simulate(model, params, t, inputs, options=opts)`` or any field as a keyword,
+    ``simulate(model, params, t, inputs, method="rk4")``). The fields are described under :func:`simulate`."""
+
+    method: str = "auto"
+    substeps: int | str = "auto"
+    h_lambda: float = H_LAMBDA
+    max_substeps: int = MAX_SUBSTEPS
+    reconstruction: str = "linear"
+    blowup: float = BLOWUP
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    on_failure: str = "raise"
+
+
+_DEFAULT_OPTIONS = SimulateOptions()
+
+
 def simulate(
     model: SymbolicModel,
-    params: Mapping[str, float] | Sequence[float],
+    params: Mapping[str, float] | Sequence[float] | np.ndarray,
     t,
-    inputs: Excitation | Mapping[str, Sequence[float]] | np.ndarray,
+    inputs: Excitation | Mapping[str, Sequence[float] | np.ndarray] | np.ndarray,
     *,
-    x0: Sequence[float] | None = None,
-    method: str = "auto",
-    substeps: int | str = "auto",
-    h_lambda: float = H_LAMBDA,
-    max_substeps: int = MAX_SUBSTEPS,
-    reconstruction: str = "linear",
-    blowup: float = BLOWUP,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    on_failure: str = "raise",
+    x0: Sequence[float] | np.ndarray | None = None,
+    options: SimulateOptions | None = None,
+    **settings,
 ) -> Trajectory:
     """Simulate ``model`` with ``params`` at sample times ``t``.
 
@@ -245,6 +260,10 @@ def simulate(
     inputs : an :class:`~duffsym.excitation.Excitation` (exact derivatives), a mapping from
         channel name (``"d"``, ``"d_dot"``) to samples, or an array ``(n_times, n_inputs)``.
     x0 : initial state (default zeros).
+    options : the integrator settings below, a :class:`SimulateOptions` (default: its defaults).
+    **settings : any :class:`SimulateOptions` field by name, replacing that field of ``options``; an
+        unknown name raises :class:`TypeError`:
+
     method : ``"auto"`` (default): the compiled stiffness-aware RK4, and if it stops (blow-up or too
         stiff) the run is redone with the compiled implicit ROS2 integrator and the trajectory's
         ``fallback`` says why; a failure of both is a divergence of the trajectory itself.
@@ -267,6 +286,13 @@ def simulate(
     structure's equation-error start) asks for ``"rk4"``: an implicit rerun of every rejected
     trial costs up to a few hundred times an explicit one and buys nothing there.
     """
+    opts = (
+        _DEFAULT_OPTIONS
+        if options is None and not settings
+        else resolve(SimulateOptions, options, settings, "simulate")
+    )
+    method, reconstruction, on_failure = opts.method, opts.reconstruction, opts.on_failure
+    h_lambda, max_substeps, blowup = opts.h_lambda, opts.max_substeps, opts.blowup
     if method not in METHODS:
         raise ModelError(f"method must be one of {set(METHODS)}; got {method!r}")
     if reconstruction not in RECONSTRUCTIONS:
@@ -276,17 +302,17 @@ def simulate(
     t = check_time(t)
     p = model.param_vector(params)
     U = input_matrix(model, t, inputs)
-    x0 = _initial_state(model, x0)
-    fixed = _substep_setting(substeps)
+    x_start = _initial_state(model, x0)
+    fixed = _substep_setting(opts.substeps)
     _check_integrator_options(h_lambda, max_substeps, blowup)
     fallback = ""
     if method == "radau":
-        X, Y, st, idx = _radau(model, t, U, x0, p, reconstruction == "hold", rtol, atol, blowup)
+        X, Y, st, idx = _radau(model, t, U, x_start, p, reconstruction == "hold", opts.rtol, opts.atol, blowup)
         subs, ran = np.zeros(0, dtype=np.int64), "radau"
     else:
         ran = "rosenbrock" if method == "rosenbrock" else "rk4"
         X, Y, st, idx, subs = _compiled_run(
-            model, ran, t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+            model, ran, t, U, x_start, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
         )
         if method == "auto" and st != 0:
             fallback = (
@@ -295,7 +321,7 @@ def simulate(
             )
             first = _failure_message(model, st, idx, t, h_lambda, max_substeps, blowup)
             X, Y, st, idx, subs = _compiled_run(
-                model, "rosenbrock", t, U, x0, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
+                model, "rosenbrock", t, U, x_start, p, fixed, h_lambda, max_substeps, reconstruction == "hold", blowup
             )
             ran = "rosenbrock"
             if st != 0:
@@ -326,10 +352,10 @@ def simulate(
 
 def simulate_record(
     model: SymbolicModel,
-    params: Mapping[str, float] | Sequence[float],
+    params: Mapping[str, float] | Sequence[float] | np.ndarray,
     record,
     *,
-    x0: Sequence[float] | None = None,
+    x0: Sequence[float] | np.ndarray | None = None,
     **options,
 ) -> Trajectory:
     """The free run of ``model`` with ``params`` on a measured ``record``: the one public way to run a model

@@ -29,10 +29,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from duffsym.benchmark.result import BenchmarkResult, Published
+
+if TYPE_CHECKING:
+    from duffsym.model.core import SymbolicModel
 
 #: Published RMSE on the validation sets [m] (sources: ``shared/data/external/README.md``).
 PUBLISHED = (
@@ -77,7 +81,7 @@ class BoucWenOptions:
     ee_samples: int = 8192  # samples of the equation-error start
     ee_random_starts: int = 8  # random starts of the equation-error start (besides the explicit ones;
     # measured: 0, 8 and 32 give the same start, with or without the directional
-    # damping, whose explicit starts at -gain/2 win; 32 took 3x the time of 8;
+    # damping, whose explicit starts at -gain/2 win; 32 costs 4x the random starts of 8;
     # the rate element needs 32: 6.8e-5 m, with 8 1.2e-4 m; RATE_RANDOM_STARTS)
     ee_spread: float = 1000.0  # ... log-uniform within this factor of the element's defaults
     oe_samples: int = 3000  # samples of the output-error collocation fit (0: none)
@@ -163,7 +167,7 @@ def _free_element(model, options) -> list[str]:
     return [p for p in model.param_names[n_s:] if not p.startswith(("A_f", "k3"))]
 
 
-def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -> tuple[object, dict, dict]:
+def estimate(train, options: BoucWenOptions = BoucWenOptions(), progress=None) -> tuple[SymbolicModel, dict, dict]:
     """``(model, params, details)`` estimated on the training record (output in mm)."""
     from duffsym.identify import Problem, fit
     from duffsym.identify.structure import equation_error_start, scaled_to

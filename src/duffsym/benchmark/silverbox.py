@@ -19,10 +19,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from duffsym.benchmark.result import BenchmarkResult, Published
+
+if TYPE_CHECKING:
+    from duffsym.model.core import SymbolicModel
 
 N_SKIP = 50
 N_NO_EXTRAPOLATION = 32000
@@ -131,7 +135,7 @@ def scores(y, yhat) -> tuple[float, float]:
     return full, part
 
 
-def estimate(train, options: SilverboxOptions = SilverboxOptions(), progress=None) -> tuple[object, dict, dict]:
+def estimate(train, options: SilverboxOptions = SilverboxOptions(), progress=None) -> tuple[SymbolicModel, dict, dict]:
     """``(model, params, details)``: the stepwise fit on the estimation segment, then the refit."""
     from duffsym.effects import CATALOGUE
     from duffsym.identify import Problem, fit, fit_with_effects
@@ -153,7 +157,7 @@ def estimate(train, options: SilverboxOptions = SilverboxOptions(), progress=Non
         if r.success:
             params = dict(r.params)
         steps.append({"effects": list(effects), "nrmse": float(r.nrmse), "success": bool(r.success)})
-    details = {"steps": steps}
+    details: dict[str, Any] = {"steps": steps}
     if options.refit_len:
         rec = train.slice(options.seg_start, options.seg_start + options.refit_len)
         say(f"refit on {rec.n_times} samples")

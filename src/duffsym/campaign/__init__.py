@@ -6,10 +6,10 @@ Each record is one :class:`~duffsym.engine.Task` made by the caller's ``make_tas
 ``validate``, ``diagnose``, ``ladder`` or ``sample`` run by its own function), executed by the engine
 in a worker process that has paid the start-up once; it returns a :class:`RecordRun` whose
 ``result.to_dict()`` is the command's JSON. One result file per record is written atomically to the
-results folder as each record finishes; it holds the command's JSON and a ``"batch"`` block (status, message, the hash of the inputs and
-options). A rerun skips the records whose result is complete and whose hash is unchanged, so an
-interrupted batch resumes where it stopped. ``summary.json``, ``summary.csv`` and ``summary.png``
-describe every record, failures included: one record's error never stops the others.
+results folder as each record finishes; it holds the command's JSON and a ``"batch"`` block (status,
+message, the hash of the inputs and options). A rerun skips the records whose result is complete and whose
+hash is unchanged, so an interrupted batch resumes where it stopped. ``summary.json``, ``summary.csv`` and
+``summary.png`` describe every record, failures included: one record's error never stops the others.
 """
 
 from __future__ import annotations
@@ -28,9 +28,10 @@ from duffsym._json import jsonable
 from duffsym.campaign.manifest import COMMANDS, Job, collect_jobs
 from duffsym.campaign.summary import plot_summary, row, write_csv
 from duffsym.errors import DataError
+from duffsym.options import resolve
 
 STATUSES = ("ok", "failed", "error")
-__all__ = ["run_batch", "CampaignResult", "BatchResult", "RecordRun", "COMMANDS", "collect_jobs", "Job"]
+__all__ = ["run_batch", "RunOptions", "CampaignResult", "BatchResult", "RecordRun", "COMMANDS", "collect_jobs", "Job"]
 
 
 @dataclass(frozen=True)
@@ -183,6 +184,29 @@ def _document(command: str, job: Job, digest: str, outcome) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------- main
+@dataclass(frozen=True)
+class RunOptions:
+    """How :func:`run_batch` runs the records (every field has the default ``run_batch`` uses; pass the object
+    as ``run_batch(..., run=RunOptions(workers=0))`` or any field as a keyword, ``run_batch(..., workers=0)``).
+
+    Fields
+    ------
+    workers : local worker processes (default: the cores available); 0 runs in this process.
+    scheduler : address of a Dask scheduler: the records run on its workers (overrides ``workers``).
+    engine : an open :class:`~duffsym.engine.Engine` to use instead (``workers``/``scheduler`` ignored).
+    retry_failed : rerun records whose stored result is ``failed`` or ``error`` (default: keep them).
+    progress : a progress bar on stderr (tqdm): records done, failures, estimated time left.
+    figure : write ``summary.png``.
+    """
+
+    workers: int | None = None
+    scheduler: str | None = None
+    engine: Any = None
+    retry_failed: bool = False
+    progress: bool = True
+    figure: bool = True
+
+
 def run_batch(
     inputs: Iterable = (),
     *,
@@ -192,12 +216,8 @@ def run_batch(
     manifest=None,
     fit=None,
     options: Any = None,
-    workers: int | None = None,
-    scheduler: str | None = None,
-    engine=None,
-    retry_failed: bool = False,
-    progress: bool = True,
-    figure: bool = True,
+    run: RunOptions | None = None,
+    **settings,
 ) -> CampaignResult:
     """Run the task of every record of a folder, a glob or a manifest, on an engine.
 
@@ -213,12 +233,10 @@ def run_batch(
     fit : a FIT.json for every record, or a folder of ``<record>.json`` (e.g. the ``out`` of a batch fit).
     options : options of the command for every record, as on its command line (``"--starts 3"``) or
         a mapping (``{"starts": 3}``).
-    workers : local worker processes (default: the cores available); 0 runs in this process.
-    scheduler : address of a Dask scheduler: the records run on its workers (overrides ``workers``).
-    engine : an open :class:`~duffsym.engine.Engine` to use instead (``workers``/``scheduler`` ignored).
-    retry_failed : rerun records whose stored result is ``failed`` or ``error`` (default: keep them).
-    progress : a progress bar on stderr (tqdm): records done, failures, estimated time left.
-    figure : write ``summary.png``.
+    run : how the records run, a :class:`RunOptions` (default: its defaults).
+    **settings : any :class:`RunOptions` field by name (``workers``, ``scheduler``, ``engine``,
+        ``retry_failed``, ``progress``, ``figure``), replacing that field of ``run``; an unknown name raises
+        :class:`TypeError`.
 
     Returns
     -------
@@ -226,6 +244,8 @@ def run_batch(
     """
     from duffsym.engine import Engine, default_workers
 
+    how = resolve(RunOptions, run, settings, "run_batch")
+    engine, progress, figure = how.engine, how.progress, how.figure
     t0 = time.perf_counter()
     jobs = collect_jobs(inputs, command=command, manifest=manifest, fit=fit, options=options)
     out = Path(out)
@@ -237,12 +257,12 @@ def run_batch(
     done: dict[str, dict] = {}
     for j in jobs:
         doc = _load_complete(out / f"{j.name}.json", digests[j.name])
-        if doc is not None and (not retry_failed or doc["batch"].get("status") == "ok"):
+        if doc is not None and (not how.retry_failed or doc["batch"].get("status") == "ok"):
             done[j.name] = doc
     todo = [j for j in jobs if j.name not in done]
     own = engine is None
     if own:
-        engine = Engine(default_workers() if workers is None else workers, scheduler=scheduler)
+        engine = Engine(default_workers() if how.workers is None else how.workers, scheduler=how.scheduler)
     bar = _progress_bar(len(todo), command, progress)
     say = bar.write if progress else (lambda *a, **k: None)
     if progress:

@@ -156,6 +156,7 @@ def plot_summary(rows: list[dict], command: str, path) -> Path:
             pa.set_yscale("symlog", linthresh=float(np.median(mags)))
             p += " (symlog)"
         pa.set_title(p, fontsize=9)
+        assert x_label is not None  # without a label column there are no parameter panels
         pa.set_xlabel(x_label, fontsize=8)
         pa.tick_params(labelsize=7)
         if j == 0 and others and len(groups) > 1:

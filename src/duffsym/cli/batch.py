@@ -8,8 +8,9 @@ from __future__ import annotations
 
 def batch(inputs=(), *, command: str = "fit", out, **options):
     """Run a ``duffsym`` command on every record of folders, globs or a manifest; see
-    :func:`duffsym.campaign.run_batch` for the parameters (``manifest``, ``fit``, ``options``, ``workers``,
-    ``scheduler``, ``engine``, ``retry_failed``, ``progress``, ``figure``).
+    :func:`duffsym.campaign.run_batch` for the parameters (``manifest``, ``fit``, ``options``, ``run``, and
+    :class:`duffsym.campaign.RunOptions`' ``workers``, ``scheduler``, ``engine``, ``retry_failed``,
+    ``progress``, ``figure``).
 
     Returns
     -------

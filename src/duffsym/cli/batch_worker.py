@@ -14,6 +14,7 @@ temporary paths replaced by the original ones in the messages and the result.
 
 from __future__ import annotations
 
+import argparse
 import io
 import os
 import socket
@@ -115,7 +116,7 @@ def _has_quiet(command: str) -> bool:
     from duffsym.cli import build_parser
 
     parser = build_parser([command])
-    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     return "--quiet" in sub.choices[command]._option_string_actions
 
 

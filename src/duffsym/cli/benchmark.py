@@ -19,8 +19,8 @@ def cmd_benchmark(args) -> int:
     folder = external_data_dir() / ("silverbox" if args.name == "silverbox" else "bouc_wen_benchmark")
     say = (lambda m: print(m, file=sys.stderr, flush=True)) if not args.quiet else None
     if args.name == "silverbox":
-        opts = SilverboxOptions.smoke() if args.smoke else SilverboxOptions()
-        res = run_silverbox(folder, opts, progress=say)
+        sb_opts = SilverboxOptions.smoke() if args.smoke else SilverboxOptions()
+        res = run_silverbox(folder, sb_opts, progress=say)
     else:
         opts = BoucWenOptions.smoke() if args.smoke else BoucWenOptions()
         if getattr(args, "element", None):

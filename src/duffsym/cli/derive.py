@@ -1,4 +1,5 @@
-"""``duffsym derive``: the paper's derivations for a model (state space, Lyapunov, invariant set, stability, symmetry)."""
+"""``duffsym derive``: the paper's derivations for a model (state space, Lyapunov, invariant set, stability,
+symmetry)."""
 
 from __future__ import annotations
 

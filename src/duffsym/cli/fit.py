@@ -291,6 +291,11 @@ def _plot_validation(val, record, path) -> None:
 
 
 def register(sub) -> None:
+    _register_fit(sub)
+    _register_validate(sub)
+
+
+def _register_fit(sub) -> None:
     s = sub.add_parser("fit", help="identify a model's parameters from a measured record (collocation + IPOPT)")
     s.add_argument(
         "data",
@@ -359,6 +364,8 @@ def register(sub) -> None:
     s.add_argument("--quiet", action="store_true", help="no progress messages")
     s.set_defaults(func=cmd_fit, run=run_fit)
 
+
+def _register_validate(sub) -> None:
     s = sub.add_parser("validate", help="free-run error of a saved fit on another record")
     s.add_argument("fit", help="FIT.json written by `duffsym fit --out`")
     s.add_argument("data", help="CSV record to validate on")

@@ -15,8 +15,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from duffsym.cli.common import CLIError, err, parse_mapping
+
+if TYPE_CHECKING:
+    from duffsym.data.record import Record
 
 #: manifest fields that belong to per-record commands (``duffsym batch``), not to one shared fit
 PER_RECORD_ONLY = ("model", "effects", "fit", "options")
@@ -61,13 +65,13 @@ def _label(record, entry: dict, path: str):
     return record.replace(**changes) if changes else record
 
 
-def campaign_records(args, read_record) -> list[tuple[str, object]]:
+def campaign_records(args, read_record) -> list[tuple[str, Record]]:
     """``(path, record)`` of every record of ``args.data`` and ``--manifest``, labels applied, names unique.
 
     ``read_record(args, path)`` reads one file with the command's ``--columns``/``--units`` options; a
     manifest's ``columns`` replaces ``--columns`` for its record.
     """
-    entries = [(p, {}) for p in args.data or []]
+    entries: list[tuple[str, dict]] = [(p, {}) for p in args.data or []]
     if getattr(args, "manifest", None):
         entries += _manifest_entries(args.manifest)
     if not entries:

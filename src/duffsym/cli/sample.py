@@ -14,14 +14,38 @@ def cmd_sample(args) -> int:
 
 def run_sample(args):
     """``duffsym sample``'s work (chains and figures written, progress on stderr): a :class:`CommandResult`."""
-    import warnings
-
-    import numpy as np
-
-    from duffsym.cli.common import CLIError, CommandResult, err, read_record
-    from duffsym.errors import ConvergenceWarning
+    from duffsym.cli.common import CommandResult, check_outputs, err, read_record, require_success
     from duffsym.identify import load_result
-    from duffsym.uncertainty.sampler import ChainTooShort, sample
+
+    _check_sample_options(args)
+    check_outputs(
+        args,
+        [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
+        options=("out", "chains", "corner", "bands"),
+    )
+    result = load_result(args.fit)
+    require_success(result, args)
+    record = read_record(args, args.data)
+    mask = _sample_mask(args, result, record)
+    if not args.quiet:  # stderr: --json keeps stdout to the one JSON object
+        err(
+            f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
+            f"{args.steps} steps"
+        )
+    chains, caught = _run_chains(args, result, record, mask)
+    out, written = _write_outputs(args, chains, result, record)
+
+    def text() -> str:
+        return chains.summary() + (f"\n{out['identifiability']['text']}" if args.identifiability else "")
+
+    notes = [f"wrote {', '.join(written)}"] if written and not args.quiet else []
+    notes += [f"warning: {w.message}" for w in caught if not args.quiet and str(w.message) not in chains.warnings]
+    return CommandResult("sample", out, text, notes=tuple(notes), value=chains)
+
+
+def _check_sample_options(args) -> None:
+    """The numeric options' ranges (a :class:`CLIError` naming the first out of range)."""
+    from duffsym.cli.common import CLIError
 
     for label, v, least in (("--walkers", args.walkers, 2), ("--steps", args.steps, 2), ("--workers", args.workers, 1)):
         if v is not None and v < least:
@@ -32,16 +56,15 @@ def run_sample(args):
         raise CLIError(f"--checkpoint-every must be a positive number of seconds; got {args.checkpoint_every}")
     if args.thin is not None and args.thin < 1:
         raise CLIError(f"--thin must be >= 1; got {args.thin}")
-    from duffsym.cli.common import check_outputs, require_success
 
-    check_outputs(
-        args,
-        [args.data, args.fit, None if args.mask in (None, "fit", "none", "auto") else args.mask],
-        options=("out", "chains", "corner", "bands"),
-    )
-    result = load_result(args.fit)
-    require_success(result, args)
-    record = read_record(args, args.data)
+
+def _sample_mask(args, result, record):
+    """The mask of ``--mask`` (None: the fit's own, ``"fit"``), checked against the record's length when the
+    fit's stored mask is used."""
+    import numpy as np
+
+    from duffsym.cli.common import CLIError
+
     mask = None
     if args.mask not in ("fit",):
         from duffsym.cli.common import mask_from_args
@@ -52,11 +75,18 @@ def run_sample(args):
             f"the fit's stored mask has {np.size(result.mask[0])} samples but {args.data} has "
             f"{record.n_times}; sample on the record the fit was made on, or pass --mask none|auto|FILE"
         )
-    if not args.quiet:  # stderr: --json keeps stdout to the one JSON object
-        err(
-            f"sampling {result.model} ({', '.join(result.free)}) on {args.data}: {args.walkers} walkers x "
-            f"{args.steps} steps"
-        )
+    return mask
+
+
+def _run_chains(args, result, record, mask):
+    """``(chains, caught warnings)``: the emcee run on local workers or a Dask cluster when asked, the steps so
+    far kept beside ``--chains`` while it runs."""
+    import warnings
+
+    from duffsym.cli.common import CLIError, err
+    from duffsym.errors import ConvergenceWarning
+    from duffsym.uncertainty.sampler import ChainTooShort, sample
+
     pool = None
     if (args.workers and args.workers > 1) or args.scheduler:
         from duffsym.engine import Engine  # emcee's pool: local worker processes or a Dask cluster
@@ -95,10 +125,15 @@ def run_sample(args):
     finally:
         if pool is not None:
             pool.close()
+    return chains, caught
+
+
+def _write_outputs(args, chains, result, record) -> tuple[dict, list[str]]:
+    """``(the JSON document, the files written)``: ``--chains``, ``--corner``, ``--bands`` and ``--out``."""
     written = []
     if args.chains:
         written.append(str(chains.save(args.chains)))
-        partial.unlink(missing_ok=True)
+        _partial_path(args.chains).unlink(missing_ok=True)
     if args.corner:
         from duffsym.plot.loops import save_figure
         from duffsym.uncertainty.plots import plot_corner
@@ -129,13 +164,7 @@ def run_sample(args):
 
         write_json_atomic(args.out, jsonable(out))
         written.append(args.out)
-
-    def text() -> str:
-        return chains.summary() + (f"\n{out['identifiability']['text']}" if args.identifiability else "")
-
-    notes = [f"wrote {', '.join(written)}"] if written and not args.quiet else []
-    notes += [f"warning: {w.message}" for w in caught if not args.quiet and str(w.message) not in chains.warnings]
-    return CommandResult("sample", out, text, notes=tuple(notes), value=chains)
+    return out, written
 
 
 def _partial_path(chains) -> Path:

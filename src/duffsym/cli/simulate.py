@@ -126,34 +126,14 @@ def _command_file(path, t):
 def cmd_simulate(args) -> int:
     import numpy as np
 
-    from duffsym.model.library import get_model
-    from duffsym.model.presets import TABLE2_N, table2_params
     from duffsym.simulate import simulate
 
-    n = args.n
-    if args.voltage is not None:
-        if args.model != "mr-damper":
-            raise CLIError("--voltage selects a Table 2 row of the mr-damper model; drop --model or --voltage")
-        if n is not None and n != TABLE2_N:
-            raise CLIError(f"Table 2 was identified with n = {TABLE2_N}; drop --n or give parameters with --param")
-    model = get_model(args.model, n)
-    params = table2_params(args.voltage) if args.voltage is not None else {}
-    params.update(parse_assignments(args.param, "--param"))
-    pvec = model.param_vector(params, fill_defaults=True)
+    model, pvec = _simulation_model(args)
     if args.dt <= 0 or not math.isfinite(args.dt):
         raise CLIError(f"--dt must be a positive number of seconds; got {args.dt}")
     _check_excitation_options(args)
     check_outputs(args, [])
-    duration = args.duration if args.periods is None else args.periods / args.frequency
-    if duration <= 0 or not math.isfinite(duration):
-        raise CLIError(f"the duration must be positive; got {duration}")
-    n_samples = duration / args.dt
-    if n_samples > MAX_SIMULATE_SAMPLES:
-        raise CLIError(
-            f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
-            f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration"
-        )
-    t = np.arange(int(round(n_samples)) + 1) * args.dt
+    t, duration = _sample_times(args)
     exc = _excitation(args, next(s for s in model.signals if s != "command"))
     command = _command_signal(args, model, t)
     inputs = exc if command is None else _with_command(model, t, exc, command[1])
@@ -168,6 +148,68 @@ def cmd_simulate(args) -> int:
         in_cols = [command[0] if c == "input" and ch.signal == "command" else c for c, ch in zip(in_cols, model.inputs)]
     header = ["time", *in_cols, out_col]
     data = np.column_stack([traj.t, traj.u, traj.y])
+    written = _write_simulation(args, model, traj, data, header, duration)
+    summary = {
+        "model": model.name,
+        "params": traj.params,
+        "n_samples": int(t.size),
+        "dt": args.dt,
+        "excitation": args.excitation,
+        "status": traj.status,
+        "success": traj.success,
+        "max_abs_output": float(np.max(np.abs(traj.y))),
+        "substeps_total": int(traj.substeps.sum()),
+        "files": written,
+    }
+    if args.json:
+        emit_json(summary)
+    else:
+        if not args.out:
+            print(",".join(header))
+            np.savetxt(sys.stdout, data, delimiter=",", fmt="%.10g")
+        err(f"{traj.summary()}" + (f"; wrote {', '.join(written)}" if written else ""))
+    return 0
+
+
+def _simulation_model(args):
+    """``(model, parameter vector)``: ``--model``/``--n`` with the Table 2 row of ``--voltage`` and ``--param``
+    on top of the defaults."""
+    from duffsym.model.library import get_model
+    from duffsym.model.presets import TABLE2_N, table2_params
+
+    n = args.n
+    if args.voltage is not None:
+        if args.model != "mr-damper":
+            raise CLIError("--voltage selects a Table 2 row of the mr-damper model; drop --model or --voltage")
+        if n is not None and n != TABLE2_N:
+            raise CLIError(f"Table 2 was identified with n = {TABLE2_N}; drop --n or give parameters with --param")
+    model = get_model(args.model, n)
+    params = table2_params(args.voltage) if args.voltage is not None else {}
+    params.update(parse_assignments(args.param, "--param"))
+    return model, model.param_vector(params, fill_defaults=True)
+
+
+def _sample_times(args):
+    """``(t, duration)``: the sample times of ``--duration`` (or ``--periods``) at ``--dt``, within
+    :data:`MAX_SIMULATE_SAMPLES`."""
+    import numpy as np
+
+    duration = args.duration if args.periods is None else args.periods / args.frequency
+    if duration <= 0 or not math.isfinite(duration):
+        raise CLIError(f"the duration must be positive; got {duration}")
+    n_samples = duration / args.dt
+    if n_samples > MAX_SIMULATE_SAMPLES:
+        raise CLIError(
+            f"--duration {duration:g} s at --dt {args.dt:g} s is {n_samples:.3g} samples, more than "
+            f"{MAX_SIMULATE_SAMPLES:.0e}; use a larger --dt or a shorter --duration"
+        )
+    return np.arange(int(round(n_samples)) + 1) * args.dt, duration
+
+
+def _write_simulation(args, model, traj, data, header, duration) -> list[str]:
+    """Write ``--out`` (the CSV) and ``--plot`` (the loops); the files written."""
+    import numpy as np
+
     written = []
     if args.out:
         from duffsym._io import atomic_write
@@ -190,26 +232,7 @@ def cmd_simulate(args) -> int:
         )
         save_figure(fig, args.plot)
         written.append(str(args.plot))
-    summary = {
-        "model": model.name,
-        "params": traj.params,
-        "n_samples": int(t.size),
-        "dt": args.dt,
-        "excitation": args.excitation,
-        "status": traj.status,
-        "success": traj.success,
-        "max_abs_output": float(np.max(np.abs(traj.y))),
-        "substeps_total": int(traj.substeps.sum()),
-        "files": written,
-    }
-    if args.json:
-        emit_json(summary)
-    else:
-        if not args.out:
-            print(",".join(header))
-            np.savetxt(sys.stdout, data, delimiter=",", fmt="%.10g")
-        err(f"{traj.summary()}" + (f"; wrote {', '.join(written)}" if written else ""))
-    return 0
+    return written
 
 
 def register(sub) -> None:

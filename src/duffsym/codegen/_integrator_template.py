@@ -235,6 +235,9 @@ def integrate_implicit(t, U, x0, p, substeps, rtol, atol, max_steps, hold, blowu
     Blow-up (a state non-finite or beyond ``blowup``) and step-size collapse (more than max_steps
     steps in one interval, or a step below 1e-12 of the interval) stop the run and are reported.
     M holds the accepted steps per interval.
+
+    Long: a numba kernel; its step loop stays whole because every helper called per step costs a call
+    in the innermost loop, and the step-size control shares most of the loop's local state.
     """
     n = x0.shape[0]
     ni = U.shape[1]

@@ -64,7 +64,9 @@ def _read_text(path: Path, fmt: str) -> tuple[list[str] | None, np.ndarray, dict
         lines = path.read_text(encoding="utf-8", errors="strict").splitlines()
     except UnicodeDecodeError as exc:
         raise DataError(f"{path}: not UTF-8 text (byte {exc.start}); give a text file or --format mat") from None
-    header, rows, text_cols = None, [], {}
+    header: list[str] | None = None
+    rows: list[list[float]] = []
+    text_cols: dict[int, tuple[int, str]] = {}
     for number, line in enumerate(lines, start=1):
         text = line.strip()
         if not text or text.startswith(_COMMENT):
@@ -100,7 +102,7 @@ def _read_mat(path: Path, variable: str | None) -> np.ndarray:
 
     try:
         mat = loadmat(str(path))
-    except Exception as exc:  # scipy raises several types for a bad or v7.3 (HDF5) file
+    except Exception as exc:  # noqa: BLE001 — scipy raises several types for a bad or v7.3 (HDF5) file
         raise DataError(
             f"{path}: not a readable MATLAB v4-v7.2 file ({type(exc).__name__}: {exc}); save it with "
             "save(..., '-v7') or export a text file"

@@ -30,11 +30,11 @@ lines above -60 dB up to ~650 Hz, so the amplitude rule above keeps them at thei
 the frequency below which it keeps ``1 - energy`` of its variance (Hann-windowed periodogram, mean
 removed), and the new Nyquist frequency must be at least that bandwidth (the part given up is at most
 ``energy`` of the variance, an NRMSE floor of ``sqrt(energy)`` added in quadrature: 0.055 for the default
-``FIT_ENERGY`` = 3e-3, which puts the Dyke record at 500 Hz, the rate s11 measured to give the same
-validation error as 1 kHz; 1e-3 keeps 750 Hz and took > 11 min to fit the whole record on a loaded 2-core
-machine, 1e-2 keeps 250 Hz: 290 s, NRMSE 0.200 at the fitted rate but 0.234 on the full-rate record);
-the floors are ``FIT_MIN_PER_CYCLE`` (25) samples per input period and ``FIT_MIN_SAMPLES`` (200). The command channel is low-passed with
-the others but does not set the rate (the field's first-order lag smooths its steps).
+``FIT_ENERGY`` = 3e-3, which puts the Dyke record at 500 Hz, the rate study s11 found to give the same
+validation error as 1 kHz; 1e-3 keeps 750 Hz, 1.5 times the samples to fit, and 1e-2 keeps 250 Hz: NRMSE
+0.200 at the fitted rate but 0.234 on the full-rate record; s11 records the fit times); the floors are
+``FIT_MIN_PER_CYCLE`` (25) samples per input period and ``FIT_MIN_SAMPLES`` (200). The command channel is
+low-passed with the others but does not set the rate (the field's first-order lag smooths its steps).
 
 This module moved here from ``duffsym.diagnose.prepare`` (which re-exports it) so that the data layer,
 identification and the command line can use it.

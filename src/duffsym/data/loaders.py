@@ -156,7 +156,7 @@ def _resolve_columns(path: Path, header: list[str], columns: Mapping[str, str] |
                     f"{path}: missing column {synonyms[0]!r} (the {role}); the file has {header}; "
                     f"rename it or map it (e.g. --columns {role}=YOUR_NAME)"
                 )
-    used = {}
+    used: dict[int, str] = {}
     for role, i in index.items():
         if i in used:
             raise DataError(f"{path}: column {header[i]!r} used for both {used[i]} and {role}; map distinct columns")
@@ -419,7 +419,8 @@ def _apply_sampling(rec: Record, policy: str, path: Path) -> Record:
 
 
 def write_csv(record: Record, path) -> Path:
-    """Write a record in the CSV format of ``docs/contract.md`` (time, displacement, velocity, force[, current/voltage])."""
+    """Write a record in the CSV format of ``docs/contract.md`` (time, displacement, velocity,
+    force[, current/voltage])."""
     path = Path(path)
     cols = {"time": record.t, "displacement": record.d}
     if record.d_dot is not None:
@@ -499,7 +500,7 @@ def load_mr_damper_utfsm(path, *, current: float | None = None, velocity: str = 
 
         try:
             mat = loadmat(str(path))
-        except Exception as exc:  # scipy raises several types for a bad file
+        except Exception as exc:  # noqa: BLE001 — scipy raises several types for a bad file
             raise DataError(f"{path}: not a readable MATLAB file ({type(exc).__name__}: {exc})") from None
         if "data" not in mat or np.ndim(mat["data"]) != 2 or mat["data"].shape[1] != 6:
             raise DataError(f"{path}: expected a variable 'data' of shape (n, 6) (displacement + 5 forces)")
@@ -509,7 +510,7 @@ def load_mr_damper_utfsm(path, *, current: float | None = None, velocity: str = 
             )
         j = 1 + [abs(float(current) - c) < 1e-9 for c in UTFSM_VALIDATION_CURRENTS].index(True)
         data = np.asarray(mat["data"], dtype=float)
-        t = np.arange(data.shape[0]) * UTFSM_VALIDATION_DT
+        t = np.asarray(np.arange(data.shape[0]) * UTFSM_VALIDATION_DT, dtype=np.float64)
         return Record(
             t=t,
             d=data[:, 0],

@@ -47,7 +47,9 @@ def _as_vector(name: str, values, where: str) -> np.ndarray:
     try:
         arr = np.array(values, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise DataError(f"{where}: {name} must be numeric; could not convert it to float ({exc}); clean the column")
+        raise DataError(
+            f"{where}: {name} must be numeric; could not convert it to float ({exc}); clean the column"
+        ) from exc
     if arr.ndim != 1:
         arr = arr.reshape(-1) if arr.ndim == 2 and 1 in arr.shape else arr
     if arr.ndim != 1:
@@ -227,6 +229,7 @@ def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.
         }
     digits = sorted({f"{v:g}" for v in np.unique(q)})
     rebuilt = t0 + k * dt
+    finer = " (plus a first rounding to finer digits)" if ratio > 0.5 + 1e-9 else ""
     return rebuilt, {
         "rate_hz": 1.0 / float(dt),
         "dt": float(dt),
@@ -235,8 +238,8 @@ def rebuild_rounded_grid(t: np.ndarray, rtol: float = UNIFORM_RTOL) -> tuple[np.
         "max_change_s": float(np.max(np.abs(rebuilt - t))),
         "rule": (
             f"rebuilt: time stamps printed to {', '.join(digits)} s (steps from {steps.min():.6g} to "
-            f"{steps.max():.6g} s) are all within half a printed digit{' (plus a first rounding to finer digits)' if ratio > 0.5 + 1e-9 else ''} of t0 + k*dt; t = {float(t0) + 0.0:.9g} + "
-            f"k * {float(dt):.9g} s ({1.0 / float(dt):.8g} Hz)"
+            f"{steps.max():.6g} s) are all within half a printed digit{finer} of t0 + k*dt; "
+            f"t = {float(t0) + 0.0:.9g} + k * {float(dt):.9g} s ({1.0 / float(dt):.8g} Hz)"
         ),
     }
 
@@ -281,14 +284,15 @@ def _sampling(t: np.ndarray, previous: Mapping[str, Any] | None) -> tuple[np.nda
     t, info = rebuild_rounded_grid(t)
     try:
         same = (
-            bool(previous["uniform"]) == info["uniform"]
+            previous is not None
+            and bool(previous["uniform"]) == info["uniform"]
             and not info["rebuilt"]
             and abs(info["dt"] - float(previous["dt"])) <= 1e-9 * info["dt"]
             and isinstance(previous["rule"], str)
         )
     except (KeyError, TypeError, ValueError):
         same = False
-    if same:
+    if same and previous is not None:
         info = dict(previous)
     return t, info
 
@@ -617,7 +621,7 @@ class Record:
 
     def replace(self, **changes) -> Record:
         """A new (re-validated) record with some fields changed."""
-        fields = dict(
+        fields: dict[str, Any] = dict(
             t=self.t,
             d=self.d,
             y=self.y,
@@ -654,9 +658,8 @@ class Record:
             extra.append(f"voltage {self.voltage:g} V")
         if self.command is not None:
             c = np.asarray(self.command)
-            extra.append(
-                f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {'A' if self.command_name == 'current' else 'V'}"
-            )
+            unit = "A" if self.command_name == "current" else "V"
+            extra.append(f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {unit}")
         vel = "given" if self.d_dot is not None else "derived (Savitzky-Golay)"
         return (
             f"record {self.name or '(unnamed)'}: {self.n_times} samples over {self.duration:g} {u.get('t', 's')}, "

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -263,13 +264,13 @@ def frequency_band(d, dt: float) -> tuple[float, float]:
     p[0] = 0.0
     f = np.fft.rfftfreq(d.size, dt)
     c = np.cumsum(p) / max(float(np.sum(p)), 1e-300)
-    lo, hi = np.searchsorted(c, BAND_TAIL), np.searchsorted(c, 1 - BAND_TAIL)
+    lo, hi = int(np.searchsorted(c, BAND_TAIL)), int(np.searchsorted(c, 1 - BAND_TAIL))
     return float(f[min(lo, f.size - 1)]), float(f[min(hi, f.size - 1)])
 
 
 def _record_ranges(record: Record) -> dict:
     d = np.asarray(record.d, dtype=float)
-    out = {"amplitude": [0.5 * float(np.ptp(d))] * 2}
+    out: dict[str, Any] = {"amplitude": [0.5 * float(np.ptp(d))] * 2}
     if record.is_uniform():
         out["frequency_hz"] = list(frequency_band(d, record.dt))
         out["velocity_amplitude"] = [0.5 * float(np.ptp(record.velocity()))] * 2

@@ -126,7 +126,7 @@ def plot_loops(
     if two and len(axes) < 2:
         raise DataError("plot_loops: the trajectories have d and d_dot inputs; pass two axes (d–y, d'–y)")
 
-    for i, (tr, (d, v, dname, vname)) in enumerate(zip(trajs, cols)):
+    for i, (tr, (d, v, _dname, _vname)) in enumerate(zip(trajs, cols)):
         sl = steady_cycle(tr, period) if period is not None else slice(0, tr.t.size)
         y = np.asarray(tr.y, dtype=float)[sl]
         kw = dict(styles[i]) if styles is not None else {}
@@ -138,7 +138,7 @@ def plot_loops(
             okv = np.isfinite(y) & np.isfinite(v[sl])
             kw.pop("label", None)  # one legend entry per trajectory, in the d–y panel
             axes[1].plot(np.where(okv, v[sl], np.nan), np.where(okv, y, np.nan), **kw)
-    dname, vname = cols[0][2], cols[0][3]
+    dname = cols[0][2]
     units = dict(units or {})
     if units.get("d") and units.get("d") != "1" and "d_dot" not in units:
         units["d_dot"] = f"{units['d']}/{units.get('t', 's')}"
@@ -150,6 +150,8 @@ def plot_loops(
     ylabel = label("y", f"${trajs[0].output_name}$")
     axes[0].set_ylabel(ylabel)
     if two:
+        # the velocity channel of the first trajectory that has one (the first may have none)
+        vname = next(c[3] for c in cols if c[3] is not None)
         axes[1].set_xlabel(label(vname, _LABELS.get(vname, vname)))
         axes[1].set_ylabel(ylabel)
     if title:
