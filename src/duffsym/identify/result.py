@@ -155,7 +155,7 @@ class IdentificationResult:
 
         The parameters are the fit's (those of ``group``, by default :meth:`group_for` the record); the
         initial state ``x0``, unless given, is estimated from the record's first input period as
-        ``duffsym validate`` does (:func:`duffsym.identify.validation.start_state`). ``options`` go to
+        ``duffsym validate`` does (:func:`duffsym.identify.states.start_state`). ``options`` go to
         :func:`duffsym.simulate.simulate_record` (default ``on_failure="return"``: a failed run comes
         back with its status, not as an exception).
         """
@@ -164,7 +164,7 @@ class IdentificationResult:
         model = self.model_obj
         p = model.param_vector(self.params_for(self.group_for(record) if group is None else group))
         if x0 is None:
-            from duffsym.identify.validation import start_state
+            from duffsym.identify.states import start_state
 
             x0, _ = start_state(model, p, record)
         return simulate_record(model, p, record, x0=x0, **{"on_failure": "return", **options})
