@@ -209,8 +209,8 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
     num, den = sp.fraction(sp.together(t_star))
     sign = sp.factor(num * den)  # sign(t*) = sign(num * den)
     head = (
-        f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
-        f"t* = {sp.sstr(t_star)}"
+        f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; "
+        f"Q = 0 <=> {x}^{sp.sstr(e)} = t* = {sp.sstr(t_star)}"
     )
     both_zero = sp.And(_eq0(c0), _eq0(ce))
     if sp.sympify(e).is_even:
