@@ -304,7 +304,8 @@ def stability_conditions(model: SymbolicModel) -> StabilityConditions:
     """Derive the stability conditions of ``model`` from its Lyapunov function (see module docs).
 
     Cached per model (like :func:`~duffsym.derive._mechanics.mechanics`): the fit's quality flags, the
-    diagnosis's certificate of every candidate and ``derive`` share one derivation (~0.4 s) per model."""
+    diagnosis's certificate of every candidate and ``derive`` share one (symbolic, comparatively slow)
+    derivation per model."""
     lya = lyapunov_analysis(model)
     mech = mechanics(model)
     structural = mech.structural_symbols

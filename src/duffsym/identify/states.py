@@ -10,7 +10,8 @@ inputs alone (the field of ``mr-damper-current``) are integrated exactly from th
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 import sympy as sp
@@ -103,7 +104,9 @@ def _free_run_states(model, record, params: np.ndarray, X: np.ndarray) -> np.nda
 
     if model.n_states == len(driven_states(model, record, params)) or not np.all(np.isfinite(params)):
         return X
-    tr = simulate_record(model, np.asarray(params, dtype=float), record, x0=X[0], method="rk4", on_failure="return")
+    # simulate_record's signature does not list ndarray (which it takes) yet
+    p = cast("Sequence[float]", np.asarray(params, dtype=float))
+    tr = simulate_record(model, p, record, x0=X[0], method="rk4", on_failure="return")
     return tr.x if tr.success and np.all(np.isfinite(tr.x)) else X
 
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -95,7 +97,8 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
         group = result.group_for(record)
     p = model.param_vector(result.params_for(group))
     x0, note = start_state(model, p, record)
-    tr = simulate_record(model, p, record, x0=x0, on_failure="return")
+    # simulate_record's signature does not list ndarray (which it takes) yet
+    tr = simulate_record(model, p, record, x0=cast("Sequence[float]", x0), on_failure="return")
     y_sim = np.asarray(tr.y, dtype=float)
     effects = tuple(model.effects)
     if not tr.success:

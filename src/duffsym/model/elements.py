@@ -27,7 +27,7 @@ FORCE = InputChannel("F", 0)
 N_SYMBOL = sp.Symbol("n", integer=True, positive=True, odd=True)
 
 
-#: Largest structural power accepted (``fit --n 99999`` used to run for minutes before failing).
+#: Largest structural power accepted (``fit --n 99999`` used to get far into the fit before failing).
 MAX_POWER = 25
 
 
