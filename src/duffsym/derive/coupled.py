@@ -42,6 +42,7 @@ from functools import lru_cache
 import numpy as np
 import sympy as sp
 
+from duffsym.derive.items import ReportItem
 from duffsym.derive.lyapunov import energy_lyapunov
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
@@ -358,11 +359,11 @@ def coupled_certificate(model: SymbolicModel, params: Mapping[str, float]) -> Co
 
 def coupled_report_items(model: SymbolicModel) -> list:
     """The coupled derivations as report items (used by :func:`duffsym.derive.report.derivation_report`)."""
-    from duffsym.derive.report import ReportItem
     from duffsym.model.statespace import state_space
 
     an = coupled_analysis(model)
     comp = composition(model)
+    assert comp is not None  # coupled_analysis refuses a model that is not a structure
     tex = model.latex
     ss = state_space(model)
     eq = comp["equation"]

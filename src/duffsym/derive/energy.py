@@ -89,7 +89,7 @@ def _as_time_functions(model: SymbolicModel):
     mech = mechanics(model)
     xf = sp.Function("x", real=True)(TIME)
     subs = {mech.x: xf, mech.v: sp.diff(xf, TIME)}
-    funcs = {}
+    funcs: dict[str, sp.Expr] = {}
     for ch in model.inputs:
         f = funcs.setdefault(ch.signal, sp.Function(ch.signal, real=True)(TIME))
         subs[ch.symbol] = sp.diff(f, TIME, ch.order) if ch.order else f
@@ -295,8 +295,10 @@ class CycleEnergy:
 
 
 def _periodic_integral(t: np.ndarray, values: np.ndarray) -> float:
-    trapezoid = getattr(np, "trapezoid", None) or np.trapz  # numpy >= 2 renamed trapz
-    return float(trapezoid(values, t))
+    """The trapezoid rule over the samples, written out as NumPy's ``trapezoid`` (``trapz`` before NumPy 2)
+    computes it, so it runs on every supported NumPy."""
+    y = np.asarray(values)
+    return float((np.diff(t) * (y[1:] + y[:-1]) / 2.0).sum())
 
 
 def cycle_energy(traj, period: float, model: SymbolicModel) -> CycleEnergy:

@@ -61,6 +61,7 @@ def derive_normalization(n: int | sp.Symbol = 5) -> Normalization:
     m = param_symbol("m")
     eq11 = mr_damper_equation(n, n, m)
     target = duffing_like(n)
+    assert target.equation is not None  # from_second_order keeps the equation
     # the Duffing-like parameters are unknowns: give them fresh names (k1, c1 clash with Eq. 11's)
     fresh = {p.symbol: sp.Symbol(p.name + "_dl", real=True) for p in target.params}
     eq3 = target.equation.xreplace(fresh)

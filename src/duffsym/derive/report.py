@@ -8,13 +8,15 @@ equation it reproduces.
 from __future__ import annotations
 
 import textwrap
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import sympy as sp
 from sympy.printing.str import StrPrinter
 
 from duffsym.derive._mechanics import condition_text, mechanics, tidy
+from duffsym.derive.coupled import _element_in_own_time, coupled_report_items
 from duffsym.derive.energy import energy_balance
+from duffsym.derive.items import ReportItem
 from duffsym.derive.lyapunov import lyapunov_analysis
 from duffsym.derive.normalize import derive_normalization
 from duffsym.derive.stability import stability_conditions
@@ -31,41 +33,6 @@ _EQUATIONS = {
     "mr-damper-physical": ("Eq. 11", "Eq. 13-14 (times 1/m)"),
     "duffing": ("Eq. 1", "Eq. 4 with delta = 0"),
 }
-
-
-@dataclass(frozen=True)
-class ReportItem:
-    """One step of the derivation.
-
-    Attributes
-    ----------
-    key : machine name (``"lyapunov_energy"``).
-    title : heading for people.
-    equation : the paper's equation number(s) it reproduces (``"Eq. 8"``), or ``""``.
-    text : the result as plain text (``sp.sstr``), one statement per line.
-    latex : the result as LaTeX display math, lines separated by ``\\\\``.
-    note : what it means, in words.
-    data : JSON-able content (expressions as strings).
-    """
-
-    key: str
-    title: str
-    equation: str
-    text: str
-    latex: str
-    note: str = ""
-    data: dict = field(default_factory=dict)
-
-    def to_dict(self) -> dict:
-        return {
-            "key": self.key,
-            "title": self.title,
-            "equation": self.equation,
-            "text": self.text,
-            "latex": self.latex,
-            "note": self.note,
-            "data": self.data,
-        }
 
 
 @dataclass(frozen=True)
@@ -168,7 +135,7 @@ class _Printer:
     def __init__(self, model: SymbolicModel):
         self.model = model
         self.names = {X: "x", X_DOT: r"\dot{x}", X_DDOT: r"\ddot{x}", **model.latex_symbol_names()}
-        self.tsubs = {}
+        self.tsubs: dict[sp.Expr, sp.Expr] = {}
 
     def time_functions(self, expr: sp.Expr) -> sp.Expr:
         """x(t), x'(t), d(t), d'(t) -> plain symbols x, x_dot, d, d_dot."""
@@ -243,8 +210,6 @@ def derivation_report(model: SymbolicModel) -> DerivationReport:
     extra terms appear in dV/dt with their sign.
     """
     if getattr(model, "composition", ()):
-        from duffsym.derive.coupled import coupled_report_items
-
         return DerivationReport(
             model=model.name,
             structural=dict(model.structural),
@@ -283,8 +248,6 @@ def _path_time_report(model: SymbolicModel, eps: float) -> DerivationReport:
     """A rate-independent (path-time) element: the derivations of the element in its own time s, after a
     first item saying how they carry over to t (every d/dt is rho d/ds, rho = sqrt(d_dot^2 + eps^2))."""
     from dataclasses import replace
-
-    from duffsym.derive.coupled import _element_in_own_time
 
     own = _element_in_own_time(model)
     own = replace(own, name=model.name.removesuffix("-path"))
@@ -438,7 +401,8 @@ def _lyapunov_items(model, pr, mech, signals, lya) -> list[ReportItem]:
             "Eq. 8",
             f"R(x) = {pr.text(restoring_d)}\nV = x2^2/2 + int_0^x1 R(s) ds = {pr.text(v_energy_d)}\n"
             f"identical to Eq. 6: {lya.identical}",
-            f"R(x) = {pr.latex(restoring_d)} \\\\ V = \\tfrac12\\dot x^2 + \\int_0^x R(s)\\,ds = {pr.latex(v_energy_d)}",
+            f"R(x) = {pr.latex(restoring_d)} \\\\ "
+            f"V = \\tfrac12\\dot x^2 + \\int_0^x R(s)\\,ds = {pr.latex(v_energy_d)}",
             "kinetic plus potential energy per unit mass; R(x) = -x'' at rest; "
             + ("it equals the state-based function of Eq. 6" if lya.identical else "it differs from Eq. 6"),
             {"R": sp.sstr(lya.restoring), "V": sp.sstr(lya.v_energy), "identical_to_eq6": lya.identical},

@@ -209,8 +209,8 @@ def _roots(ms: MonomialSum) -> RootAnalysis:
     num, den = sp.fraction(sp.together(t_star))
     sign = sp.factor(num * den)  # sign(t*) = sign(num * den)
     head = (
-        f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; Q = 0 <=> {x}^{sp.sstr(e)} = "
-        f"t* = {sp.sstr(t_star)}"
+        f"{x}^{sp.sstr(e0)}*Q({x}) with Q = {sp.sstr(c0)} + {sp.sstr(ce)}*{x}^{sp.sstr(e)}; "
+        f"Q = 0 <=> {x}^{sp.sstr(e)} = t* = {sp.sstr(t_star)}"
     )
     both_zero = sp.And(_eq0(c0), _eq0(ce))
     if sp.sympify(e).is_even:
@@ -304,7 +304,8 @@ def stability_conditions(model: SymbolicModel) -> StabilityConditions:
     """Derive the stability conditions of ``model`` from its Lyapunov function (see module docs).
 
     Cached per model (like :func:`~duffsym.derive._mechanics.mechanics`): the fit's quality flags, the
-    diagnosis's certificate of every candidate and ``derive`` share one derivation (~0.4 s) per model."""
+    diagnosis's certificate of every candidate and ``derive`` share one (symbolic, comparatively slow)
+    derivation per model."""
     lya = lyapunov_analysis(model)
     mech = mechanics(model)
     structural = mech.structural_symbols

@@ -162,6 +162,7 @@ def find_scaling_symmetry(model: SymbolicModel) -> ScalingSymmetry:
             "fixes the scale of the states (e.g. the output is the state itself, an "
             "input enters without a parameter, or a term like tanh(x'/eps) with fixed eps)",
         )
+    assert new is not None  # set in the loop with sol
     back = {v: k for k, v in new.items()}
     unknowns = list(new.values())
     mapping: dict[str, sp.Expr] = {}

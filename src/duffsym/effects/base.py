@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
+from typing import cast
 
 import numpy as np
 import sympy as sp
@@ -183,7 +184,8 @@ class Effect:
         raise KeyError(name)
 
     def _clip(self, name: str, value: float, fallback: float | None = None) -> float:
-        """``value`` clipped to the (closed) bounds of parameter ``name``; ``fallback`` (else the default) if not finite."""
+        """``value`` clipped to the (closed) bounds of parameter ``name``; ``fallback`` (else the default) if not
+        finite."""
         p = self._spec(name)
         if not math.isfinite(value):
             value = p.default if fallback is None else fallback
@@ -206,8 +208,8 @@ def effect_chain(model: SymbolicModel) -> tuple[SymbolicModel, list[tuple[Effect
     only if the rebuilt equations are identical.
     """
     held = model.effect_steps()
-    if held is not None:
-        return model.base_model, list(held)
+    if held is not None:  # the chain is known, so is its base; the model layer types the effects as objects
+        return cast(SymbolicModel, model.base_model), cast("list[tuple[Effect, SymbolicModel]]", list(held))
     from duffsym.effects import CATALOGUE
     from duffsym.model.library import get_model
 

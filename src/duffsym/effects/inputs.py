@@ -409,11 +409,11 @@ class Backlash(Effect):
                 moved = np.flatnonzero(np.abs(sig[r:stop] - sig[r]) >= thr)
                 travel.append(abs(d[r + moved[0]] - d[r]) if moved.size else np.nan)
             widths.append(0.5 * (travel[0] - travel[1]))
-        widths = np.asarray(widths)
-        widths = widths[np.isfinite(widths)]
+        w = np.asarray(widths)
+        w = w[np.isfinite(w)]
         name = f"{self.prefix}h"
         floor = 0.005 * float(np.ptp(d))
-        h = float(np.median(widths)) if widths.size else floor
+        h = float(np.median(w)) if w.size else floor
         h = max(h, plateau_half_width(record))
         return {name: self._clip(name, min(max(h, floor), 0.25 * float(np.ptp(d))))}
 

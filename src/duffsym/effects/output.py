@@ -471,7 +471,8 @@ class OutputLag(Effect):
     (the lag attenuates by :math:`1/\\sqrt{1 + \\tau^2\\omega^2}` and rounds sharp corners, the delay
     only shifts).
 
-    Initial guess: :math:`\\tau = -\\langle r, \\dot y_{model}\\rangle / \\langle \\dot y_{model}, \\dot y_{model}\\rangle`
+    Initial guess:
+    :math:`\\tau = -\\langle r, \\dot y_{model}\\rangle / \\langle \\dot y_{model}, \\dot y_{model}\\rangle`
     (the residual's projection on the model force's rate), at least ``dt/2`` (a base fit absorbs
     part of the lag in its parameters, so the projection underestimates it). Initial state
     trajectory: :math:`z` = the measured force.

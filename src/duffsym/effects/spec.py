@@ -23,7 +23,7 @@ equations are identical (their hash, :attr:`SymbolicModel.key`)::
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
+from typing import Any, cast
 
 from duffsym.effects.base import Effect, apply_effects, effect_chain
 from duffsym.errors import ModelError
@@ -67,7 +67,7 @@ def effect_types() -> dict[str, type]:
 # ---------------------------------------------------------------------------------------------- effects
 def effect_to_spec(effect: Effect) -> dict:
     """``{"effect": name, "type": class name, "settings": {...}}``: the settings that differ from the class's."""
-    settings = {}
+    settings: dict[str, Any] = {}
     if dataclasses.is_dataclass(effect):
         for f in dataclasses.fields(effect):
             if not f.init or f.name in _TEXT_FIELDS:
@@ -148,8 +148,8 @@ def library_reference(model: SymbolicModel) -> dict | None:
 
 def _base_and_effects(model: SymbolicModel) -> tuple[SymbolicModel, list[Effect]]:
     steps = model.effect_steps()
-    if steps is not None:
-        return model.base_model, [e for e, _ in steps]
+    if steps is not None:  # the chain is known, so is its base; the model layer types the effects as objects
+        return cast(SymbolicModel, model.base_model), [cast(Effect, e) for e, _ in steps]
     chain = effect_chain(model)  # a model built without Effect.apply: the library's, if identical
     if chain is not None:
         return chain[0], [e for e, _ in chain[1]]
@@ -161,7 +161,7 @@ def model_spec(model: SymbolicModel) -> dict:
     (see the module docstring). Raises :class:`ModelError` for a setting that cannot be stored."""
     base, effects = _base_and_effects(model)
     ref = library_reference(base)
-    base_data = {"name": base.name, "key": base.key}
+    base_data: dict[str, Any] = {"name": base.name, "key": base.key}
     base_data.update({"library": ref} if ref is not None else {"equations": model_to_data(base, model_spec)})
     return {
         "format": SPEC_FORMAT,

@@ -66,10 +66,10 @@ class FitOptions:
     degree : degree of the Legendre collocation polynomial in each sample interval.
     print_level : IPOPT verbosity (0 silent).
     expand : (``derivatives="casadi"`` only) expand the CasADi graph to scalar form: evaluation per
-        iteration ~10x faster, build ~5x slower (about 1 ms per sample). ``"auto"`` expands only for multistart fits (``n_starts >= 3``)
-        of up to ``EXPAND_AUTO_SAMPLES`` samples in total, where the faster iterations repay the
-        build (a single 400-sample fit: 0.47 s unexpanded, 0.82 s expanded); otherwise it keeps the
-        mapped graph, whose build is linear in N.
+        iteration ~10x faster, build ~5x slower (a cost per sample). ``"auto"`` expands only for
+        multistart fits (``n_starts >= 3``) of up to ``EXPAND_AUTO_SAMPLES`` samples in total, where the
+        faster iterations repay the build (a single 400-sample fit does not repay it: it finished sooner
+        unexpanded); otherwise it keeps the mapped graph, whose build is linear in N.
     compute_stderr : compute standard errors (Laplace) after the fit.
     n_starts : number of IPOPT runs on the same NLP (built once): the first from ``x0``, the others
         from random parameter starts; the converged run with the lowest cost is kept. The states
@@ -89,11 +89,11 @@ class FitOptions:
         sparsity of the KKT system: 8 needs ~30 % less time than 1 on long records).
     flags : compute the result's ``flags`` (default); False leaves them empty, for callers that judge
         the fit themselves (a diagnosis's candidates: the first fit of each extended model would derive
-        its stability conditions, ~0.5 s each, for flags nobody reads).
+        its stability conditions, a symbolic derivation per model, for flags nobody reads).
     bound_restart : (single-start fits; with ``n_starts > 1`` the other starts do this job) when the
-        run ends with a free parameter on a bound it did not start on,
-        run IPOPT once more from its end parameters with those back at their start values (the
-        states from the data, as for every start), and keep the restart if it lowers the cost (``settings["bound_restart"]`` says what
+        run ends with a free parameter on a bound it did not start on, run IPOPT once more from its end
+        parameters with those back at their start values (the states from the data, as for every
+        start), and keep the restart if it lowers the cost (``settings["bound_restart"]`` says what
         happened). A path can be pushed onto a bound by its first steps, far from the data's optimum.
     progress : a callable taking one line of text (e.g. ``print`` to stderr), or None: the stage
         (building, solving) and, every ``nlp.PROGRESS_EVERY`` seconds of a solve, its IPOPT iteration,
@@ -346,7 +346,8 @@ def _timed_out(run: Run, phase: str, budget, problem) -> Run:
         success=False,
         message=(
             f"stopped by the time limit ({budget:g} s) in {phase} after {run.n_iter} iterations (slowest iteration "
-            f"{info.get('seconds_max', 0):.1f} s, Hessian regularisation up to {info.get('regularisation_max', 0):.1e}); "
+            f"{info.get('seconds_max', 0):.1f} s, Hessian regularisation up to "
+            f"{info.get('regularisation_max', 0):.1e}); "
             f"try: check the units of the record (a time column in ms, signals far from O(1)), a start closer to the "
             f"data (--fix or x0), fewer samples ({n} now: decimate or cut the record), or a larger time limit"
         ),
@@ -405,7 +406,7 @@ def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] 
             unknown = sorted(set(x0) - set(model.param_names) - set(slot_names))
             if unknown:
                 raise ModelError(f"x0: unknown parameter(s) {unknown}; known: {list(model.param_names)}")
-            for sn, (n, lab) in zip(slot_names, slots):
+            for sn, (n, _lab) in zip(slot_names, slots):
                 if sn in x0:
                     start[sn] = float(x0[sn])
                 elif n in x0:
@@ -426,7 +427,7 @@ def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] 
                 guesses[i] = initial_guess(problem.records[i], model, fixed=fixed_i)
             start[sn] = guesses[i][n]
     scaled = set(effect_record_bounds(model, problem.records))
-    for sn, (n, lab) in zip(slot_names, slots):
+    for sn, (n, _lab) in zip(slot_names, slots):
         lo, hi = problem.bounds[n]
         v = start[sn]
         if not math.isfinite(v):
@@ -605,8 +606,9 @@ def _result(
     }
     params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
     t_flags = time.perf_counter()
-    flags = fit_flags(problem, nlp, best.w, fitted.rec_params, r2) if fitted.ok and flags else ()
-    t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions (~0.4 s)
+    flag_list = fit_flags(problem, nlp, best.w, fitted.rec_params, r2) if fitted.ok and flags else ()
+    t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions
+    casadi_version = casadi.__version__  # type: ignore[attr-defined]  # CasADi's stubs leave out __version__
     return IdentificationResult(
         model=model,
         params=params,
@@ -625,7 +627,7 @@ def _result(
         mask=problem.masks(),
         defaults_applied=dict(problem.defaults_applied),
         effects=tuple(model.effects),
-        structural={k: v for k, v in model.structural},
+        structural=dict(model.structural),
         nrmse_records=fitted.nrmse_records,
         nrmse_objective=fitted.nrmse_objective,
         x0=tuple(x0s),
@@ -633,13 +635,13 @@ def _result(
         records=tuple(r.name for r in problem.records),
         mask_info=dict(problem.mask_info),
         settings=settings,
-        versions={"casadi": casadi.__version__, "duffsym": getattr(duffsym, "__version__", "?")},
+        versions={"casadi": casadi_version, "duffsym": getattr(duffsym, "__version__", "?")},
         n_samples=int(sum(r.n_times for r in problem.records)),
         group_params={
             lab: problem.record_params(problem.labels.index(lab), slot_values) for lab in problem.group_order
         },
         groups=tuple(problem.labels) if problem.group_order else (),
-        flags=tuple(flags),
+        flags=tuple(flag_list),
     )
 
 

@@ -9,7 +9,8 @@ effects -> identify, never back (``tests/test_layers.py``).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
+from typing import cast
 
 import numpy as np
 
@@ -83,7 +84,9 @@ def extended_start(
     costs = []
     for c in candidates:
         p = model.param_vector(c)
-        tr = simulate_record(model, p, record, x0=initial_states(model, record, p)[0], on_failure="return")
+        x0 = initial_states(model, record, p)[0]
+        # simulate_record's signature does not list ndarray (which it takes) yet
+        tr = simulate_record(model, cast("Sequence[float]", p), record, x0=x0, on_failure="return")
         ok = tr.success and np.all(np.isfinite(tr.y))
         costs.append(float(np.mean((np.asarray(tr.y) - y) ** 2)) if ok else np.inf)
     return candidates[int(np.argmin(costs))]

@@ -7,7 +7,7 @@ Two steps, both reported in one line and in FIT.json:
 2. **Decimation** (:mod:`duffsym.data.decimate`, the variance rule :func:`~duffsym.data.decimate.prepare_for_fit`):
    a record with more than ``DECIMATE_ABOVE`` samples is fitted at the lowest rate its spectrum allows;
    the fitted model is then also run on the record at its own rate (``decimation.nrmse_full_rate``).
-   Smaller records are fitted as they are (their fits take seconds). ``decimate``: ``"auto"`` (this rule),
+   Smaller records are fitted as they are. ``decimate``: ``"auto"`` (this rule),
    ``"off"``, or an int capping the factor (also applied below the size threshold).
 
 :func:`score_valid` gives a validation's error on the valid samples only; :func:`fit_extras` the FIT.json
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from duffsym.data.decimate import decimate_mask, prepare_for_fit
+from duffsym.data.decimate import Preparation, decimate_mask, prepare_for_fit
 from duffsym.data.record import Record
 from duffsym.data.sanity import ValidPart, training_ranges, valid_part
 
@@ -41,7 +41,7 @@ class FitData:
     full: Record
     mask: np.ndarray | None
     valid: ValidPart | None
-    prep: object | None
+    prep: Preparation | None
     invalid: np.ndarray | None = None
 
     def notes(self) -> list[str]:
@@ -54,7 +54,7 @@ class FitData:
         return out
 
 
-def _decimation(record: Record, decimate) -> tuple[object | None, Record]:
+def _decimation(record: Record, decimate) -> tuple[Preparation | None, Record]:
     if decimate in ("off", False, 1, "1"):
         return None, record
     cap = True if decimate in ("auto", True, None) else int(decimate)

@@ -3,7 +3,8 @@ models under a changing command) and the automatic deadzone mask."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from typing import cast
 
 import numpy as np
 
@@ -74,9 +75,9 @@ def initial_guess(
         start = equation_error_start(record, model, fixed=fixed)
         start.pop("_equation_nrmse")
         return start
-    start = _command_start_with_effects(record, model, fixed)
-    if start is not None:
-        return start
+    with_effects = _command_start_with_effects(record, model, fixed)
+    if with_effects is not None:
+        return with_effects
     if not model.effects and _command_varies(record, model):
         return command_start(record, model, fixed=fixed)
     return tuning_guess(record, model, fixed=fixed, max_samples=max_samples)
@@ -176,10 +177,10 @@ def command_start(
     error is returned; if none completes, the paper's tuning procedure at the model's defaults.
 
     Measured (``mr-damper-current``, 1 % noise): on a 3 s switching-current record of the independent
-    generator (tests/independent_current_sim.py) the fit from the tuning start ran 306 s and stopped at
-    NRMSE 0.21 (eta 689 standard errors off); from this start it took 2.3 s to the noise (0.0098) with
-    every parameter within 1.6 standard errors. On s12's 4 s training record the tuning start led to a
-    diverging optimum (eta 0.29, c2 < 0), this one to the truth.
+    generator (tests/independent_current_sim.py) the fit from the tuning start stopped at NRMSE 0.21
+    (eta 689 standard errors off) after over a hundred times as long as the fit from this start took to
+    reach the noise (0.0098) with every parameter within 1.6 standard errors. On s12's 4 s training
+    record the tuning start led to a diverging optimum (eta 0.29, c2 < 0), this one to the truth.
     """
     fixed = dict(fixed or {})
     base = {**model.defaults(), **fixed}
@@ -223,7 +224,15 @@ def _command_start_with_effects(record: Record, model, fixed: Mapping[str, float
         **command_start(record, base, fixed={k: v for k, v in fixed.items() if k in base.param_names}),
     }
     p = base.param_vector({n: values[n] for n in base.param_names})
-    tr = simulate_record(base, p, record, x0=initial_states(base, record, p)[0], on_failure="return", method="rk4")
+    # simulate_record's signature does not list ndarray (which it takes) yet
+    tr = simulate_record(
+        base,
+        cast("Sequence[float]", p),
+        record,
+        x0=initial_states(base, record, p)[0],
+        on_failure="return",
+        method="rk4",
+    )
     if tr.success and np.all(np.isfinite(tr.y)):
         for effect, _ in steps:
             values.update(effect.initial_guess(record, tr.y))
@@ -289,7 +298,8 @@ class _EquationError:
         from duffsym.identify.structure import bandlimited_derivative
 
         model = self.model
-        data = [X[:, j] for j in range(model.n_states)] + [self.U[:, j] for j in range(self.U.shape[1])]
+        data: list[np.ndarray | float] = [X[:, j] for j in range(model.n_states)]
+        data += [self.U[:, j] for j in range(self.U.shape[1])]
         data += [float(values[n]) for n in model.param_names]
         acc = bandlimited_derivative(X[:, model.states.index(model.velocity)], self.dt)
         rhs = self._lp(acc - self.rest(*data))
@@ -335,8 +345,9 @@ def auto_mask(record: Record, *, force_band: float = 0.5) -> tuple[np.ndarray, d
     recovery transient after the gap: on Table 2 0.4 V data (2 Hz, unit amplitude) with an input
     backlash of half-width 0.02 the RMS relative parameter error fell from 0.84 unmasked to 0.24,
     against 0.56 with a band of 0.1 (half-width 0.05: 0.90 -> 0.56). The extent is reported: the
-    median lag (samples and seconds), the median over stretches of the largest :math:`|\dot d|/\max|\dot d|` inside (the velocity band of Fig. 8), the median
-    displacement width, and the masked fraction.
+    median lag (samples and seconds), the median over stretches of the largest
+    :math:`|\dot d|/\max|\dot d|` inside (the velocity band of Fig. 8), the median displacement width,
+    and the masked fraction.
 
     Parameters
     ----------

@@ -20,6 +20,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -31,8 +32,8 @@ from duffsym.status import Status
 PROGRESS_EVERY = 2.0
 
 #: IPOPT's Hessian regularisation (``lg(rg)`` in its log) at or above this marks an ill-conditioned
-#: iteration: measured on 3000 Silverbox samples in mV and ms, iterations at 1e7-1e17 took 35-130 s each
-#: (MUMPS reallocating its workspace), those below 1e4 0.3-0.5 s.
+#: iteration: measured on 3000 Silverbox samples in mV and ms, iterations at 1e7-1e17 took two orders of
+#: magnitude longer than those below 1e4 (MUMPS reallocating its workspace; benchmarks/bench_ipopt_iterations.py).
 REGULARISATION_ALARM = 1e8
 
 #: A bound restart stops (keeping the converged run it started from) when one of its iterations takes
@@ -283,8 +284,8 @@ class CollocationNLP:
         # constraints: every interval then depends on nearby variables only, so the Hessian has no
         # dense rows (shared parameters made CasADi's build quadratic and slowed MUMPS) and the chain
         # p_0 = theta, p_b+1 = p_b keeps the KKT matrix banded for the sparse factorization. A copy
-        # per 8 samples instead of per sample: ~30 % less CPU at 12 800 samples (measured 1, 4, 8,
-        # 16, 64: 5.8-6.2, 4.1-4.2, 3.8-4.4, 3.9-5.1, 4.2-5.1 s; no copies at all: ~40 % more than 1).
+        # per 8 samples instead of per sample: ~30 % less CPU at 12 800 samples (strides 4 to 64 within
+        # each other's spread; no copies at all: ~40 % more than a copy per sample).
         nb = -(-N // stride)
         Pl = ca.reshape(wsym[offset + n_var : offset + n_var + n_free * nb], n_free, nb)
         copy_of = (np.arange(N) // stride).tolist()
@@ -333,7 +334,7 @@ class CollocationNLP:
         """``Problem.constraints``: one row per distinct set of slots, after the dynamics."""
         problem, free, slot_names = self.problem, self.free, self.slot_names
         con_r, con_c, con_v, lbg, ubg = [], [], [], np.zeros(self.n_g), np.zeros(self.n_g)
-        con_info = []
+        con_info: list[dict[str, Any]] = []
         for coeffs, lo, hi in problem.constraints:
             seen = set()
             for i in range(len(problem.records)):
@@ -461,7 +462,12 @@ def _structured_derivatives(nlp: CollocationNLP, g):
     lam_f = ca.MX.sym("lam_f")
     lam_g = ca.MX.sym("lam_g", nlp.lbg.size)
     p_empty = ca.MX.sym("p", 0)
-    J_rows, J_cols, J_vals, H_rows, H_cols, H_vals = [], [], [], [], [], []
+    J_rows: list[np.ndarray] = []
+    J_cols: list[np.ndarray] = []
+    J_vals: list[Any] = []  # CasADi matrices
+    H_rows: list[np.ndarray] = []
+    H_cols: list[np.ndarray] = []
+    H_vals: list[Any] = []
     for b in nlp.blocks:
         J, H = _block_entries(nlp, fns, b, lam_f, lam_g)
         for lists, entries in (((J_rows, J_cols, J_vals), J), ((H_rows, H_cols, H_vals), H)):
@@ -523,10 +529,13 @@ def _interval_derivatives(nlp: CollocationNLP) -> dict:
     def triplet(M):
         return tuple(np.asarray(a, dtype=np.int64) for a in M.sparsity().get_triplet())
 
+    def nonzeros(M):  # one column of M's nonzeros (CasADi's stubs leave SXElem out of vertcat's arguments)
+        return ca.vertcat(*M.nonzeros())
+
     return {
-        "jac": (ca.Function("jac_interval", args, [ca.vertcat(*Jk.nonzeros())]), *triplet(Jk)),
-        "hess": (ca.Function("hess_interval", args + [lam], [ca.vertcat(*Hk.nonzeros())]), *triplet(Hk)),
-        "obj": (ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [ca.vertcat(*Ho.nonzeros())]), *triplet(Ho)),
+        "jac": (ca.Function("jac_interval", args, [nonzeros(Jk)]), *triplet(Jk)),
+        "hess": (ca.Function("hess_interval", args + [lam], [nonzeros(Hk)]), *triplet(Hk)),
+        "obj": (ca.Function("hess_term", [v, uo, yk, wk, pf, sx, lf], [nonzeros(Ho)]), *triplet(Ho)),
     }
 
 
@@ -630,7 +639,7 @@ def _status_message(status: str, success: bool, max_iter: int) -> str:
 
 
 def _make_hook_class():
-    """The CasADi callback class (built on first use: importing casadi costs ~0.3 s)."""
+    """The CasADi callback class (built on first use, so that importing this module does not import CasADi)."""
     import casadi as ca
 
     class Hook(ca.Callback):
@@ -737,8 +746,9 @@ class IterationLog:
         return note + ")"
 
     def summary(self) -> dict:
-        """Over IPOPT's callbacks (its iteration 0, the start, included): ``{"n", "seconds_total", "seconds_median", "seconds_max", "slowest", "regularisation_max",
-        "ill_conditioned"}`` (for ``settings["iterations"]`` of a fit)."""
+        """Over IPOPT's callbacks (its iteration 0, the start, included): ``{"n", "seconds_total",
+        "seconds_median", "seconds_max", "slowest", "regularisation_max", "ill_conditioned"}`` (for
+        ``settings["iterations"]`` of a fit)."""
         t = np.asarray(self.times, dtype=float)
         reg = np.asarray([r for r in self.reg if math.isfinite(r)], dtype=float)
         return {
@@ -765,7 +775,8 @@ def restart_guard(first: Run, *, max_iter: int) -> Callable[[IterationLog], str]
 
     def guard(log: IterationLog) -> str:
         if log.times and log.times[-1] > slow:
-            return f"an iteration took {log.times[-1]:.1f} s (the first run's median {info.get('seconds_median', 0):.2g} s)"
+            median = info.get("seconds_median", 0)
+            return f"an iteration took {log.times[-1]:.1f} s (the first run's median {median:.2g} s)"
         if log.alarms >= RESTART_ALARM_ITERATIONS:
             return (
                 f"{log.alarms} iterations with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} "

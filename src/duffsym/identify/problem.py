@@ -22,6 +22,7 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError, ModelError
+from duffsym.model.core import SymbolicModel
 
 REASON_AF = (
     "fixed to max|y| = {value:.6g}: the scaling symmetry x -> s*x leaves the output unchanged, so A_f "
@@ -397,7 +398,7 @@ class Problem:
         (ModelError also for constraints on unknown or non-free parameters, or with lower > upper.)
     """
 
-    model: object
+    model: SymbolicModel
     records: tuple[Record, ...]
     free: tuple[str, ...] = ()
     fixed: Mapping[str, float] = field(default_factory=dict)
@@ -440,7 +441,7 @@ class Problem:
         if not_free:
             raise ModelError(f"per_group parameter(s) {not_free} are not free; free: {list(free_t)}")
         order = tuple(dict.fromkeys(labels))
-        slots = [(n, None) for n in free_t if n not in per_group]
+        slots: list[tuple[str, str | None]] = [(n, None) for n in free_t if n not in per_group]
         slots += [(n, lab) for n in free_t if n in per_group for lab in order]
         bnds = _free_bounds(model, recs, free_t, bounds)
         w, m = _weights_and_mask(recs, weights, mask, len(free_t))

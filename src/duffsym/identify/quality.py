@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -186,7 +187,7 @@ def _outside_certificate(model, rec_params: Sequence[dict], levels: tuple = ()) 
             if where
             else ""
         )
-        flag = {
+        flag: dict[str, Any] = {
             "flag": "outside-stability-certificate",
             "failed": failed,
             "message": f"the fitted set is outside the model's derived stability certificate "

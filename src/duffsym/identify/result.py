@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
+import builtins
 import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from duffsym._json import finite_or_none, jsonable
 from duffsym.errors import DataError, ModelError
 from duffsym.status import Status
+
+if TYPE_CHECKING:
+    from duffsym.effects.base import Effect
 
 #: FIT.json keys about the data that :attr:`IdentificationResult.extras` carries (each an object)
 EXTRA_KEYS = ("training_ranges", "decimation", "data_sanity")
@@ -155,7 +159,7 @@ class IdentificationResult:
 
         The parameters are the fit's (those of ``group``, by default :meth:`group_for` the record); the
         initial state ``x0``, unless given, is estimated from the record's first input period as
-        ``duffsym validate`` does (:func:`duffsym.identify.validation.start_state`). ``options`` go to
+        ``duffsym validate`` does (:func:`duffsym.identify.states.start_state`). ``options`` go to
         :func:`duffsym.simulate.simulate_record` (default ``on_failure="return"``: a failed run comes
         back with its status, not as an exception).
         """
@@ -164,7 +168,7 @@ class IdentificationResult:
         model = self.model_obj
         p = model.param_vector(self.params_for(self.group_for(record) if group is None else group))
         if x0 is None:
-            from duffsym.identify.validation import start_state
+            from duffsym.identify.states import start_state
 
             x0, _ = start_state(model, p, record)
         return simulate_record(model, p, record, x0=x0, **{"on_failure": "return", **options})
@@ -299,9 +303,10 @@ class IdentificationResult:
         if missing:
             raise DataError(f"{source}: not a duffsym fit: missing key(s) {missing}; produce it with duffsym fit --out")
         r = _Reader(data, source)
+        flags = data.get("flags")
         params = r.numbers("params")
         stderr = r.numbers("stderr", allow_none=True)
-        free = tuple(r.strings("free", default=list(stderr)))
+        free: tuple[str, ...] = tuple(r.strings("free", default=list(stderr)))
         cov = r.matrix("covariance", len(free))
         nrmse = r.number("nrmse", allow_none=True)
         r2_default = 1 - nrmse**2 if math.isfinite(nrmse) and abs(nrmse) < 1e150 else None
@@ -335,11 +340,7 @@ class IdentificationResult:
             group_params={str(g): r.numbers(f"group_params.{g}", p) for g, p in r.mapping("group_params").items()},
             groups=tuple(r.strings("groups", default=[])),
             sampling=_sampling_of(data.get("sampling")),
-            flags=tuple(
-                dict(f)
-                for f in (data.get("flags") if isinstance(data.get("flags"), list) else ())
-                if isinstance(f, Mapping)
-            ),
+            flags=tuple(dict(f) for f in (flags if isinstance(flags, list) else ()) if isinstance(f, Mapping)),
             extras={k: r.mapping(k) for k in EXTRA_KEYS if k in data},
             model_spec=r.mapping("model_spec"),
         )
@@ -378,8 +379,12 @@ def _model_from_names(result: IdentificationResult):
         n_disc = 0
         for e in result.effects:  # a discovered term (duffsym ladder --discover) is rebuilt from its name
             n_disc += e.startswith(PREFIX)
-            effect = drift_from_name(e) if e.startswith(DRIFT) else CATALOGUE.get(e)
-            model = apply_effects(model, [from_name(e, n_disc) if e.startswith(PREFIX) else effect])
+            effect: Effect
+            if e.startswith(PREFIX):
+                effect = from_name(e, n_disc)
+            else:  # a drift term or a catalogued effect (an unknown name was refused above)
+                effect = drift_from_name(e) if e.startswith(DRIFT) else CATALOGUE[e]
+            model = apply_effects(model, [effect])
     return model
 
 
@@ -454,7 +459,7 @@ class _Reader:
             raise self.fail(key, "a list", v)
         return v
 
-    def strings(self, key, *, default=KeyError) -> list[str]:
+    def strings(self, key, *, default=KeyError) -> builtins.list[str]:
         v = self.get(key, default)
         if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
             raise self.fail(key, "a list of strings", v)
@@ -472,7 +477,7 @@ class _Reader:
             raise self.fail(key, "an object of name: number", v)
         return {str(k): self.number(f"{key}.{k}", x, allow_none=allow_none) for k, x in v.items()}
 
-    def number_list(self, key, value=KeyError) -> list[float]:
+    def number_list(self, key, value=KeyError) -> builtins.list[float]:
         return [self.number(f"{key}[{i}]", x, allow_none=True) for i, x in enumerate(self.list(key, value))]
 
     def matrix(self, key, n: int) -> np.ndarray:

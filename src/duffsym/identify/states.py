@@ -10,8 +10,14 @@ inputs alone (the field of ``mr-damper-current``) are integrated exactly from th
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, cast
+
 import numpy as np
 import sympy as sp
+
+if TYPE_CHECKING:
+    from duffsym.data.record import Record
 
 
 def _output_gain(model, driven=()):
@@ -98,7 +104,9 @@ def _free_run_states(model, record, params: np.ndarray, X: np.ndarray) -> np.nda
 
     if model.n_states == len(driven_states(model, record, params)) or not np.all(np.isfinite(params)):
         return X
-    tr = simulate_record(model, np.asarray(params, dtype=float), record, x0=X[0], method="rk4", on_failure="return")
+    # simulate_record's signature does not list ndarray (which it takes) yet
+    p = cast("Sequence[float]", np.asarray(params, dtype=float))
+    tr = simulate_record(model, p, record, x0=X[0], method="rk4", on_failure="return")
     return tr.x if tr.success and np.all(np.isfinite(tr.x)) else X
 
 
@@ -174,5 +182,76 @@ def _remove_drift(x: np.ndarray, t: np.ndarray, record) -> np.ndarray:
 
 
 def _cumulative_trapezoid(values: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Running trapezoid integral from 0 (written out: importing scipy.integrate costs ~0.5 s per CLI run)."""
+    """Running trapezoid integral from 0 (written out, so the command line need not import scipy.integrate)."""
     return np.concatenate(([0.0], np.cumsum(0.5 * (values[1:] + values[:-1]) * np.diff(t))))
+
+
+def start_state(model, p, record: Record) -> tuple[np.ndarray, str]:
+    """The initial state of a free run of ``model`` with parameters ``p`` on ``record`` and a note ("" when
+    none): started from the data as in the fit and refined over the first input period (see
+    :func:`duffsym.identify.validation.validate`)."""
+    X = initial_states(model, record, p)
+    return _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
+
+
+#: The estimated initial state may lie this many times the range of the data-based states beyond that range.
+X0_RANGE = 2.0
+
+
+def _bounded_x0(x0, X) -> tuple[np.ndarray, str]:
+    """``x0`` if every state lies within :data:`X0_RANGE` times the range of its data-based trajectory ``X``
+    around it; else the data-based start ``X[0]`` and a note (an initial state far outside what the record's
+    states span fits a level difference, not a start-up: measured, -5.7e6 made the prediction the flat mean)."""
+    x0 = np.asarray(x0, dtype=float)
+    lo, hi = np.min(X, axis=0), np.max(X, axis=0)
+    span = hi - lo  # a state the data say nothing about (started at 0) is not bounded
+    out = (span > 0) & ((x0 < lo - X0_RANGE * span) | (x0 > hi + X0_RANGE * span))
+    if not np.any(out):
+        return x0, ""
+    return np.asarray(X[0], dtype=float), (
+        f"the initial state estimated from the first period ({', '.join(f'{v:.3g}' for v in x0[out])}) "
+        "lay far outside the range of the record's states (it would absorb a level difference): "
+        "the free run starts from the data"
+    )
+
+
+def _estimate_x0(model, p, record, guess):
+    """Initial state minimising the output error over the first input period."""
+    from scipy.optimize import least_squares
+
+    from duffsym.simulate import simulate
+
+    try:
+        period = record.period
+    except (IndexError, ZeroDivisionError, ValueError):
+        period = record.duration
+    n = int(min(record.n_times, max(50, np.searchsorted(record.t, record.t[0] + period)), 1000))
+    t = np.asarray(record.t[:n])
+    U = record.input_matrix(model)
+    chans = {c.name: U[:n, j] for j, c in enumerate(model.inputs)}
+    y = np.asarray(record.y[:n])
+    ref = simulate(model, p, t, chans, x0=guess, on_failure="return")
+    if not ref.success:
+        return np.asarray(guess, dtype=float)
+    # fixed substeps: the discretisation must not change while differencing
+    sub = int(min(max(int(ref.substeps.max()), 1) * 2, 200))
+    scale = np.maximum(np.abs(guess), 1e-3 * max(1.0, float(np.max(np.abs(guess)))))
+
+    def resid(z):
+        tr = simulate(model, p, t, chans, x0=z * scale, substeps=sub, method=ref.method, on_failure="return")
+        r = tr.y - y
+        return np.where(np.isfinite(r), r, 1e6)
+
+    keep = sorted(driven_states(model, record, p))  # input-driven states (the field) start at their equilibrium
+    free = np.array([j for j in range(len(guess)) if j not in keep], dtype=int)
+    z0 = np.asarray(guess, dtype=float) / scale
+
+    def full(zf):
+        z = z0.copy()
+        z[free] = zf
+        return z
+
+    sol = least_squares(lambda zf: resid(full(zf)), z0[free], method="lm", max_nfev=200)
+    sol.x = full(sol.x)
+    x0 = sol.x * scale
+    return x0 if np.sum(resid(sol.x) ** 2) <= np.sum(resid(np.asarray(guess) / scale) ** 2) else np.asarray(guess)

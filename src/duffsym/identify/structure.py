@@ -44,6 +44,13 @@ def _rates(record) -> tuple[np.ndarray, np.ndarray]:
     return v, bandlimited_derivative(v, dt)
 
 
+def _parts(model) -> dict:
+    """The parts of a composed model (the functions below are called for composed models only)."""
+    comp = composition(model)
+    assert comp is not None, f"{model.name} is not a composed model"
+    return comp
+
+
 def element_model(model):
     """The element model of a composed model (None for a single model)."""
     comp = composition(model)
@@ -55,7 +62,7 @@ def structure_initial_states(model, record, params: np.ndarray) -> np.ndarray:
     differentiated, the element's (x, x') simulated from them; states added by effects start at 0."""
     from duffsym.simulate import simulate
 
-    comp = composition(model)
+    comp = _parts(model)
     L = comp["length_unit"]
     v, _ = _rates(record)
     X = np.zeros((record.n_times, model.n_states))
@@ -79,7 +86,7 @@ def structure_columns(model, q, v, a) -> tuple[list[str], np.ndarray]:
 
     from duffsym.model.structure import FORCE_SYMBOL, Q_DDOT, Q_DOT, H, Q
 
-    comp = composition(model)
+    comp = _parts(model)
     eq = comp["equation"]
     expr = sp.expand(eq.lhs - eq.rhs)
     names, cols = [], []
@@ -150,7 +157,7 @@ def equation_error_start(
     of the force, low-passed at 0.08 fs 1.4 %, with m, c, k within 1 % of the truth).
     The wide default spread matters: on a record of an independent simulator whose element
     parameters lie 3 decades from the defaults, 4-16 starts within a factor 10 stopped at an equation
-    error of 0.063-0.065, 16 starts within a factor 1000 reached the noise (0.010) in 4 s; on the
+    error of 0.063-0.065, 16 starts within a factor 1000 reached the noise (0.010); on the
     Bouc-Wen benchmark the opposite held (the factor-10 starts found 0.141, the wide ones 0.230), hence both.
     Returns every parameter by name, plus ``"_equation_nrmse"``: the relative equation error left.
     """
@@ -161,7 +168,7 @@ def equation_error_start(
 
     b_lp, a_lp = butter(4, 2 * lowpass)
     lp = lambda s: filtfilt(b_lp, a_lp, s)  # noqa: E731
-    comp = composition(model)
+    comp = _parts(model)
     elements = comp.get("elements", (comp["element_model"],))
     L = comp["length_unit"]
     v, a = _rates(record)
@@ -213,6 +220,7 @@ def equation_error_start(
         sol = least_squares(residual, z0, max_nfev=max_nfev, x_scale="jac", bounds=(lo, hi))
         if best is None or sol.cost < best.cost:
             best = sol
+    assert best is not None  # the starts include the defaults
     out = dict(base)
     out.update(dict(zip(free, best.x * scale)))
     H_ = force(out)

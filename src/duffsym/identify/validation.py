@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -11,7 +13,7 @@ from duffsym._json import finite_or_none
 from duffsym.data.record import Record
 from duffsym.identify.problem import check_command
 from duffsym.identify.result import IdentificationResult, nrmse
-from duffsym.identify.states import driven_states, initial_states
+from duffsym.identify.states import start_state
 from duffsym.simulate import simulate_record
 
 
@@ -74,13 +76,6 @@ def model_from_result(result: IdentificationResult):
     return result.model_obj
 
 
-def start_state(model, p, record: Record) -> tuple[np.ndarray, str]:
-    """The initial state of a free run of ``model`` with parameters ``p`` on ``record`` and a note ("" when
-    none): started from the data as in the fit and refined over the first input period (see :func:`validate`)."""
-    X = initial_states(model, record, p)
-    return _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
-
-
 def validate(result: IdentificationResult, record: Record, model=None, *, group: str | None = None) -> ValidationResult:
     """Simulate the fitted model on ``record``'s input and compare with its output.
 
@@ -102,7 +97,8 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
         group = result.group_for(record)
     p = model.param_vector(result.params_for(group))
     x0, note = start_state(model, p, record)
-    tr = simulate_record(model, p, record, x0=x0, on_failure="return")
+    # simulate_record's signature does not list ndarray (which it takes) yet
+    tr = simulate_record(model, p, record, x0=cast("Sequence[float]", x0), on_failure="return")
     y_sim = np.asarray(tr.y, dtype=float)
     effects = tuple(model.effects)
     if not tr.success:
@@ -133,65 +129,3 @@ def validate(result: IdentificationResult, record: Record, model=None, *, group:
     return ValidationResult(
         record.name, model.name, err, rmse, r2, ok, message, tuple(map(float, x0)), y_sim, tr.integrator, effects
     )
-
-
-#: The estimated initial state may lie this many times the range of the data-based states beyond that range.
-X0_RANGE = 2.0
-
-
-def _bounded_x0(x0, X) -> tuple[np.ndarray, str]:
-    """``x0`` if every state lies within :data:`X0_RANGE` times the range of its data-based trajectory ``X``
-    around it; else the data-based start ``X[0]`` and a note (an initial state far outside what the record's
-    states span fits a level difference, not a start-up: measured, -5.7e6 made the prediction the flat mean)."""
-    x0 = np.asarray(x0, dtype=float)
-    lo, hi = np.min(X, axis=0), np.max(X, axis=0)
-    span = hi - lo  # a state the data say nothing about (started at 0) is not bounded
-    out = (span > 0) & ((x0 < lo - X0_RANGE * span) | (x0 > hi + X0_RANGE * span))
-    if not np.any(out):
-        return x0, ""
-    return np.asarray(X[0], dtype=float), (
-        f"the initial state estimated from the first period ({', '.join(f'{v:.3g}' for v in x0[out])}) lay far outside "
-        "the range of the record's states (it would absorb a level difference): the free run starts from the data"
-    )
-
-
-def _estimate_x0(model, p, record, guess):
-    """Initial state minimising the output error over the first input period."""
-    from scipy.optimize import least_squares
-
-    from duffsym.simulate import simulate
-
-    try:
-        period = record.period
-    except (IndexError, ZeroDivisionError, ValueError):
-        period = record.duration
-    n = int(min(record.n_times, max(50, np.searchsorted(record.t, record.t[0] + period)), 1000))
-    t = np.asarray(record.t[:n])
-    U = record.input_matrix(model)
-    chans = {c.name: U[:n, j] for j, c in enumerate(model.inputs)}
-    y = np.asarray(record.y[:n])
-    ref = simulate(model, p, t, chans, x0=guess, on_failure="return")
-    if not ref.success:
-        return np.asarray(guess, dtype=float)
-    # fixed substeps: the discretisation must not change while differencing
-    sub = int(min(max(int(ref.substeps.max()), 1) * 2, 200))
-    scale = np.maximum(np.abs(guess), 1e-3 * max(1.0, float(np.max(np.abs(guess)))))
-
-    def resid(z):
-        tr = simulate(model, p, t, chans, x0=z * scale, substeps=sub, method=ref.method, on_failure="return")
-        r = tr.y - y
-        return np.where(np.isfinite(r), r, 1e6)
-
-    keep = sorted(driven_states(model, record, p))  # input-driven states (the field) start at their equilibrium
-    free = np.array([j for j in range(len(guess)) if j not in keep], dtype=int)
-    z0 = np.asarray(guess, dtype=float) / scale
-
-    def full(zf):
-        z = z0.copy()
-        z[free] = zf
-        return z
-
-    sol = least_squares(lambda zf: resid(full(zf)), z0[free], method="lm", max_nfev=200)
-    sol.x = full(sol.x)
-    x0 = sol.x * scale
-    return x0 if np.sum(resid(sol.x) ** 2) <= np.sum(resid(np.asarray(guess) / scale) ** 2) else np.asarray(guess)

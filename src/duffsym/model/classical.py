@@ -34,7 +34,7 @@ References
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import sympy as sp
 
@@ -431,7 +431,7 @@ def biviscous_current(**kwargs) -> SymbolicModel:
 
 
 #: The classical models by CLI name (merged into :data:`duffsym.model.library.MODELS`).
-CLASSICAL_MODELS = {
+CLASSICAL_MODELS: dict[str, Callable[..., SymbolicModel]] = {
     "bouc-wen": bouc_wen,
     "bouc-wen-current": bouc_wen_current,
     "spencer": spencer,

@@ -315,7 +315,7 @@ class SymbolicModel:
         names = {s: LATEX_NAMES.get(str(s), str(s)) for s in self.states}
         names.update({c.symbol: LATEX_NAMES.get(c.name, c.name) for c in self.inputs})
         names.update({p.symbol: p.latex for p in self.params})
-        for k, v in self.structural:
+        for _k, v in self.structural:
             if isinstance(v, sp.Symbol):
                 names[v] = str(v)
         return names

@@ -145,9 +145,10 @@ def _build(node: ast.AST, depth: int, source: str):
         return tuple(_build(e, depth + 1, source) for e in node.elts)
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in _CLASSES:
         args = [_build(a, depth + 1, source) for a in node.args]
-        kwargs = {k.arg: _build(k.value, depth + 1, source) for k in node.keywords}
-        if any(k is None for k in kwargs) or not all(isinstance(v, (bool, int, str)) for v in kwargs.values()):
+        built = [(k.arg, _build(k.value, depth + 1, source)) for k in node.keywords]
+        if any(k is None for k, _ in built) or not all(isinstance(v, (bool, int, str)) for _, v in built):
             raise _refuse(source, "a keyword argument other than a flag or a precision")
+        kwargs = {str(k): v for k, v in built}
         if (
             node.func.id == "Pow"
             and len(args) == 2
@@ -254,7 +255,10 @@ def value_from_data(v, decode_model: Callable[[Any], SymbolicModel], source: str
 def model_to_data(model: SymbolicModel, encode_model: Callable[[SymbolicModel], Any]) -> dict:
     """Every field of ``model`` as JSON-safe data (its equations whole; see :func:`model_from_data`)."""
     text = expr_to_text
-    opt = lambda e: None if e is None else text(e)
+
+    def opt(e):
+        return None if e is None else text(e)
+
     return {
         "name": model.name,
         "states": [text(s) for s in model.states],
@@ -280,8 +284,13 @@ def model_from_data(data, decode_model: Callable[[Any], SymbolicModel], *, sourc
         missing = [k for k in need if not isinstance(data, dict) or k not in data]
         raise ModelError(f"{source}: a stored model needs the fields {missing}; the file is damaged or edited")
     src = f"{source} ({data['name']})"
-    expr = lambda t: expr_from_text(t, source=src)
-    opt = lambda t: None if t is None else expr(t)
+
+    def expr(t):
+        return expr_from_text(t, source=src)
+
+    def opt(t):
+        return None if t is None else expr(t)
+
     try:
         return SymbolicModel(
             name=str(data["name"]),

@@ -27,7 +27,7 @@ import sympy as sp
 
 from duffsym.errors import ModelError
 from duffsym.model.core import InputChannel, SymbolicModel
-from duffsym.model.library import FORCE, mr_damper
+from duffsym.model.elements import FORCE, mr_damper
 from duffsym.model.symbols import ParamSpec, state_symbol
 
 Q, Q_DOT, Q_DDOT = state_symbol("q"), state_symbol("q_dot"), state_symbol("q_ddot")
