@@ -29,7 +29,7 @@ import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -54,6 +54,11 @@ from duffsym.errors import DataError, ModelError
 from duffsym.options import resolve
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
+
+if TYPE_CHECKING:
+    from duffsym.data.decimate import Preparation
+    from duffsym.identify.result import IdentificationResult
+    from duffsym.model.core import SymbolicModel
 
 __all__ = [
     "BIC_THRESHOLD",
@@ -178,7 +183,7 @@ class Diagnosis:
     candidates: tuple[Candidate, ...]
     needed: tuple[str, ...]
     verdict: str
-    base_fit: object
+    base_fit: IdentificationResult
     y_base: np.ndarray
     split: Split
     noise: float
@@ -188,7 +193,7 @@ class Diagnosis:
     sindy: SindyCheck | None = None
     noise_method: str = "given"
     base_check: BaseCheck | None = None
-    prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
+    prepare: Preparation | None = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
     noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
     inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
 
@@ -324,8 +329,9 @@ def smooth_form(model, name: str):
         return None
     base, steps = chain
     parent = steps[-2][1] if len(steps) >= 2 else base
+    effect: Any = CATALOGUE[name]  # a dataclass instance (Effect's subclasses are dataclasses)
     try:
-        return dataclasses.replace(CATALOGUE[name], **SMOOTH_FORMS[name]).apply(parent)
+        return dataclasses.replace(effect, **SMOOTH_FORMS[name]).apply(parent)
     except ModelError:
         return None
 
@@ -399,8 +405,8 @@ def _fit(
             lo, hi = problem.bounds[k]
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
-    options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else {}
-    options = {**options, "max_wall_time": float(max_wall_time)} if max_wall_time else (options or None)
+    limits = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else {}
+    options = {**limits, "max_wall_time": float(max_wall_time)} if max_wall_time else (limits or None)
     # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
     # by design); the base fit restarts as a plain ``fit`` does
     return fit(
@@ -421,7 +427,7 @@ class CandidateTask(NamedTuple):
     start (None: the effect's own guess from the base optimum)."""
 
     name: str
-    model: object
+    model: SymbolicModel
     budget: int
     start: Mapping[str, float] | None
 
@@ -708,7 +714,7 @@ class _Setting:
     rec_fit: Record
     fixed: dict
     mask_fit: np.ndarray | None
-    prep: object
+    prep: Preparation
     cap: int | None
 
     @property
@@ -827,6 +833,7 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     """A converged candidate's evidence against the base (module docstring) and whether it is supported or
     needed."""
     fr, y_ext, y, k = run.fit, run.y, s.y, s.k
+    assert y_ext is not None  # _not_judged sends a run without a free run to _failed
     r = y - y_ext
     mse_h = float(np.mean(r[s.held] ** 2))
     improvement = 1 - math.sqrt(mse_h / ev.mse_held) if ev.mse_held > 0 else 0.0
@@ -864,7 +871,7 @@ def _within_range(y_run, y) -> bool:
 
 def _base_fit(
     model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None, deadline=None
-) -> tuple[object, np.ndarray, BaseCheck]:
+) -> tuple[IdentificationResult, np.ndarray, BaseCheck]:
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a
