@@ -378,7 +378,8 @@ def discover_term(
         tried = (
             drifted.message
             if not drifted.found
-            else f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})"
+            else f"drift: {drifted.effect} not needed "
+            f"(held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})"
         )
         tried += "; "
     if not effects:

@@ -103,7 +103,7 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     stderr: dict = {n: [] for n in dg.base_fit.free}
     bounds = _window_bounds(record, k, n_windows)
     sig = {s: record.drift_signal(s) for s in ("time", "energy")}
-    mids = {s: [] for s in sig}
+    mids: dict[str, list[float]] = {s: [] for s in sig}
     for a, b in bounds:
         win = record.replace(
             t=record.t[a:b],

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -113,8 +113,8 @@ class SindyCheck(_ReadsAsDict):
         known = ("verdict", "conclusive", "missing_terms", "message", "absent_model_terms", "reasons")
         absent, reasons = evidence.get("absent_model_terms"), evidence.get("reasons")
         return cls(
-            verdict=evidence.get("verdict"),
-            conclusive=evidence.get("conclusive"),
+            verdict=cast(str, evidence.get("verdict")),  # the evidence always has both keys
+            conclusive=cast(bool, evidence.get("conclusive")),
             missing_terms=tuple(evidence.get("missing_terms", ())),
             message=evidence.get("message", ""),
             absent_model_terms=None if absent is None else tuple(absent),

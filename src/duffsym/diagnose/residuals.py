@@ -233,7 +233,8 @@ class ResidualAnalysis:
             out.append(
                 (
                     abs(self.mean) / self.rmse * 10,
-                    f"the residual has a mean of {self.mean:.3g} ({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
+                    f"the residual has a mean of {self.mean:.3g} "
+                    f"({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
                     "the loop is shifted",
                 )
             )

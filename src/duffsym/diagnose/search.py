@@ -573,8 +573,8 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         ``SCREEN_ITER`` IPOPT iterations; those not converged by then continue to the full budget
         only if their free-run error on the fitting part ranks among the best ``screen`` of the
         candidates not converged by then (converged ones are not in that ranking: they are done); the
-        others are reported as screened out (default 4). None: every candidate gets the full budget. ``bench_diagnose.py`` measures what
-        this costs in correct verdicts against refitting all.
+        others are reported as screened out (default 4). None: every candidate gets the full budget.
+        ``bench_diagnose.py`` measures what this costs in correct verdicts against refitting all.
     sindy : also run the SINDy cross-check (:func:`duffsym.sindy.sindy_evidence`) on the record
         with the base fit: an independent, data-driven view of which terms the data support. Its
         supported missing terms are quoted in the verdict as corroboration (or contradiction) of

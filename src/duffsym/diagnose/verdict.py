@@ -80,7 +80,8 @@ def _base_sentence(check: BaseCheck | None) -> str:
     s = ""
     if check.budget:
         s += (
-            f" Time budget: the {' and the '.join(check.budget)} stopped on {'its' if len(check.budget) == 1 else 'their'}"
+            f" Time budget: the {' and the '.join(check.budget)} stopped on "
+            f"{'its' if len(check.budget) == 1 else 'their'}"
             " share of the budget before converging (give more with --budget)."
         )
     if not check.as_good:
