@@ -19,11 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from duffsym.diagnose.options import GROWTH
 from duffsym.effects.drift import ParameterDrift
 from duffsym.errors import DataError, ModelError
 
-#: the residual "grows over the record" (the diagnosis's trend): growth above this, or below its inverse
-GROWTH = 1.5
 #: a parameter counts as drifting when its windowed values change monotonically by more than this (relative)
 MIN_CHANGE = 0.05
 #: at most this many drifting parameters are tried with the dissipated energy (the best of them also with time);

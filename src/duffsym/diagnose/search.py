@@ -47,7 +47,7 @@ from duffsym.diagnose.options import (
     TIE,
     DiagnoseOptions,
 )
-from duffsym.diagnose.parts import BaseCheck, BaseEvidence, CandidateRun, FitOutcome, SindyCheck, Split
+from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.diagnose.verdict import full_verdict, why_not
 from duffsym.errors import DataError, ModelError
@@ -103,56 +103,6 @@ def _time_share(deadline: float | None, fraction: float, cap: float | None = Non
         return cap
     t = max(2.0, fraction * time_left(deadline))
     return t if cap is None else min(cap, t)
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """One catalogued effect added to the model and refitted."""
-
-    effect: str
-    nrmse_after: float  # held-out free-run NRMSE with the effect
-    nrmse_after_fit: float  # free-run NRMSE on the fitting part
-    nrmse_after_all: float  # over the whole record
-    delta_bic: float
-    improvement: float  # 1 - rmse_after / rmse_before on the held-out part
-    explained: float  # share of the base model's excess held-out MSE removed
-    params: dict  # the effect's own parameters
-    stderr: dict
-    all_params: dict
-    success: bool
-    message: str
-    seconds: float
-    supported: bool = False
-    needed: bool = False
-    physics: str = ""
-    diverged: bool = False  # its free run failed or left the data's range (> DIVERGED x max|y|)
-    stable: bool | None = None  # the fitted set satisfies the derived stability certificate (None: not checked)
-    stability: str = ""  # the certificate's failed conditions, when it fails
-    start: int = 1  # 2 when the second start (from the base solution) won
-
-    def to_dict(self) -> dict:
-        return dict(
-            effect=self.effect,
-            nrmse_after=self.nrmse_after,
-            delta_bic=self.delta_bic,
-            params=self.params,
-            stderr=self.stderr,
-            nrmse_after_fit=self.nrmse_after_fit,
-            nrmse_after_all=self.nrmse_after_all,
-            improvement=self.improvement,
-            explained=self.explained,
-            supported=self.supported,
-            needed=self.needed,
-            success=self.success,
-            message=self.message,
-            seconds=self.seconds,
-            all_params=self.all_params,
-            physics=self.physics,
-            diverged=self.diverged,
-            stable=self.stable,
-            stability=self.stability,
-            start=self.start,
-        )
 
 
 @dataclass(frozen=True)

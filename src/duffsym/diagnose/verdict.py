@@ -4,14 +4,10 @@ outside the catalogue, the smoothing, the SINDy cross-check, the base fit's chec
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
-from duffsym.diagnose.options import EXACT_FIT, STABILITY_CHECKED, TIE
-from duffsym.diagnose.parts import BaseCheck, SindyCheck
+from duffsym.diagnose.options import EXACT_FIT, GROWTH, STABILITY_CHECKED, TIE
+from duffsym.diagnose.parts import BaseCheck, Candidate, SindyCheck
 from duffsym.diagnose.residuals import ResidualAnalysis
-
-if TYPE_CHECKING:
-    from duffsym.diagnose.search import Candidate
 
 
 def why_not(message: str) -> str:
@@ -24,8 +20,6 @@ def why_not(message: str) -> str:
 def full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive) -> str:
     """The diagnosis's sentences: the verdict, the proposal to look outside the catalogue, smoothing, SINDy,
     the base fit's check and the inactive effects."""
-    from duffsym.diagnose.discover import proposal
-
     return (
         _verdict(res, out, base_held, noise_method, shifted)
         + proposal(res, out)
@@ -33,6 +27,25 @@ def full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_c
         + _sindy_sentence(evidence, out)
         + _base_sentence(base_check)
         + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items())
+    )
+
+
+def proposal(residuals, candidates) -> str:
+    """The diagnosis's sentence proposing discovery, when no catalogued effect is needed and the model is
+    not at the noise: what ``duffsym ladder`` (discovery on by default) will look for ('' otherwise)."""
+    if any(c.needed for c in candidates) or residuals.at_noise_level or residuals.excess < 1.5:
+        return ""
+    tr = residuals.trend
+    g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
+    if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
+        return (
+            f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
+            "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
+            "drifts and tries it following time or the dissipated energy."
+        )
+    return (
+        " Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
+        "regression of the residual on polynomials and switching functions of d, d', x, x'."
     )
 
 
