@@ -85,7 +85,7 @@ BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
 #: IPOPT statuses of a fit stopped by a time limit
 OUT_OF_TIME = (Status.CPU_TIME, Status.IPOPT_WALL_TIME)
 #: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
-#: computed at the record's rate); a 10 000-sample fitting part at 1 kHz otherwise costs minutes per fit
+#: computed at the record's rate); a fit's cost grows with its samples (``benchmarks/bench_diagnose_speed.py``)
 BUDGET_SAMPLES = 2000
 #: the message of a candidate that was not fitted because the time budget ran out
 NOT_TRIED = "not tried: the time budget ran out"
@@ -515,7 +515,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     candidate_max_iter : IPOPT iterations allowed to each candidate's fit. It starts from the base
         optimum and the effect's guess, so a candidate that explains the data converges in a few
         tens of iterations; one that does not (e.g. a play width driven towards 0, where the
-        smooth switch becomes sharp) is reported as not converged instead of costing minutes.
+        smooth switch becomes sharp) is reported as not converged instead of iterating on.
     candidate_cpu_time : IPOPT CPU seconds allowed to each candidate's fit (None: no limit). A
         budget, not evidence: a candidate stopped by it is reported as not converged, and the
         verdict does not rest on it (use None for a reproducible run on a loaded machine).
