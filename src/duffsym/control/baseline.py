@@ -8,7 +8,9 @@ the measured force (closed loop), no model.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -53,7 +55,8 @@ def clipped_on_off(model, params, t, inputs: np.ndarray, force_desired, *, limit
             break
         seg = U[k : k + 2].copy()
         seg[:, jc] = cmd[k]
-        tr = simulate(model, p, t[k : k + 2], seg, x0=x, on_failure="return")
+        x_k = cast("Sequence[float]", x)  # simulate takes an array too
+        tr = simulate(model, p, t[k : k + 2], seg, x0=x_k, on_failure="return")
         if not tr.success:
             return OnOffRun(t, cmd, y, False, tr.message)
         x = tr.x[-1]

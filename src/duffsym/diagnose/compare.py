@@ -29,6 +29,7 @@ import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -319,7 +320,8 @@ def _continued_run(model, res, rec, i: int) -> np.ndarray:
     """The fitted model's free run over the whole record from the initial state fitted on its training part."""
     from duffsym.simulate import simulate_record
 
-    tr = simulate_record(model, res.params, rec, x0=np.asarray(res.x0[i], dtype=float), on_failure="return")
+    x0 = cast("Sequence[float]", np.asarray(res.x0[i], dtype=float))  # simulate_record takes an array too
+    tr = simulate_record(model, res.params, rec, x0=x0, on_failure="return")
     return np.asarray(tr.y, dtype=float) if tr.success else np.full(rec.n_times, np.nan)
 
 
@@ -347,7 +349,8 @@ def simulation_cost(model, res, records) -> tuple[float, float, int, str]:
     p = model.param_vector(res.params)
     total, n, subs, how = 0.0, 0, [], set()
     for i, rec in enumerate(records):
-        x0 = np.asarray(res.x0[i], dtype=float) if i < len(res.x0) else None
+        # simulate_record takes an array too
+        x0 = cast("Sequence[float]", np.asarray(res.x0[i], dtype=float)) if i < len(res.x0) else None
         simulate_record(model, p, rec, x0=x0, on_failure="return")
         t0 = time.perf_counter()
         tr = simulate_record(model, p, rec, x0=x0, on_failure="return")

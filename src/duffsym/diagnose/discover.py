@@ -378,7 +378,8 @@ def discover_term(
         tried = (
             drifted.message
             if not drifted.found
-            else f"drift: {drifted.effect} not needed (held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})"
+            else f"drift: {drifted.effect} not needed "
+            f"(held-out {drifted.nrmse_before:.3g} -> {drifted.nrmse_after:.3g})"
         )
         tried += "; "
     if not effects:
@@ -596,24 +597,3 @@ def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
     supported = bool(dbic < rules["bic_threshold"] and improvement >= rules["min_improvement"])
     needed = bool(supported and explained >= rules["min_explained"] and not dg.residuals.at_noise_level)
     return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)
-
-
-def proposal(residuals, candidates) -> str:
-    """The diagnosis's sentence proposing discovery, when no catalogued effect is needed and the model is
-    not at the noise: what ``duffsym ladder`` (discovery on by default) will look for ('' otherwise)."""
-    from duffsym.diagnose.drift import GROWTH
-
-    if any(c.needed for c in candidates) or residuals.at_noise_level or residuals.excess < 1.5:
-        return ""
-    tr = residuals.trend
-    g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
-    if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
-        return (
-            f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
-            "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
-            "drifts and tries it following time or the dissipated energy."
-        )
-    return (
-        " Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
-        "regression of the residual on polynomials and switching functions of d, d', x, x'."
-    )

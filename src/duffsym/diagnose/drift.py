@@ -19,11 +19,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from duffsym.diagnose.options import GROWTH
 from duffsym.effects.drift import ParameterDrift
 from duffsym.errors import DataError, ModelError
 
-#: the residual "grows over the record" (the diagnosis's trend): growth above this, or below its inverse
-GROWTH = 1.5
 #: a parameter counts as drifting when its windowed values change monotonically by more than this (relative)
 MIN_CHANGE = 0.05
 #: at most this many drifting parameters are tried with the dissipated energy (the best of them also with time);
@@ -103,7 +102,7 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     stderr: dict = {n: [] for n in dg.base_fit.free}
     bounds = _window_bounds(record, k, n_windows)
     sig = {s: record.drift_signal(s) for s in ("time", "energy")}
-    mids = {s: [] for s in sig}
+    mids: dict[str, list[float]] = {s: [] for s in sig}
     for a, b in bounds:
         win = record.replace(
             t=record.t[a:b],

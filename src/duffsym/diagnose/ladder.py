@@ -37,6 +37,7 @@ import math
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,6 +46,10 @@ from duffsym.diagnose.options import DEFAULT_BUDGET, DiagnoseOptions, LadderOpti
 from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_effects, time_left, with_default_af
 from duffsym.errors import DataError, ModelError
 from duffsym.options import field_names, resolve
+
+if TYPE_CHECKING:
+    from duffsym.data.decimate import Preparation
+    from duffsym.identify.result import IdentificationResult
 
 __all__ = ["DEFAULT_BUDGET", "LadderOptions", "Ladder", "Step", "ladder", "joint_refit", "error_fell"]
 #: share of the budget kept for the backward pass and the final fit on the whole record
@@ -97,10 +102,10 @@ class Ladder:
     """The steps from the base model to the last supported extension."""
 
     steps: tuple[Step, ...]
-    final_fit: object
+    final_fit: IdentificationResult | None
     stopped: str
     timings: dict = field(default_factory=dict)
-    prepare: object = None  # the decimation of the final fit's data (duffsym.diagnose.prepare.Preparation)
+    prepare: Preparation | None = None  # the decimation of the final fit's data (duffsym.diagnose.prepare.Preparation)
     final_note: str = ""  # when the final fit is not a refit on the whole record, why
     budget: float | None = None
     complete: bool = True  # False: stopped by the budget or an interruption before its natural end
@@ -248,8 +253,11 @@ class _Run:
     def __init__(self, record: Record, o: LadderOptions, model):
         self.record, self.o = record, o
         self.t0 = time.perf_counter()
-        self.end = None if o.budget is None else time.monotonic() + float(o.budget)
-        self.steps_end = None if self.end is None else self.end - FINAL_RESERVE * float(o.budget)
+        self.end: float | None = None
+        self.steps_end: float | None = None
+        if o.budget is not None:
+            self.end = time.monotonic() + float(o.budget)
+            self.steps_end = self.end - FINAL_RESERVE * float(o.budget)
         self.say = o.progress or (lambda msg: None)
         if model is None:
             from duffsym.model.library import mr_damper
@@ -257,10 +265,10 @@ class _Run:
             model = mr_damper()
         self.model = self.base_model = model
         self.steps: list[Step] = []
-        self.start = None
+        self.start: dict[str, float] | None = None
         self.stopped, self.complete = "", True
-        self.found = None  # the discovered term of the next step
-        self.jinfo = None  # the joint refit that starts the next step
+        self.found: Any = None  # the discovered term of the next step
+        self.jinfo: dict | None = None  # the joint refit that starts the next step
 
     def stop(self, why: str, complete: bool = True) -> None:
         self.stopped, self.complete = why, complete
@@ -663,8 +671,9 @@ def joint_refit(
         if fr is not None:
             tried["guesses"] = (score(model, fr.params, fr.x0[0]), dict(fr.params))
     if smooth or "seal-friction" in added:
+        catalogue: dict[str, Any] = dict(CATALOGUE)  # dataclass instances (Effect's subclasses are dataclasses)
         soft = apply_effects(
-            base_model, [dataclasses.replace(CATALOGUE[e], **smooth[e]) if e in smooth else CATALOGUE[e] for e in added]
+            base_model, [dataclasses.replace(catalogue[e], **smooth[e]) if e in smooth else catalogue[e] for e in added]
         )
         g = dict(guess)
         if "seal_eps" in g:

@@ -95,11 +95,11 @@ def _ma_matrix(n: int, w: int):
     """The sparse (n, n) matrix of :func:`moving_average` (end values repeated beyond the ends)."""
     from scipy.sparse import coo_matrix
 
-    rows, cols = [], []
+    row_parts, col_parts = [], []
     for j in range(-(w // 2), w - w // 2):
-        rows.append(np.arange(n))
-        cols.append(np.clip(np.arange(n) + j, 0, n - 1))
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
+        row_parts.append(np.arange(n))
+        col_parts.append(np.clip(np.arange(n) + j, 0, n - 1))
+    rows, cols = np.concatenate(row_parts), np.concatenate(col_parts)
     return coo_matrix((np.full(rows.size, 1.0 / w), (rows, cols)), shape=(n, n)).tocsr()
 
 

@@ -21,6 +21,8 @@ TIE = 0.05
 STABILITY_CHECKED = 4
 #: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
 EXACT_FIT = 1e-3
+#: the residual "grows over the record" (the diagnosis's trend): growth above this, or below its inverse
+GROWTH = 1.5
 #: default time budget of a ladder run (seconds): the issue's bound for any real record
 DEFAULT_BUDGET = 600.0
 

@@ -1,5 +1,7 @@
 """The small typed pieces of a :class:`~duffsym.diagnose.Diagnosis` and of the search that makes it.
 
+- :class:`Candidate`: one catalogued effect added to the model and refitted, as the diagnosis judged it
+  (re-exported by :mod:`duffsym.diagnose.search`).
 - :class:`Split`, :class:`BaseCheck`, :class:`SindyCheck`: what a diagnosis reports about its split, its
   base fit and the SINDy cross-check. Each ``to_dict()`` gives the JSON of ``duffsym diagnose --json``
   (``docs/contract.md``); each also reads like that dict (``dg.split["n_fit"]``), for code written against it.
@@ -14,7 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -113,8 +115,8 @@ class SindyCheck(_ReadsAsDict):
         known = ("verdict", "conclusive", "missing_terms", "message", "absent_model_terms", "reasons")
         absent, reasons = evidence.get("absent_model_terms"), evidence.get("reasons")
         return cls(
-            verdict=evidence.get("verdict"),
-            conclusive=evidence.get("conclusive"),
+            verdict=cast(str, evidence.get("verdict")),  # the evidence always has both keys
+            conclusive=cast(bool, evidence.get("conclusive")),
             missing_terms=tuple(evidence.get("missing_terms", ())),
             message=evidence.get("message", ""),
             absent_model_terms=None if absent is None else tuple(absent),
@@ -143,6 +145,56 @@ class SindyCheck(_ReadsAsDict):
         out["message"] = self.message
         out.update(self.extra)
         return out
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One catalogued effect added to the model and refitted."""
+
+    effect: str
+    nrmse_after: float  # held-out free-run NRMSE with the effect
+    nrmse_after_fit: float  # free-run NRMSE on the fitting part
+    nrmse_after_all: float  # over the whole record
+    delta_bic: float
+    improvement: float  # 1 - rmse_after / rmse_before on the held-out part
+    explained: float  # share of the base model's excess held-out MSE removed
+    params: dict  # the effect's own parameters
+    stderr: dict
+    all_params: dict
+    success: bool
+    message: str
+    seconds: float
+    supported: bool = False
+    needed: bool = False
+    physics: str = ""
+    diverged: bool = False  # its free run failed or left the data's range (> DIVERGED x max|y|)
+    stable: bool | None = None  # the fitted set satisfies the derived stability certificate (None: not checked)
+    stability: str = ""  # the certificate's failed conditions, when it fails
+    start: int = 1  # 2 when the second start (from the base solution) won
+
+    def to_dict(self) -> dict:
+        return dict(
+            effect=self.effect,
+            nrmse_after=self.nrmse_after,
+            delta_bic=self.delta_bic,
+            params=self.params,
+            stderr=self.stderr,
+            nrmse_after_fit=self.nrmse_after_fit,
+            nrmse_after_all=self.nrmse_after_all,
+            improvement=self.improvement,
+            explained=self.explained,
+            supported=self.supported,
+            needed=self.needed,
+            success=self.success,
+            message=self.message,
+            seconds=self.seconds,
+            all_params=self.all_params,
+            physics=self.physics,
+            diverged=self.diverged,
+            stable=self.stable,
+            stability=self.stability,
+            start=self.start,
+        )
 
 
 @dataclass(frozen=True)

@@ -113,7 +113,7 @@ def cross_correlation(r, u, max_lag: int = MAX_LAG) -> np.ndarray:
 
 def ljung_box(acf: np.ndarray, n: int) -> tuple[float, float]:
     """Ljung–Box statistic over the lags of ``acf`` (lag 0 excluded) and its chi-square p-value."""
-    from scipy.special import chdtrc  # chi-square survival function (scipy.stats costs seconds to import)
+    from scipy.special import chdtrc  # chi-square survival function (scipy.stats is a much heavier import)
 
     h = acf.size - 1
     k = np.arange(1, h + 1)
@@ -233,7 +233,8 @@ class ResidualAnalysis:
             out.append(
                 (
                     abs(self.mean) / self.rmse * 10,
-                    f"the residual has a mean of {self.mean:.3g} ({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
+                    f"the residual has a mean of {self.mean:.3g} "
+                    f"({100 * abs(self.mean) / self.rmse:.0f} % of its RMS): "
                     "the loop is shifted",
                 )
             )

@@ -29,7 +29,7 @@ import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -47,13 +47,18 @@ from duffsym.diagnose.options import (
     TIE,
     DiagnoseOptions,
 )
-from duffsym.diagnose.parts import BaseCheck, BaseEvidence, CandidateRun, FitOutcome, SindyCheck, Split
+from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.diagnose.verdict import full_verdict, why_not
 from duffsym.errors import DataError, ModelError
 from duffsym.options import resolve
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
+
+if TYPE_CHECKING:
+    from duffsym.data.decimate import Preparation
+    from duffsym.identify.result import IdentificationResult
+    from duffsym.model.core import SymbolicModel
 
 __all__ = [
     "BIC_THRESHOLD",
@@ -80,7 +85,7 @@ BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
 #: IPOPT statuses of a fit stopped by a time limit
 OUT_OF_TIME = (Status.CPU_TIME, Status.IPOPT_WALL_TIME)
 #: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
-#: computed at the record's rate); a 10 000-sample fitting part at 1 kHz otherwise costs minutes per fit
+#: computed at the record's rate); a fit's cost grows with its samples (``benchmarks/bench_diagnose_speed.py``)
 BUDGET_SAMPLES = 2000
 #: the message of a candidate that was not fitted because the time budget ran out
 NOT_TRIED = "not tried: the time budget ran out"
@@ -98,56 +103,6 @@ def _time_share(deadline: float | None, fraction: float, cap: float | None = Non
         return cap
     t = max(2.0, fraction * time_left(deadline))
     return t if cap is None else min(cap, t)
-
-
-@dataclass(frozen=True)
-class Candidate:
-    """One catalogued effect added to the model and refitted."""
-
-    effect: str
-    nrmse_after: float  # held-out free-run NRMSE with the effect
-    nrmse_after_fit: float  # free-run NRMSE on the fitting part
-    nrmse_after_all: float  # over the whole record
-    delta_bic: float
-    improvement: float  # 1 - rmse_after / rmse_before on the held-out part
-    explained: float  # share of the base model's excess held-out MSE removed
-    params: dict  # the effect's own parameters
-    stderr: dict
-    all_params: dict
-    success: bool
-    message: str
-    seconds: float
-    supported: bool = False
-    needed: bool = False
-    physics: str = ""
-    diverged: bool = False  # its free run failed or left the data's range (> DIVERGED x max|y|)
-    stable: bool | None = None  # the fitted set satisfies the derived stability certificate (None: not checked)
-    stability: str = ""  # the certificate's failed conditions, when it fails
-    start: int = 1  # 2 when the second start (from the base solution) won
-
-    def to_dict(self) -> dict:
-        return dict(
-            effect=self.effect,
-            nrmse_after=self.nrmse_after,
-            delta_bic=self.delta_bic,
-            params=self.params,
-            stderr=self.stderr,
-            nrmse_after_fit=self.nrmse_after_fit,
-            nrmse_after_all=self.nrmse_after_all,
-            improvement=self.improvement,
-            explained=self.explained,
-            supported=self.supported,
-            needed=self.needed,
-            success=self.success,
-            message=self.message,
-            seconds=self.seconds,
-            all_params=self.all_params,
-            physics=self.physics,
-            diverged=self.diverged,
-            stable=self.stable,
-            stability=self.stability,
-            start=self.start,
-        )
 
 
 @dataclass(frozen=True)
@@ -178,7 +133,7 @@ class Diagnosis:
     candidates: tuple[Candidate, ...]
     needed: tuple[str, ...]
     verdict: str
-    base_fit: object
+    base_fit: IdentificationResult
     y_base: np.ndarray
     split: Split
     noise: float
@@ -188,7 +143,7 @@ class Diagnosis:
     sindy: SindyCheck | None = None
     noise_method: str = "given"
     base_check: BaseCheck | None = None
-    prepare: object = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
+    prepare: Preparation | None = None  # the decimation of the fitting data (duffsym.diagnose.prepare.Preparation)
     noise_estimate: NoiseEstimate | None = None  # how the noise was measured (smoothing, measurability)
     inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
 
@@ -324,8 +279,9 @@ def smooth_form(model, name: str):
         return None
     base, steps = chain
     parent = steps[-2][1] if len(steps) >= 2 else base
+    effect: Any = CATALOGUE[name]  # a dataclass instance (Effect's subclasses are dataclasses)
     try:
-        return dataclasses.replace(CATALOGUE[name], **SMOOTH_FORMS[name]).apply(parent)
+        return dataclasses.replace(effect, **SMOOTH_FORMS[name]).apply(parent)
     except ModelError:
         return None
 
@@ -399,8 +355,8 @@ def _fit(
             lo, hi = problem.bounds[k]
             if not lo <= start[k] <= hi:
                 start[k] = min(max(start[k], lo + 1e-9 * abs(hi - lo)), hi - 1e-9 * abs(hi - lo))
-    options = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else {}
-    options = {**options, "max_wall_time": float(max_wall_time)} if max_wall_time else (options or None)
+    limits = {"max_cpu_time": float(max_cpu_time)} if max_cpu_time else {}
+    options = {**limits, "max_wall_time": float(max_wall_time)} if max_wall_time else (limits or None)
     # candidates: no restart off bounds (an effect that is not needed ends with its parameter on a bound
     # by design); the base fit restarts as a plain ``fit`` does
     return fit(
@@ -421,7 +377,7 @@ class CandidateTask(NamedTuple):
     start (None: the effect's own guess from the base optimum)."""
 
     name: str
-    model: object
+    model: SymbolicModel
     budget: int
     start: Mapping[str, float] | None
 
@@ -559,7 +515,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     candidate_max_iter : IPOPT iterations allowed to each candidate's fit. It starts from the base
         optimum and the effect's guess, so a candidate that explains the data converges in a few
         tens of iterations; one that does not (e.g. a play width driven towards 0, where the
-        smooth switch becomes sharp) is reported as not converged instead of costing minutes.
+        smooth switch becomes sharp) is reported as not converged instead of iterating on.
     candidate_cpu_time : IPOPT CPU seconds allowed to each candidate's fit (None: no limit). A
         budget, not evidence: a candidate stopped by it is reported as not converged, and the
         verdict does not rest on it (use None for a reproducible run on a loaded machine).
@@ -567,8 +523,8 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         ``SCREEN_ITER`` IPOPT iterations; those not converged by then continue to the full budget
         only if their free-run error on the fitting part ranks among the best ``screen`` of the
         candidates not converged by then (converged ones are not in that ranking: they are done); the
-        others are reported as screened out (default 4). None: every candidate gets the full budget. ``bench_diagnose.py`` measures what
-        this costs in correct verdicts against refitting all.
+        others are reported as screened out (default 4). None: every candidate gets the full budget.
+        ``bench_diagnose.py`` measures what this costs in correct verdicts against refitting all.
     sindy : also run the SINDy cross-check (:func:`duffsym.sindy.sindy_evidence`) on the record
         with the base fit: an independent, data-driven view of which terms the data support. Its
         supported missing terms are quoted in the verdict as corroboration (or contradiction) of
@@ -708,7 +664,7 @@ class _Setting:
     rec_fit: Record
     fixed: dict
     mask_fit: np.ndarray | None
-    prep: object
+    prep: Preparation
     cap: int | None
 
     @property
@@ -827,6 +783,7 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     """A converged candidate's evidence against the base (module docstring) and whether it is supported or
     needed."""
     fr, y_ext, y, k = run.fit, run.y, s.y, s.k
+    assert y_ext is not None  # _not_judged sends a run without a free run to _failed
     r = y - y_ext
     mse_h = float(np.mean(r[s.held] ** 2))
     improvement = 1 - math.sqrt(mse_h / ev.mse_held) if ev.mse_held > 0 else 0.0
@@ -864,7 +821,7 @@ def _within_range(y_run, y) -> bool:
 
 def _base_fit(
     model, record, rec_fit, fixed, start, mask, mask_fit, fit_result, say, k=None, rec_plain=None, deadline=None
-) -> tuple[object, np.ndarray, BaseCheck]:
+) -> tuple[IdentificationResult, np.ndarray, BaseCheck]:
     """The base fit on the fitting part, at least as good there as a plain ``fit`` of the whole record.
 
     The base model is fitted on the fitting part as a plain ``fit`` would (restart off bounds); a

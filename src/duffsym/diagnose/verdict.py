@@ -4,14 +4,10 @@ outside the catalogue, the smoothing, the SINDy cross-check, the base fit's chec
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
-from duffsym.diagnose.options import EXACT_FIT, STABILITY_CHECKED, TIE
-from duffsym.diagnose.parts import BaseCheck, SindyCheck
+from duffsym.diagnose.options import EXACT_FIT, GROWTH, STABILITY_CHECKED, TIE
+from duffsym.diagnose.parts import BaseCheck, Candidate, SindyCheck
 from duffsym.diagnose.residuals import ResidualAnalysis
-
-if TYPE_CHECKING:
-    from duffsym.diagnose.search import Candidate
 
 
 def why_not(message: str) -> str:
@@ -24,8 +20,6 @@ def why_not(message: str) -> str:
 def full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_check, inactive) -> str:
     """The diagnosis's sentences: the verdict, the proposal to look outside the catalogue, smoothing, SINDy,
     the base fit's check and the inactive effects."""
-    from duffsym.diagnose.discover import proposal
-
     return (
         _verdict(res, out, base_held, noise_method, shifted)
         + proposal(res, out)
@@ -33,6 +27,25 @@ def full_verdict(res, out, base_held, noise_method, shifted, w, evidence, base_c
         + _sindy_sentence(evidence, out)
         + _base_sentence(base_check)
         + "".join(f" Inactive in the fitted model: {e}: {why}." for e, why in inactive.items())
+    )
+
+
+def proposal(residuals, candidates) -> str:
+    """The diagnosis's sentence proposing discovery, when no catalogued effect is needed and the model is
+    not at the noise: what ``duffsym ladder`` (discovery on by default) will look for ('' otherwise)."""
+    if any(c.needed for c in candidates) or residuals.at_noise_level or residuals.excess < 1.5:
+        return ""
+    tr = residuals.trend
+    g, rho = float(tr.get("growth", 1.0)), float(tr.get("spearman", 0.0))
+    if (g > GROWTH and rho > 0.5) or (g < 1 / GROWTH and rho < -0.5):
+        return (
+            f" The error {'grows' if g > 1 else 'shrinks'} over the record ({g:.1f}x from the first to the last "
+            "quarter): `duffsym ladder` (discovery on by default) refits windows to find the parameter that "
+            "drifts and tries it following time or the dissipated energy."
+        )
+    return (
+        " Outside the catalogue: `duffsym ladder` (discovery on by default) looks for a term by sparse "
+        "regression of the residual on polynomials and switching functions of d, d', x, x'."
     )
 
 
@@ -80,7 +93,8 @@ def _base_sentence(check: BaseCheck | None) -> str:
     s = ""
     if check.budget:
         s += (
-            f" Time budget: the {' and the '.join(check.budget)} stopped on {'its' if len(check.budget) == 1 else 'their'}"
+            f" Time budget: the {' and the '.join(check.budget)} stopped on "
+            f"{'its' if len(check.budget) == 1 else 'their'}"
             " share of the budget before converging (give more with --budget)."
         )
     if not check.as_good:
@@ -95,6 +109,48 @@ def _base_sentence(check: BaseCheck | None) -> str:
             "an energy-producing parameter set; treat its numbers with care."
         )
     return s
+
+
+def _fits_verdict(
+    res: ResidualAnalysis, base_held: float, noise_method: str, floor: bool, noise_said: str
+) -> str | None:
+    """The verdict when no candidate is needed and the model fits (exactly, to the noise, or to the noise
+    level with a small structured misfit); None when it does not."""
+    if base_held < EXACT_FIT:
+        return (
+            f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
+            "data?); nothing is left to explain and no effect is needed."
+        )
+    if res.at_noise_level:
+        if floor:
+            return (
+                "The model fits as well as any candidate: no catalogued effect lowers the held-out error "
+                f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}."
+            )
+        return (
+            f"The model fits to the noise: the residual is white and at the noise level "
+            f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
+            f"catalogued effect improves the held-out error convincingly."
+        )
+    if res.excess < 1.5 and not floor:
+        return (
+            f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
+            f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
+            "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
+            "effect lowers convincingly; no effect is needed."
+        )
+    return None
+
+
+def _unstable_tail(ok: Sequence[Candidate]) -> str:
+    """The sentence on supported candidates not taken because their fitted set is energy-producing."""
+    unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
+    if not unstable:
+        return ""
+    return (
+        " Not taken although supported, because the fitted set is outside the derived stability certificate "
+        "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + "."
+    )
 
 
 def _verdict(
@@ -114,36 +170,11 @@ def _verdict(
         else f" (the noise is not measurable on this record; the reference {res.noise:.3g} is the lowest held-out "
         "RMS of any fitted model, an upper bound of the noise)"
     )
-    if base_held < EXACT_FIT and not any(c.needed for c in ok):
-        return (
-            f"The model fits the record exactly: held-out NRMSE {base_held:.2g}, below {EXACT_FIT:g} (noise-free "
-            "data?); nothing is left to explain and no effect is needed."
-        )
-    if res.at_noise_level and not any(c.needed for c in ok):
-        if floor:
-            return (
-                "The model fits as well as any candidate: no catalogued effect lowers the held-out error "
-                f"convincingly (held-out NRMSE {base_held:.3g}){noise_said}."
-            )
-        return (
-            f"The model fits to the noise: the residual is white and at the noise level "
-            f"(RMS {res.rmse:.3g} vs noise {res.noise:.3g}, from {noise_method}); no effect is needed, and no "
-            f"catalogued effect improves the held-out error convincingly."
-        )
-    if res.excess < 1.5 and not floor and not any(c.needed for c in ok):
-        return (
-            f"The model fits to the noise level but not to white noise: the residual RMS is {res.rmse:.3g}, "
-            f"{res.excess:.2g}x the noise (from {noise_method}), yet {100 * res.acf_outside:.0f} % of its "
-            "autocorrelation lags are outside the 95 % bound: a small structured misfit remains that no catalogued "
-            "effect lowers convincingly; no effect is needed."
-        )
-    unstable = [c for c in ok[:STABILITY_CHECKED] if c.stable is False and c.supported and c.explained >= 0.5]
-    tail = ""
-    if unstable:
-        tail = (
-            " Not taken although supported, because the fitted set is outside the derived stability certificate "
-            "(energy-producing): " + "; ".join(f"{c.effect} ({c.stability})" for c in unstable) + "."
-        )
+    if not any(c.needed for c in ok):
+        fits = _fits_verdict(res, base_held, noise_method, floor, noise_said)
+        if fits is not None:
+            return fits
+    tail = _unstable_tail(ok)
     if best is not None and best.needed:
         s = (
             f"The model fails: {where[0] if where else 'the residual is structured'}{noise_said}. "

@@ -107,6 +107,7 @@ class CandidateLibrary:
         out = np.zeros(self.n_terms)
         for j, t in enumerate(self.terms):
             if t.in_model:
+                assert t.coefficient is not None  # a model term always has its coefficient
                 val = sp.sympify(t.coefficient.xreplace(subs))
                 out[j] = float(val) if not val.free_symbols else np.nan
         return out
@@ -158,7 +159,7 @@ def candidate_library(
     iv = _velocity_index(model)
     x, v = model.position, model.velocity
     variables = tuple(model.states) + tuple(model.input_symbols)
-    names = {s: n for s, n in zip(model.states, model.state_names)}
+    names = dict(zip(model.states, model.state_names))
     names[x], names[v] = "x", "x_dot"
     names.update({c.symbol: c.name for c in model.inputs})
     terms: list[Term] = []
@@ -180,7 +181,9 @@ def candidate_library(
         add(basis, "model", coeff)
     not_visible: dict[str, str] = {}
     if effects is None:
-        from duffsym.effects import CATALOGUE as effects
+        from duffsym.effects import CATALOGUE
+
+        effects = CATALOGUE
     for ename, effect in effects.items():
         if ename in model.effects:
             continue

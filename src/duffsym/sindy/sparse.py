@@ -291,7 +291,8 @@ def validated_support(Theta: np.ndarray, r: np.ndarray, n_train: int, max_terms:
     ok = scale > 0
     Z = np.where(ok, Theta / np.where(ok, scale, 1.0), 0.0)
     tr, va = slice(0, n_train), slice(n_train, None)
-    scores, supports = {0: float(np.mean(r[va] ** 2))}, {0: []}
+    supports: dict[int, list[int]] = {0: []}
+    scores = {0: float(np.mean(r[va] ** 2))}
     for k, (sup, coef) in enumerate(sparse_path(Z[tr], r[tr], "omp", max_terms), start=1):
         scores[k] = float(np.mean((r[va] - Z[va] @ coef) ** 2))
         supports[k] = [int(i) for i in sup]
@@ -328,7 +329,7 @@ def stability_selection(
         hits[support] += 1
         for f in {groups[i] for i in support}:
             group_hits[f] = group_hits.get(f, 0) + 1
-    best = {}
+    best: dict[str, int] = {}
     for i in np.argsort(-hits):
         if hits[i] > 0:
             best.setdefault(groups[i], int(i))

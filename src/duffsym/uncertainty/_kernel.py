@@ -64,7 +64,7 @@ class ScheduleSimulator:
         self.hold = bool(hold)
         self.hrho_max = float(hrho_max)
         self.blowup = float(blowup)
-        self._mod = None
+        self._mod: ModuleType | None = None
 
     def __getstate__(self):  # the compiled module is not picklable (pools): rebuilt on first use
         state = dict(self.__dict__)

@@ -148,12 +148,12 @@ def excitation_summary(records) -> dict:
     out = []
     for rec in records:
         d = np.asarray(rec.d, dtype=float) - float(np.mean(rec.d))
-        peaks = []
+        found: list[float] = []
         for sgn in (1, -1):
             s = sgn * d
             k = np.flatnonzero((s[1:-1] > s[:-2]) & (s[1:-1] >= s[2:]) & (s[1:-1] > 0.2 * np.max(np.abs(d)))) + 1
-            peaks.extend(s[k].tolist())
-        peaks = np.asarray(peaks)
+            found.extend(s[k].tolist())
+        peaks = np.asarray(found)
         spread = float(np.std(peaks) / np.mean(peaks)) if peaks.size >= 2 else math.nan
         out.append(
             {
@@ -375,7 +375,7 @@ def _weak_finding(n, info, involved, params_info, degrees, corr_pairs, exc) -> d
         why = "the record does not separate these terms"
         resolve = "records at several frequencies and amplitudes (band-limited random excitation)"
     return {
-        "kind": min((params_info[m]["status"] for m in involved), key=_RANK.get),
+        "kind": min((params_info[m]["status"] for m in involved), key=_RANK.__getitem__),
         "params": involved,
         "evidence": ev,
         "why": why,

@@ -412,7 +412,7 @@ def _initial_walkers(post: LogPosterior, result, n_walkers: int, spread: float, 
     z0 = post.coords(np.array(values))[0]
     n_free = len(names)
     D = np.array([1 / theta[j] if post.priors[j].kind == "log-uniform" else 1.0 for j in range(n_free)])
-    ok_cov = cov.shape == (n_free, n_free) and np.all(np.isfinite(cov))
+    ok_cov = bool(cov.shape == (n_free, n_free) and np.all(np.isfinite(cov)))
     if ok_cov:
         cz = cov * np.outer(D, D)
         w, V = np.linalg.eigh(0.5 * (cz + cz.T))
@@ -488,9 +488,9 @@ def sample(result, records, model=None, options: SampleOptions | None = None, **
         ``checkpoint_every`` seconds and when the run is interrupted (KeyboardInterrupt, which is then
         re-raised), so an interrupt keeps what ran; see :func:`load_partial_chain`. The file is left
         in place after a complete run (the caller removes it once the full chains are saved).
-    threads : numba threads of the batch kernel (None: numba's default). One batch of 32 walkers is
-        ~2 ms of work; on a shared machine waking a second thread can cost more than that (measured:
-        2.2 ms with 1 thread, 8 ms with 2 at load 5 on 2 cores), hence the default 1.
+    threads : numba threads of the batch kernel (None: numba's default). One batch of walkers is a
+        short piece of work; on a shared machine waking a second thread can cost more than it saves,
+        hence the default 1.
 
     Returns
     -------
@@ -608,6 +608,7 @@ def _sampler(post: LogPosterior, o: SampleOptions, rng):
     import emcee
 
     vectorize = o.pool is None if o.vectorize is None else bool(o.vectorize)
+    fn: _Vectorized | _Serial
     if vectorize:
         fn, pool_arg = _Vectorized(post), None
     else:
@@ -635,7 +636,9 @@ def _run_sampler(sampler, p0, post, result, o: SampleOptions) -> tuple[float, fl
     c0 = time.process_time()
     try:
         if o.threads is not None:
-            numba.set_num_threads(max(1, min(int(o.threads), numba.config.NUMBA_NUM_THREADS)))
+            # numba.config sets NUMBA_NUM_THREADS when numba is imported: an attribute mypy cannot see
+            most = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+            numba.set_num_threads(max(1, min(int(o.threads), most)))
         _run_with_checkpoints(sampler, p0, int(o.n_steps), o.progress, post, o.checkpoint, o.checkpoint_every, result)
     finally:
         numba.set_num_threads(old_threads)
