@@ -16,6 +16,7 @@ import importlib
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 
 from duffsym.cli.common import EXIT_ERROR, err
 from duffsym.errors import DuffsymError
@@ -142,7 +143,7 @@ def main(argv=None) -> int:
 
 
 @contextlib.contextmanager
-def interrupts_reach_main():
+def interrupts_reach_main() -> Iterator[None]:
     """Within the block, a Ctrl-C that Python would swallow is delivered again to the main thread.
 
     A ``KeyboardInterrupt`` that lands inside a garbage-collector callback or a ``__del__`` (Dask's
