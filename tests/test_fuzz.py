@@ -306,3 +306,30 @@ def test_tampered_fit_json(seed, good_fit, record_csv, tmp_path, capsys):
 @given(seed=st.integers(0, 2**32 - 1))
 def test_tampered_fit_json_long(seed, good_fit, record_csv, tmp_path, capsys):
     _fit_case(seed, good_fit, record_csv, tmp_path, capsys)
+
+
+def test_a_random_excitation_with_too_many_lines_is_refused_before_allocating():
+    """Found by ``test_simulate_options`` in CI rehearsals (2 of 3 full runs): duration 99999 s x f_max 99999 Hz
+    asked for 1e10 lines; ``np.arange`` then filled the memory page by page until the kernel killed pytest.
+    The library refuses it (the command line refuses it earlier, by its cost)."""
+    import resource
+
+    from duffsym.excitation import BandLimitedRandom
+
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    with open("/proc/self/status") as status:  # the process's address space now, in kB
+        size = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
+    resource.setrlimit(resource.RLIMIT_AS, (size + 2_000_000_000, hard))  # 80 GB of lines would fail here
+    try:
+        with pytest.raises(DataError, match=r"1e\+10 lines, more than 1000000"):
+            BandLimitedRandom(rms=1.0, f_max=99999.0, duration=99999.0)
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+def test_an_excitation_that_would_take_minutes_is_refused(tmp_path, capsys):
+    """The fuzz test's other trap: 99999 lines at 10 001 samples took 96 s, over its 60 s limit."""
+    argv = ["simulate", "--excitation", "multisine", "--lines", "99999", "--frequency", "1", "--f-max", "99999"]
+    argv += ["--dt", "99999", "--duration", "1e9", "--out", str(tmp_path / "s.csv")]
+    code, _, err = cli(argv, capsys, seconds=20)
+    assert code == 2 and "sine evaluations, more than 2e+08" in err, err

@@ -118,6 +118,11 @@ class Multisine(Excitation):
         return out
 
 
+#: Most lines of a :class:`BandLimitedRandom` (one per 1/duration up to f_max); the fuzz test found
+#: ``--duration 99999 --f-max 99999`` (1e10 lines) filling 24 GB before any error.
+MAX_RANDOM_LINES = 1_000_000
+
+
 @dataclass(frozen=True)
 class BandLimitedRandom(Excitation):
     """Gaussian-like random signal: many random-phase lines with random amplitudes up to ``f_max``.
@@ -138,6 +143,12 @@ class BandLimitedRandom(Excitation):
         _check_positive("duration (s)", self.duration)
         rng = np.random.default_rng(self.seed)
         f0 = 1.0 / self.duration
+        n_lines = self.f_max * self.duration
+        if n_lines > MAX_RANDOM_LINES:  # checked before np.arange, which would fill the memory page by page
+            raise DataError(
+                f"random excitation: f_max x duration = {self.f_max:g} Hz x {self.duration:g} s is {n_lines:.3g} "
+                f"lines, more than {MAX_RANDOM_LINES}; lower f_max or the duration"
+            )
         freqs = np.arange(f0, self.f_max + 0.5 * f0, f0)
         if freqs.size == 0:
             raise DataError(

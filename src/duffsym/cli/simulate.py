@@ -134,6 +134,7 @@ def cmd_simulate(args) -> int:
     _check_excitation_options(args)
     check_outputs(args, [])
     t, duration = _sample_times(args)
+    _check_signal_cost(args, t.size, duration)
     exc = _excitation(args, next(s for s in model.signals if s != "command"))
     command = _command_signal(args, model, t)
     inputs = exc if command is None else _with_command(model, t, exc, command[1])
@@ -187,6 +188,25 @@ def _simulation_model(args):
     params = table2_params(args.voltage) if args.voltage is not None else {}
     params.update(parse_assignments(args.param, "--param"))
     return model, model.param_vector(params, fill_defaults=True)
+
+
+#: Most sine evaluations (lines x samples) the excitation of ``duffsym simulate`` may take (the lines are summed one
+#: by one: 1e9 evaluations took 96 s on a 2-core machine, with three derivatives).
+MAX_SINE_EVALUATIONS = 2e8
+
+
+def _check_signal_cost(args, n_samples: int, duration: float) -> None:
+    """A multisine or random excitation is a sum of lines evaluated at every sample: refuse one that would
+    take many minutes (the fuzz test found --excitation random --duration 99999 --f-max 1 --dt 1)."""
+    if args.excitation == "sine":
+        return
+    lines = args.lines if args.excitation == "multisine" else args.f_max * duration
+    if lines * n_samples > MAX_SINE_EVALUATIONS:
+        raise CLIError(
+            f"the {args.excitation} excitation has {lines:.3g} lines at {n_samples:.3g} samples "
+            f"({lines * n_samples:.2g} sine evaluations, more than {MAX_SINE_EVALUATIONS:.0e}); use fewer lines "
+            "(--lines, or a lower --f-max), a larger --dt or a shorter --duration"
+        )
 
 
 def _sample_times(args):
