@@ -284,15 +284,43 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
     return fig
 
 
-def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | None = None):
+#: the play candidates :func:`plot_play` shows: the play on the element's input, the gap in series with it
+PLAY_EFFECTS = ("backlash", "contact-gap")
+
+
+def play_half_width(c, record: Record, y_fit) -> tuple[float | None, float]:
+    """The fitted play's half-width and standard error of candidate ``c``: ``bl_h`` of the backlash, the zero-force
+    stretch of the contact gap's free run ``y_fit`` (:func:`duffsym.effects.gap.gap_half_width`)."""
+    if "bl_h" in c.params:
+        return float(c.params["bl_h"]), float(c.stderr.get("bl_h", float("nan")))
+    if "gap_w" in c.params and y_fit is not None:
+        from duffsym.effects.gap import gap_half_width
+
+        return gap_half_width(record, y_fit, float(c.params["gap_w"]), float(c.stderr.get("gap_w", float("nan"))))
+    return None, float("nan")
+
+
+def _gap_start(travel, y_fit, top: float) -> float:
+    """Where the fitted model's force enters the low-force band (``|y| < 0.2 max|y|``, as
+    :func:`duffsym.effects.inputs.plateau_half_width` measures it) after the reversal: the gap of a contact gap
+    lies inside the branch, not at the reversal."""
+    inside = np.flatnonzero(np.abs(np.asarray(y_fit)) < 0.2 * top)
+    return float(travel[inside[0]]) if inside.size else 0.0
+
+
+def plot_play(diag, record: Record, *, effect: str | None = None, title: str | None = None):
     """The play candidate against the plateaus: the d–y loop over one steady cycle and the force after one
     reversal against the actuator travel from it, measured, base model and with the fitted play (free runs).
-    The flat low-force stretch after the reversal is the gap ``2h`` the play's piston crosses; its fitted
-    half-width (± standard error) is in the title. None when the candidate has no result."""
+    The flat low-force stretch after the reversal is the gap ``2h`` the actuator crosses; its fitted
+    half-width (± standard error) is in the title. ``effect``: one of ``PLAY_EFFECTS`` (default: the one with the
+    lower held-out error). None when the candidate has no result."""
     plt = _plt()
-    c = next((c for c in diag.candidates if c.effect == effect and c.success), None)
-    if c is None or effect not in diag.y_candidates:
+    names = PLAY_EFFECTS if effect is None else (effect,)
+    done = [c for c in diag.candidates if c.effect in names and c.success and c.effect in diag.y_candidates]
+    c = min(done, key=lambda c: c.nrmse_after, default=None)
+    if c is None:
         return None
+    effect = c.effect
     y, d = np.asarray(record.y), np.asarray(record.d)
     v = np.asarray(record.velocity())
     yp = diag.y_candidates[effect]
@@ -316,15 +344,16 @@ def plot_play(diag, record: Record, *, effect: str = "backlash", title: str | No
     ax.plot(travel, y[r:stop], "o", color="0.55", ms=3, label="measured")
     ax.plot(travel, diag.y_base[r:stop], color="tab:red", lw=0.9, label="base model")
     ax.plot(travel, yp[r:stop], color="k", lw=0.9, label=f"+ {effect}")
-    h = c.params.get("bl_h")
+    h, se = play_half_width(c, record, yp)
     if h is not None:
-        ax.axvspan(0, 2 * h, color="tab:blue", alpha=0.12, label=f"gap 2h = {2 * h:.3g}")
+        lo = _gap_start(travel, yp[r:stop], float(np.max(np.abs(y)))) if effect == "contact-gap" else 0.0
+        ax.axvspan(lo, lo + 2 * h, color="tab:blue", alpha=0.12, label=f"gap 2h = {2 * h:.3g}")
     ax.set_xlabel("actuator travel since the reversal |d - d(reversal)|" + _u(record, "d"))
     ax.set_ylabel("y" + _u(record, "y"))
     ax.set_title(f"after the reversal at t = {float(record.t[r]):.3g} s: the plateau", fontsize="medium")
     ax.legend(fontsize="x-small")
-    se = c.stderr.get("bl_h", float("nan"))
     fig.suptitle(
-        title or (f"play fitted: half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect), fontsize="large"
+        title or (f"play fitted ({effect}): half-width h = {h:.4g} ± {se:.2g}" if h is not None else effect),
+        fontsize="large",
     )
     return fig

@@ -262,7 +262,7 @@ def _n_estimated(result, model) -> int:
 
 #: effects whose nonlinearity is first fitted in a smoother form (continuation from smooth to sharp): the
 #: catalogue effect with these fields replaced (a play operator with a switch 2.5x wider, engaging later)
-SMOOTH_FORMS = {"backlash": dict(kappa=2.0, offset=0.5)}
+SMOOTH_FORMS = {"backlash": dict(kappa=2.0, offset=0.5), "contact-gap": dict(sharpness=2.0)}
 
 
 def smooth_form(model, name: str):
@@ -289,7 +289,7 @@ def smooth_form(model, name: str):
 #: effects that explain the stretches a deadzone mask (``--mask auto``) leaves out: a model with one of them is
 #: fitted on every sample (masked, the flat force after each reversal, the play's only evidence, is not seen and
 #: the play's half-width ran to its lower bound on the real friction damper)
-EXPLAINS_MASK = ("backlash",)
+EXPLAINS_MASK = ("backlash", "contact-gap")
 
 
 def unmasked(model, mask):
@@ -552,7 +552,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     t_start = time.perf_counter()
     say = reporter(o.progress)
     model = _diagnosed_model(model, o.fit_result)
-    names = _candidate_names(o.candidates, model)
+    names = _candidate_names(o.candidates, model, record, say)
     s = _setting(record, model, o)
     say(
         f"base fit of {model.name} on {s.k} of {record.n_times} samples"
@@ -638,15 +638,27 @@ def _diagnosed_model(model, fit_result):
     return model
 
 
-def _candidate_names(candidates: Iterable[str] | None, model) -> list[str]:
-    """The catalogued effects to try (default all), less those ``model`` has; an unknown name is an error."""
+def _candidate_names(candidates: Iterable[str] | None, model, record: Record | None = None, say=None) -> list[str]:
+    """The catalogued effects to try, less those ``model`` has; an unknown name is an error. By default every
+    catalogued effect whose :meth:`~duffsym.effects.Effect.relevance` on ``record`` says nothing against it (a
+    skipped one is said through ``say``); named candidates are all tried."""
     from duffsym.effects import CATALOGUE
 
     names = list(CATALOGUE) if candidates is None else list(candidates)
     unknown = [c for c in names if c not in CATALOGUE]
     if unknown:
         raise ModelError(f"unknown effect(s) {unknown}; choose from {sorted(CATALOGUE)} (duffsym effects lists them)")
-    return [c for c in names if c not in model.effects]
+    names = [c for c in names if c not in model.effects]
+    if candidates is not None or record is None:
+        return names
+    kept = []
+    for c in names:
+        why = CATALOGUE[c].relevance(record)
+        if not why:
+            kept.append(c)
+        elif say is not None:
+            say(f"  {c}: not tried ({why}; name it among the candidates to try it)")
+    return kept
 
 
 @dataclass(frozen=True)

@@ -123,6 +123,12 @@ class Effect:
         record's velocity range), tighter than the static ``ParamSpec`` bounds; {} when none."""
         return {}
 
+    def relevance(self, record) -> str:
+        """Why a diagnosis need not try this effect on ``record`` by default, in words ("" when it should: the
+        default). An effect whose evidence is a feature the record plainly lacks says so here (the contact gap on a
+        record without zero-force plateaus); a user naming it among the candidates still has it tried."""
+        return ""
+
     def activity(self, record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None) -> str:
         """Why the fitted effect does nothing on ``record`` (its size negligible or not distinguishable from zero,
         or its smoothing run off so that its switch is flat or linear over the record), in words; "" when it acts

@@ -48,6 +48,7 @@ def effect_types() -> dict[str, type]:
     from duffsym.effects import (
         discovered,
         drift,
+        gap,
         inputs,
         mechanical,
         output,
@@ -56,7 +57,7 @@ def effect_types() -> dict[str, type]:
     )
 
     out = {}
-    for mod in (output, mechanical, inputs, polynomial, rate, discovered, drift):
+    for mod in (output, mechanical, inputs, gap, polynomial, rate, discovered, drift):
         for obj in vars(mod).values():
             ours = isinstance(obj, type) and obj.__module__ == mod.__name__
             if ours and issubclass(obj, Effect) and obj is not Effect:

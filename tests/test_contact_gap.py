@@ -1,0 +1,98 @@
+"""The contact gap (a linkage play in series with the element; issue 22, item 3): its smooth deadzone against the
+exact one, when the diagnosis tries it, and its fit on records of the independent friction-play generator
+(``tests/independent_friction_sim.py``, numpy only) and on the real friction damper."""
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+import independent_friction_sim as fgen
+import independent_sim as gen
+from _external import external_file
+from duffsym.data.record import Record
+from duffsym.effects import CATALOGUE, apply_effects
+from duffsym.effects.gap import smooth_deadzone
+from duffsym.model.library import mr_damper
+
+BRFD = "friction_damper_brfd_artslab"
+
+
+def exact_deadzone(y, w):
+    return np.sign(y) * np.maximum(np.abs(y) - w, 0.0)
+
+
+def friction_play_record(seed=0, **kw):
+    t, a, y, yc = fgen.generate(seed=seed, **kw)
+    return Record(t=t, d=a, y=y, name=f"friction-play-{seed}", source="independent_friction_sim"), yc
+
+
+def test_smooth_deadzone_is_within_half_its_corner_of_the_exact_one_and_monotone():
+    w, delta = 1.3, 0.26
+    y = np.linspace(-6, 6, 4001)
+    z = smooth_deadzone(y, w, delta)
+    err = np.abs(z - exact_deadzone(y, w))
+    assert err.max() <= delta / 2 + 1e-12  # largest at the corners |y| = w: (delta - (sqrt(4w^2+delta^2) - 2w))/2
+    far = np.abs(np.abs(y) - w) > 1.0
+    assert err[far].max() < delta**2 / 4  # away from the corners it is the exact deadzone to second order
+    slope = np.diff(z) / np.diff(y)
+    assert slope.min() >= 0 and slope.max() <= 1 + 1e-9 and np.allclose(z, -smooth_deadzone(-y, w, delta))
+    assert slope[np.abs(y[1:]) < 0.05].max() < 0.03  # flat in the gap: delta^2 / (2 w^2) = 0.02
+
+
+def test_contact_gap_replaces_the_output_by_the_deadzone_of_the_element_force():
+    m = apply_effects(mr_damper(), [CATALOGUE["contact-gap"]])
+    assert m.param_names[-1] == "gap_w" and m.rhs == mr_damper().rhs  # the state equations are untouched
+    f = sp.lambdify([m.param("A_f").symbol, sp.Symbol("x2", real=True), m.param("gap_w").symbol], m.output)
+    ye = np.linspace(-4, 4, 9)
+    w = 1.1  # the output at A_f x2 = ye, written out here: y + (sqrt((y-w)^2 + (w/5)^2) - sqrt((y+w)^2 + (w/5)^2))/2
+    want = ye + (np.sqrt((ye - w) ** 2 + (w / 5) ** 2) - np.sqrt((ye + w) ** 2 + (w / 5) ** 2)) / 2
+    assert np.allclose([f(2.0, v / 2.0, w) for v in ye], want, rtol=1e-12)
+
+
+def test_the_diagnosis_tries_the_gap_only_where_zero_force_plateaus_are():
+    gap = CATALOGUE["contact-gap"]
+    rec, _ = friction_play_record()
+    assert gap.relevance(rec) == ""
+    g = gen.scenario("clean", 0)  # an MR damper without play: the force crosses zero as soon as d turns
+    clean = Record(t=g.t, d=g.d, y=g.y, name="clean", source="independent_sim")
+    assert "no zero-force plateau" in gap.relevance(clean)
+    from duffsym.diagnose.search import _candidate_names
+
+    said = []
+    names = _candidate_names(None, mr_damper(), clean, said.append)
+    assert "contact-gap" not in names and "backlash" in names and any("contact-gap: not tried" in s for s in said)
+    assert "contact-gap" in _candidate_names(["contact-gap"], mr_damper(), clean)  # named: always tried
+
+
+def test_contact_gap_fits_the_play_of_an_independent_friction_damper():
+    from duffsym.diagnose import diagnose
+    from duffsym.diagnose.figures import play_half_width
+
+    rec, _ = friction_play_record(seed=0)  # true half-width 0.1 in, Jenkins element k = 30, F_c = 2.2, 1 % noise
+    dg = diagnose(rec, candidates=["contact-gap"], sindy=False)
+    c = dg.candidates[0]
+    assert c.success, c.message
+    h, se = play_half_width(c, rec, dg.y_candidates["contact-gap"])
+    # measured: h = 0.095 +- 0.0074; held-out 0.093 against the base's 0.140 (noise 0.010: the mr-damper element's
+    # branch after a reversal is softer than the Jenkins element's, which bounds both)
+    assert h == pytest.approx(fgen.FrictionPlay().h, rel=0.15) and math.isfinite(se) and se < 0.2 * h
+    assert c.nrmse_after < 0.75 * dg.nrmse_heldout
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["0.5Hz30lbtension1amplitude", "0.5Hz30lbtension0.5amplitude"])
+def test_contact_gap_fits_the_play_of_the_real_friction_damper(name):
+    from duffsym.data.loaders import load_friction_damper_json
+    from duffsym.diagnose import diagnose
+    from duffsym.diagnose.figures import play_half_width
+    from duffsym.effects.inputs import plateau_half_width
+
+    rec = load_friction_damper_json(external_file(BRFD, f"{name}.json"))
+    dg = diagnose(rec, candidates=["contact-gap"], sindy=False, deadline=None)
+    c = dg.candidates[0]
+    assert c.success, c.message
+    h, se = play_half_width(c, rec, dg.y_candidates["contact-gap"])
+    assert 0.4 * plateau_half_width(rec) < h < 1.2 * plateau_half_width(rec) and se < 0.25 * h
+    assert c.nrmse_after < dg.nrmse_heldout
