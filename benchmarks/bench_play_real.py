@@ -23,7 +23,8 @@ from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder
 HERE = Path(__file__).resolve().parent
 
 
-def run(path: Path, budget: float | None, candidates, report: Path | None, n: int | None = None) -> dict:
+def run(path: Path, budget: float | None, candidates, report: Path | None, n: int | None = None,
+        model: str = "mr-damper") -> dict:
     import numpy as np
 
     from duffsym.data.loaders import load_friction_damper_json
@@ -36,16 +37,16 @@ def run(path: Path, budget: float | None, candidates, report: Path | None, n: in
     if os.environ.get("NOMASK") == "1":  # the diagnosis without the deadzone mask (the plain command's default)
         mask = None
     t0 = time.perf_counter()
-    from duffsym.model.library import mr_damper
+    from duffsym.model.library import get_model
 
-    dg = diagnose(rec, mr_damper() if n is None else mr_damper(n), candidates=candidates, mask=mask, sindy=False,
+    dg = diagnose(rec, get_model(model, n), candidates=candidates, mask=mask, sindy=False,
                   deadline=None if budget is None else time.monotonic() + budget, progress=print)
     secs = time.perf_counter() - t0
     if report is not None:
         from duffsym.diagnose.report import write_diagnosis_report
 
         write_diagnosis_report(dg, rec, report / path.stem)
-    from duffsym.diagnose.figures import play_half_width
+    from duffsym.diagnose.verdict import play_half_width
 
     plays = {}
     for c in dg.candidates:
@@ -71,6 +72,7 @@ def main(argv=None) -> int:
     ap.add_argument("--files", nargs="*", default=None)
     ap.add_argument("--candidates", default="backlash,contact-gap")
     ap.add_argument("--n", type=int, default=None, help="the MR-damper power n of the base model")
+    ap.add_argument("--model", default="mr-damper", help="the base model (mr-damper-path: rate-independent)")
     ap.add_argument("--report", default=None)
     ap.add_argument("--out", default=str(HERE / "results" / "play_real.json"))
     args = ap.parse_args(argv)
@@ -78,7 +80,8 @@ def main(argv=None) -> int:
     files = sorted(folder.glob("*.json")) if not args.files else [folder / f"{f}.json" for f in args.files]
     rows = []
     for p in files:
-        r = run(p, args.budget, args.candidates.split(","), Path(args.report) if args.report else None, args.n)
+        r = run(p, args.budget, args.candidates.split(","), Path(args.report) if args.report else None, args.n,
+                args.model)
         rows.append(r)
         plays = "; ".join(f"{e}: {p['nrmse_heldout']} h = {p['h']} ± {p['h_se']} {p['message']}"
                           for e, p in r["plays"].items())

@@ -27,6 +27,7 @@ def test_models_json_lists_the_paper_models(capsys):
     # mass carrying the element; *-current: driven by the coil command
     assert names == [
         "mr-damper",
+        "mr-damper-path",
         "mr-damper-current",
         "mr-damper-current-quadratic",
         "mr-damper-current-saturating",

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from duffsym.data.record import Record
+from duffsym.diagnose.verdict import PLAY_EFFECTS, play_half_width
 
 
 def _plt():
@@ -282,22 +283,6 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
             ax.legend(fontsize="x-small", loc="center")
     fig.suptitle(title or ladder_outcome(lad), fontsize="large")
     return fig
-
-
-#: the play candidates :func:`plot_play` shows: the play on the element's input, the gap in series with it
-PLAY_EFFECTS = ("backlash", "contact-gap")
-
-
-def play_half_width(c, record: Record, y_fit) -> tuple[float | None, float]:
-    """The fitted play's half-width and standard error of candidate ``c``: ``bl_h`` of the backlash, the zero-force
-    stretch of the contact gap's free run ``y_fit`` (:func:`duffsym.effects.gap.gap_half_width`)."""
-    if "bl_h" in c.params:
-        return float(c.params["bl_h"]), float(c.stderr.get("bl_h", float("nan")))
-    if "gap_w" in c.params and y_fit is not None:
-        from duffsym.effects.gap import gap_half_width
-
-        return gap_half_width(record, y_fit, float(c.params["gap_w"]), float(c.stderr.get("gap_w", float("nan"))))
-    return None, float("nan")
 
 
 def _gap_start(travel, y_fit, top: float) -> float:

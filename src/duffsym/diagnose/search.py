@@ -49,8 +49,9 @@ from duffsym.diagnose.options import (
 )
 from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
-from duffsym.diagnose.verdict import full_verdict, why_not
+from duffsym.diagnose.verdict import full_verdict, play_sentence, why_not
 from duffsym.errors import DataError, ModelError
+from duffsym.model.library import path_epsilon
 from duffsym.options import resolve
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
@@ -594,6 +595,8 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     evidence = _sindy_evidence(record, base, model, say) if _sindy_wanted(o.sindy, o.deadline, t_budget, say) else None
     inactive = inactive_effects(model, record, base.params, base.stderr)
     verdict = full_verdict(res, out, base_held, noise_method, shifted, s.est.smoothing, evidence, base_check, inactive)
+    y_cands = {r.name: r.y for r in runs if r.name in exts}
+    verdict += play_sentence(out, record, y_cands, path_epsilon(model) is not None)
     return Diagnosis(
         model=model.name,
         effects=tuple(model.effects),
@@ -609,7 +612,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         noise=sigma,
         bic_base=ev.bic,
         timings={"total": time.perf_counter() - t_start},
-        y_candidates={r.name: r.y for r in runs if r.name in exts},
+        y_candidates=y_cands,
         sindy=evidence,
         noise_method=noise_method,
         base_check=base_check,

@@ -9,6 +9,41 @@ from duffsym.diagnose.options import EXACT_FIT, GROWTH, STABILITY_CHECKED, TIE
 from duffsym.diagnose.parts import BaseCheck, Candidate, SindyCheck
 from duffsym.diagnose.residuals import ResidualAnalysis
 
+#: the play candidates: the play on the element's input (``backlash``), the gap in series with it (``contact-gap``)
+PLAY_EFFECTS = ("backlash", "contact-gap")
+
+
+def play_half_width(c: Candidate, record, y_fit) -> tuple[float | None, float]:
+    """The fitted play's half-width and standard error of candidate ``c``: ``bl_h`` of the backlash, the zero-force
+    stretch of the contact gap's free run ``y_fit`` (:func:`duffsym.effects.gap.gap_half_width`); (None, nan) for
+    other candidates."""
+    if "bl_h" in c.params:
+        return float(c.params["bl_h"]), float(c.stderr.get("bl_h", float("nan")))
+    if "gap_w" in c.params and y_fit is not None:
+        from duffsym.effects.gap import gap_half_width
+
+        return gap_half_width(record, y_fit, float(c.params["gap_w"]), float(c.stderr.get("gap_w", float("nan"))))
+    return None, float("nan")
+
+
+def play_sentence(cands: Sequence[Candidate], record, y_candidates, rate_independent: bool) -> str:
+    """When the needed effect is a play: its half-width with its standard error, in input units, and for a contact
+    gap on a rate-dependent element the advice to try the rate-independent one ('' otherwise)."""
+    c = next((c for c in cands if c.needed), None)
+    if c is None or c.effect not in PLAY_EFFECTS:
+        return ""
+    h, se = play_half_width(c, record, y_candidates.get(c.effect))
+    if h is None:
+        return ""
+    unit = (record.units or {}).get("d", "")
+    s = f" The fitted play's half-width: h = {h:.3g} ± {se:.2g}{' ' + unit if unit else ''}."
+    if c.effect == "contact-gap" and not rate_independent:
+        s += (
+            " A force held on both sides of the gap is a friction element's: its loop does not depend on the speed, "
+            "so try the rate-independent element too (`--model mr-damper-path`)."
+        )
+    return s
+
 
 def why_not(message: str) -> str:
     """Why a candidate has no result: screened out, its free run diverged, or its fit failed."""
