@@ -1,14 +1,19 @@
-"""The play of the real friction damper (issue 22): the backlash candidate on each BRFD record.
+"""The play of the real friction damper (issue 22): the play candidates on each BRFD record.
 
 For every record in ``$DUFFSYM_EXTERNAL_DATA/friction_damper_brfd_artslab`` (read by
-:func:`duffsym.data.loaders.load_friction_damper_json`): the diagnosis with the play candidate (and
-``--mask auto``'s deadzone mask), the fitted half-width with its standard error, the plateau half-width
-the data show (:func:`duffsym.effects.inputs.plateau_half_width`) and the masked stretch's width
-(:func:`duffsym.identify.auto_mask`), held-out NRMSE before (base model) and after (with the play), time.
+:func:`duffsym.data.loaders.load_friction_damper_json`): the diagnosis with the play candidates (``backlash``: the
+play on the element's input; ``contact-gap``: the gap in series with the element) and ``--mask auto``'s deadzone
+mask (``NOMASK=1``: none), the fitted half-width with its standard error
+(:func:`duffsym.diagnose.verdict.play_half_width`), the plateau half-width the data show
+(:func:`duffsym.effects.inputs.plateau_half_width`), held-out NRMSE before (base model) and after, time.
 
-    python benchmarks/bench_play_real.py [--budget 600] [--files 0.5Hz30lbtension1amplitude ...] [--report DIR]
+    NOMASK=1 python benchmarks/bench_play_real.py --model mr-damper-path [--n 5] [--files NAME ...] [--report DIR]
 
-Writes ``benchmarks/results/play_real.json``.
+Results (2026-11-27, load ~1.5 on 2 cores), held-out NRMSE base -> contact-gap, h (plateau):
+``play_real.json`` (mr-damper-path, no mask): 0.180 -> 0.082, 0.096 +- 0.005 in (0.101); 36 lb 0.197 -> 0.147,
+0.090 +- 0.003 (0.113); 0.5 in 0.300 -> 0.117, 0.099 +- 0.007 (0.105); 0.25 Hz 0.184 -> 0.096, 0.095 +- 0.003
+(0.106); 9-30 s each. ``play_real_mask.json``: the same with the mask. ``play_real_mr5.json`` / ``_mr11.json``: the
+rate-dependent mr-damper (n = 5, 11): the gap helps on two records of four and hurts on the others.
 """
 from __future__ import annotations
 

@@ -81,7 +81,11 @@ def test_contact_gap_on_the_rate_independent_element_fits_an_independent_frictio
     # Jenkins element's sharp one)
     assert h == pytest.approx(fgen.FrictionPlay().h, rel=0.10) and math.isfinite(se) and se < 0.2 * h
     assert c.nrmse_after < 0.35 * dg.nrmse_heldout and c.nrmse_after < 5 * 0.01
-    assert f"h = {h:.3g} ± {se:.2g}" in dg.verdict
+    assert f"h = {h:.3g} ± {se:.2g}" in dg.verdict and "mr-damper-path" not in dg.verdict
+    from duffsym.diagnose.verdict import play_sentence
+
+    advice = play_sentence(dg.candidates, rec, dg.y_candidates, rate_independent=False)
+    assert "try the rate-independent element too (`--model mr-damper-path`)" in advice  # said on mr-damper
 
 
 @pytest.mark.slow
