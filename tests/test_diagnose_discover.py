@@ -205,3 +205,16 @@ def test_seal_friction_from_the_independent_generator_is_discovered():
     assert last.nrmse_heldout <= 2 * floor < lad.steps[0].nrmse_heldout, (lad.summary(), floor)
     f_c = g.truth["physics"]["seal_friction"]
     assert any(abs(v - f_c) < 0.1 * f_c for v in last.discovered["params"].values()), last.discovered["params"]
+
+
+def test_library_terms_that_repeat_an_added_effect_are_left_out():
+    from duffsym.effects.discovered import duplicates
+    from duffsym.model.symbols import state_symbol
+
+    D, DD, DDD = state_symbol("d"), state_symbol("d_dot"), state_symbol("d_ddot")
+    sign = sp.tanh(DD / sp.Float(0.05))
+    assert duplicates(sign, ("seal-friction",)) == "seal-friction"  # F_c tanh(d'/eps): the effect's own term
+    assert duplicates(sign, ("force-offset",)) == "" and duplicates(sign, ()) == ""
+    assert duplicates(D**2 * sign, ("seal-friction",)) == ""  # a stroke-dependent level is new physics
+    assert duplicates(DDD, ("inertia",)) == "inertia" and duplicates(D, ("gas-accumulator",)) == "gas-accumulator"
+    assert duplicates(sp.Integer(1), ("gas-accumulator",)) == "gas-accumulator"  # its preload is the offset

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.discovered import DiscoveredEffect, resembles, term_latex, term_words
+from duffsym.effects.discovered import DiscoveredEffect, duplicates, resembles, term_latex, term_words
 from duffsym.errors import DataError, ModelError
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import state_symbol
@@ -294,6 +294,8 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     cols = signals(record, model, _states(model, dg.base_fit.params, record, dg.base_fit.x0[0]))
     terms, Theta = library_matrix(cols)
     ok = [j for j in range(len(terms)) if np.ptp(Theta[:k, j]) + abs(Theta[0, j]) > 0]
+    same = [j for j in ok if duplicates(terms[j], model.effects)]  # terms the added effects already have
+    ok = [j for j in ok if j not in same]
     terms, Theta = [terms[j] for j in ok], Theta[:, ok]
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
     stab = stability(Theta[:k], r[:k], blocks(record, k), terms)
@@ -308,6 +310,7 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
             for f, p in sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]
         },
         "n_terms": len(stable),
+        "duplicates_left_out": len(same),
     }
     if not stable:
         return [], selection

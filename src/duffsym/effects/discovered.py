@@ -214,6 +214,23 @@ def resembles(term: sp.Expr) -> str:
     return _RESEMBLES.get(_kind(term), "")
 
 
+#: library term kinds (:func:`_kind`) that *are* a catalogued effect's term on the output, by effect
+_SAME_AS = {
+    ("1", "constant"): ("force-offset", "gas-accumulator"),
+    ("d", "linear"): ("gas-accumulator",),
+    ("d_ddot", "linear"): ("inertia",),
+    ("d_dot", "linear"): ("parallel-damping",),
+    ("d_dot", "sign"): ("seal-friction",),
+}
+
+
+def duplicates(term: sp.Expr, effects) -> str:
+    """The effect among ``effects`` (names) whose output term ``term`` already is ('' if none): a library term
+    that only repeats an added effect's term cannot be a new discovery, and a stability selection that keeps it
+    hides the terms that could be."""
+    return next((e for e in _SAME_AS.get(_kind(term), ()) if e in effects), "")
+
+
 def describe(term: sp.Expr) -> str:
     key, shape = _kind(term)
     if key is None or "|" in key:
