@@ -215,7 +215,7 @@ def resembles(term: sp.Expr) -> str:
 
 
 #: library term kinds (:func:`_kind`) that *are* a catalogued effect's term on the output, by effect
-_SAME_AS = {
+_SAME_AS: dict[tuple[str | None, str], tuple[str, ...]] = {
     ("1", "constant"): ("force-offset", "gas-accumulator"),
     ("d", "linear"): ("gas-accumulator",),
     ("d_ddot", "linear"): ("inertia",),
