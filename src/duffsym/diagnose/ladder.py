@@ -75,6 +75,8 @@ class Step:
     inactive: dict = field(default_factory=dict)  # effect -> why it does nothing at the fitted values
     joint: dict | None = None  # the joint refit that started this step (see joint_refit)
     seconds: float = math.nan
+    model: str = ""  # the base model (the element) of this step
+    element: str = ""  # how this step's element replaced the previous step's (see _element_switch)
 
     def to_dict(self) -> dict:
         out = dict(
@@ -93,7 +95,9 @@ class Step:
             out.update(term=self.discovered["term"], latex=self.discovered["latex"], discovered=self.discovered)
         if self.simplified:
             out["simplified"] = self.simplified
-        out.update(inactive=self.inactive, joint=self.joint, seconds=self.seconds)
+        out.update(inactive=self.inactive, joint=self.joint, seconds=self.seconds, model=self.model)
+        if self.element:
+            out["element"] = self.element
         return out
 
 
@@ -141,8 +145,9 @@ class Ladder:
     def summary(self) -> str:
         lines = ["ladder (free-run NRMSE over the whole record / held-out tail, BIC on the fitting part):"]
         for i, s in enumerate(self.steps):
+            base = "base" if s.model == self.steps[0].model else s.model
             lines.append(
-                f"  {i}: {' + '.join(('base',) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
+                f"  {i}: {' + '.join((base,) + s.effects):<45} NRMSE {s.nrmse:.4g}  held-out "
                 f"{s.nrmse_heldout:.4g}  BIC {s.bic:.1f}"
             )
         lines += [
@@ -156,6 +161,7 @@ class Ladder:
             for i, s in enumerate(self.steps)
             if s.simplified
         ]
+        lines += [f"  step {i}: {s.element}" for i, s in enumerate(self.steps) if s.element]
         lines += [
             f"  step {i}: {e} is inactive: {why}" for i, s in enumerate(self.steps) for e, why in s.inactive.items()
         ]
@@ -269,6 +275,7 @@ class _Run:
         self.stopped, self.complete = "", True
         self.found: Any = None  # the discovered term of the next step
         self.jinfo: dict | None = None  # the joint refit that starts the next step
+        self.element = ""  # the element switch that starts the next step (see _element_switch)
 
     def stop(self, why: str, complete: bool = True) -> None:
         self.stopped, self.complete = why, complete
@@ -281,7 +288,8 @@ def _climb(run: _Run) -> None:
     while True:
         if run.steps and time_left(run.steps_end) <= 0:
             return run.stop(f"stopped at step {len(run.steps)}: the time budget ({o.budget:g} s) ran out", False)
-        run.say(f"step {len(run.steps)}: {' + '.join(('base',) + tuple(run.model.effects))}" + _left_text(run.end))
+        base = "base" if not run.steps or run.base_model.name == run.steps[0].model else run.base_model.name
+        run.say(f"step {len(run.steps)}: {' + '.join((base,) + tuple(run.model.effects))}" + _left_text(run.end))
         t_step = time.perf_counter()
         try:
             dg = diagnose(
@@ -301,18 +309,70 @@ def _climb(run: _Run) -> None:
             if not run.steps:
                 raise
             return run.stop(f"stopped at step {len(run.steps)}: its diagnosis failed: {exc}", False)
-        run.steps.append(_step(record, run.model, dg, run.found, run.jinfo, time.perf_counter() - t_step))
+        seconds = time.perf_counter() - t_step
+        run.steps.append(_step(record, run.model, dg, run.found, run.jinfo, seconds, run.element))
         run.found = run.jinfo = None
+        run.element = ""
         _report(o.on_step, run.steps, run.t0, o.budget, record)
         chosen = dg.needed[0] if dg.needed else None
         if chosen is None and o.accept == "supported":
             chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
+        if chosen in (None, "contact-gap") and len(run.steps) <= o.max_steps and _element_switch(run, dg):
+            continue
         if chosen is None and o.discover and len(run.steps) <= o.max_steps and not dg.residuals.at_noise_level:
             dg, found = _discovery_step(run, dg)
             if found:
                 continue
         if not _take(run, dg, chosen):
             return
+
+
+#: rate-dependent base models and their rate-independent form (the element in the path of d)
+PATH_FORMS = {"mr-damper": "mr-damper-path"}
+#: the ladder switches to the rate-independent element when its held-out error is below this fraction of the best
+#: without it
+SWITCH_GAIN = 0.9
+
+
+def _element_switch(run: _Run, dg: Diagnosis) -> bool:
+    """A contact gap is a friction element's play: its force is held on both sides of the gap, and a friction
+    element's loop does not depend on the speed. When ``contact-gap`` fitted on a rate-dependent element that has
+    a rate-independent form (``PATH_FORMS``), that form is fitted with the model's effects and the gap; the ladder
+    switches to it (True) when it predicts the held-out tail clearly better (``SWITCH_GAIN``), and the next step
+    says so."""
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.model.library import get_model
+
+    gap = next((c for c in dg.candidates if c.effect == "contact-gap" and c.success), None)
+    name = PATH_FORMS.get(run.base_model.name)
+    if gap is None or name is None or any(e not in CATALOGUE for e in run.model.effects):
+        return False
+    n = dict(run.base_model.structural).get("n_x")
+    try:
+        base = get_model(name, None if n is None else int(n))
+        trial = apply_effects(base, [CATALOGUE[e] for e in (*run.model.effects, "contact-gap")])
+    except (ModelError, TypeError, ValueError):
+        return False
+    o, before = run.o, min(dg.nrmse_heldout, gap.nrmse_after)
+    run.say(f"  contact-gap on a rate-dependent element: trying the rate-independent element {name}")
+    try:
+        kw = {**o.rules, "sindy": False}
+        deadline = _step_deadline(run.steps_end, run.steps, o.max_steps)
+        trial_dg = diagnose(run.record, trial, candidates=[], fixed=o.fixed, holdout=o.holdout, noise=o.noise,
+                            mask=o.mask, progress=o.progress, deadline=deadline, **kw)  # fmt: skip
+    except (ModelError, DataError) as exc:
+        run.say(f"  {name}: {exc}")
+        return False
+    after = trial_dg.nrmse_heldout
+    if not (trial_dg.base_fit.success and after < SWITCH_GAIN * before):
+        run.say(f"  {name} + contact-gap: held-out {after:.3g} against {before:.3g}: the element is kept")
+        return False
+    run.element = (
+        f"the element {run.base_model.name} replaced by its rate-independent form {name} (a friction element: "
+        f"the force is held on both sides of the gap), with contact-gap: held-out {before:.3g} -> {after:.3g}"
+    )
+    run.base_model, run.model, run.start = base, trial, dict(trial_dg.base_fit.params)
+    return True
 
 
 def _discovery_step(run: _Run, dg: Diagnosis) -> tuple[Diagnosis, bool]:
@@ -394,7 +454,7 @@ def _left_text(end) -> str:
     return "" if not math.isfinite(left) else f" (budget: {max(left, 0):.0f} s left)"
 
 
-def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
+def _step(record, model, dg: Diagnosis, found, jinfo, seconds, element: str = "") -> Step:
     """A :class:`Step` from a diagnosis, with its inactive effects flagged."""
     from duffsym.identify.result import nrmse as _nrmse
 
@@ -414,6 +474,8 @@ def _step(record, model, dg: Diagnosis, found, jinfo, seconds) -> Step:
         joint=jinfo,
         inactive=inactive_effects(model, record, params, dg.base_fit.stderr),
         seconds=seconds,
+        model=model.name,
+        element=element,
     )
 
 
