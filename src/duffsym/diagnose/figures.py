@@ -227,8 +227,19 @@ def ladder_outcome(lad) -> str:
         return f"nothing added: no effect is supported (held-out NRMSE {steps[0].nrmse_heldout:.3g})"
     a, b = steps[0].nrmse_heldout, steps[-1].nrmse_heldout
     verb = "falls" if b < a else "does not fall"
-    added = ", ".join(s.effects[-1] for s in steps[1:])
+    added = ", ".join(_step_name(s, steps[0]).lstrip("+ ") for s in steps[1:])
     return f"added {added}: held-out NRMSE {verb}, {' -> '.join(f'{s.nrmse_heldout:.3g}' for s in steps)}"
+
+
+def _on(step, first) -> str:
+    """`` on <element>`` when the ladder step's element replaced the first step's, else ""."""
+    model = getattr(step, "model", "")
+    return f" on {model}" if model and model != getattr(first, "model", model) else ""
+
+
+def _step_name(step, first) -> str:
+    """``+ effect`` for a ladder step, with its element when the step replaced the first step's."""
+    return f"+ {step.effects[-1]}{_on(step, first)}"
 
 
 def plot_ladder(lad, record: Record, *, title: str | None = None):
@@ -238,7 +249,7 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
     error fell, or that nothing was added."""
     plt = _plt()
     steps = lad.steps
-    names = ["base"] + ["+ " + s.effects[-1] for s in steps[1:]]
+    names = ["base"] + [_step_name(s, steps[0]) for s in steps[1:]]
     fig = plt.figure(figsize=(12, 4.2), layout="constrained")
     gs = fig.add_gridspec(1, 3)
     ax = fig.add_subplot(gs[0, 0])
@@ -274,7 +285,7 @@ def plot_ladder(lad, record: Record, *, title: str | None = None):
                 steps[-1].diagnosis.y_base[sl],
                 color="k",
                 lw=0.7,
-                label=f"+ {' + '.join(steps[-1].effects)} ({steps[-1].nrmse:.3g})",
+                label=f"+ {' + '.join(steps[-1].effects)}{_on(steps[-1], steps[0])} ({steps[-1].nrmse:.3g})",
             )
         ax.set_xlabel(lab + _u(record, key))
         ax.set_ylabel("y" + _u(record, "y"))
