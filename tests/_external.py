@@ -10,6 +10,14 @@ from duffsym.data import external_data_dir
 from duffsym.errors import DataError
 
 DYKE_CSV = ("mr_damper_dyke_nees1996", "ranran_50_converted.csv")
+#: the friction damper with linkage play (SOURCE.md there) and its four records
+BRFD = "friction_damper_brfd_artslab"
+BRFD_RECORDS = (
+    "0.5Hz30lbtension1amplitude",
+    "0.5Hz36lbtension1amplitude",
+    "0.5Hz30lbtension0.5amplitude",
+    "0.25Hz30lbtension1amplitude",
+)
 
 
 def external_file(*parts: str) -> Path:

@@ -10,13 +10,11 @@ import sympy as sp
 
 import independent_friction_sim as fgen
 import independent_sim as gen
-from _external import external_file
+from _external import BRFD, BRFD_RECORDS, external_file
 from duffsym.data.record import Record
 from duffsym.effects import CATALOGUE, apply_effects
 from duffsym.effects.gap import smooth_deadzone
 from duffsym.model.library import mr_damper
-
-BRFD = "friction_damper_brfd_artslab"
 
 
 def exact_deadzone(y, w):
@@ -91,12 +89,7 @@ def test_contact_gap_on_the_rate_independent_element_fits_an_independent_frictio
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "name",
-    [
-        "0.5Hz30lbtension1amplitude",
-        "0.5Hz36lbtension1amplitude",
-        "0.5Hz30lbtension0.5amplitude",
-        "0.25Hz30lbtension1amplitude",
-    ],
+    BRFD_RECORDS,
 )
 def test_contact_gap_names_and_fits_the_play_of_the_real_friction_damper(name):
     from duffsym.data.loaders import load_friction_damper_json
