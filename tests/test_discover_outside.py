@@ -108,6 +108,15 @@ def test_stribeck_friction_is_discovered_and_named():
     assert disc.nrmse_after <= 2 * _floor(rec, g, dg) < 0.5 * disc.nrmse_before
 
 
+def test_discovery_makes_no_fit_once_its_deadline_has_passed():
+    import time
+
+    rec, _ = _record("stribeck-friction", 1)  # the record whose Stribeck term is discovered without a deadline
+    dg = diagnose(rec, candidates=[], sindy=False)
+    disc = discover_term(rec, mr_damper(), dg, deadline=time.monotonic() - 1.0)
+    assert not disc.found and "not made: the time budget ran out" in disc.message, disc.message
+
+
 @pytest.mark.slow
 def test_stroke_dependent_friction_is_discovered_on_top_of_seal_friction():
     """Seal friction already in the model (the ladder adds it first): the level that grows toward the stroke

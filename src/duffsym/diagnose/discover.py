@@ -31,6 +31,7 @@ which the library spans.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import math
 import re
@@ -339,6 +340,7 @@ def discover_term(
     max_iter: int = 300,
     tries: int = TRIES,
     progress=None,
+    deadline: float | None = None,
 ) -> Discovery:
     """Discover what ``model`` lacks on ``record`` outside the catalogue, from the diagnosis ``dg`` of it.
 
@@ -348,8 +350,22 @@ def discover_term(
     (``dg.split``) only, fitted by :func:`duffsym.identify.fit_with_effects` on the fitting part, and
     judged on the held-out tail by the same rules as a catalogued candidate (defaults: those of
     :mod:`duffsym.diagnose.search`). ``tries``: how many term sets to fit; the one with the lowest BIC on
-    the fitting part is kept (the held-out tail is never used to choose).
+    the fitting part is kept (the held-out tail is never used to choose). ``deadline`` (a ``time.monotonic()``
+    instant): every fit is limited to the time left and fitted on at most ``BUDGET_SAMPLES`` samples, as a
+    diagnosis under a budget; a fit left when it has passed is not made.
     """
+    token = _DEADLINE.set(deadline)
+    try:
+        return _discover(record, model, dg, fixed, mask, bic_threshold, min_improvement, min_explained, max_iter,
+                         tries, progress)  # fmt: skip
+    finally:
+        _DEADLINE.reset(token)
+
+
+def _discover(
+    record, model, dg, fixed, mask, bic_threshold, min_improvement, min_explained, max_iter, tries, progress
+) -> Discovery:
+    """:func:`discover_term`'s work (its deadline set)."""
     import time
 
     from duffsym.diagnose import search as S
@@ -393,9 +409,14 @@ def discover_term(
         )
     fits = [f for f in (_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects) if f]
     if not fits:
-        return _nothing(
-            f"the fit of {effects[0].name} failed or its free run diverged", before, selection, time.perf_counter() - t0
+        from duffsym.diagnose.search import time_left
+
+        why = (
+            "failed or its free run diverged"
+            if time_left(_DEADLINE.get()) >= 2.0
+            else "not made: the time budget ran out"
         )
+        return _nothing(f"the fit of {effects[0].name} {why}", before, selection, time.perf_counter() - t0)
     fitted = min(fits, key=lambda f: f[3])
     simple = [f for f in fits if not any(t.has(sp.exp) for t in f[0].terms)]
     if simple and fitted[0].terms != simple[0][0].terms and min(f[3] for f in simple) <= fitted[3] + 2.0:
@@ -509,6 +530,10 @@ def discover_drift(
     )
 
 
+#: the deadline of the discovery running in this context (:func:`discover_term`); None: no limit
+_DEADLINE: contextvars.ContextVar[float | None] = contextvars.ContextVar("discover_deadline", default=None)
+
+
 def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
     """``effect`` fitted on the fitting part by :func:`duffsym.identify.fit_with_effects`:
     (effect rebuilt with the fitted coefficients, fit, free run over the record, BIC on the fitting part);
@@ -526,25 +551,31 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     from duffsym.diagnose import search as S
     from duffsym.identify import Problem, fit_with_effects
 
+    deadline = _DEADLINE.get()
+    left = S.time_left(deadline)
+    if left < 2.0:
+        say(f"  {effect.name}: not fitted, the time budget ran out")
+        return None
     say(f"  fitting {effect.name}")
     k = dg.split["n_fit"]
     rec_fit = S._part(record, k)
     fixed = S.with_default_af(model, fixed, rec_fit)
+    mask_fit = None if mask is None else np.asarray(mask, bool)[:k]
+    # under a budget, decimated as a diagnosis under a budget fits its candidates; without one, at the record's rate
+    budget = deadline is not None
+    prep, rec_fit, mask_fit = S._prepare_fit(record, rec_fit, mask_fit, budget, S.BUDGET_SAMPLES if budget else None)
     ext = effect.apply(model)
-    problem = Problem(
-        ext,
-        rec_fit,
-        fixed={n: v for n, v in fixed.items() if n in ext.param_names},
-        mask=None if mask is None else np.asarray(mask, bool)[:k],
-    )
+    problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names}, mask=mask_fit)
+    limit = {} if deadline is None else {"max_wall_time": left / 2}  # two starts (fit_with_effects)
     fr = fit_with_effects(
         problem,
         [effect],
         {**dg.base_fit.params, **dict(start or {})},
-        dg.y_base[:k],
+        dg.y_base[:k][:: prep.factor],
         max_iter=max_iter,
         compute_stderr=True,
         bound_restart=False,
+        **limit,
     )
     run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):

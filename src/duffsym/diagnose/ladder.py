@@ -381,7 +381,7 @@ def _discovery_step(run: _Run, dg: Diagnosis) -> tuple[Diagnosis, bool]:
     if run.steps_end is not None and time.monotonic() >= run.steps_end:
         return _with_note(dg, " Term discovery outside the catalogue: not tried, the time budget ran out."), False
     found, model, start, note = _discovered(
-        run.record, run.model, dg, run.o.fixed, run.o.mask, run.o.progress, run.o.rules
+        run.record, run.model, dg, run.o.fixed, run.o.mask, run.o.progress, run.o.rules, run.steps_end
     )
     if found is not None:
         run.found, run.model, run.start = found, model, start
@@ -614,12 +614,12 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
     return model
 
 
-def _discovered(record, model, dg, fixed, mask, progress, rules):
+def _discovered(record, model, dg, fixed, mask, progress, rules, deadline=None):
     """(discovery dict, extended model, start) when a discovered term is needed; else (None, model, None, note)."""
     from duffsym.diagnose.discover import discover_term
 
     judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
-    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, **judge)
+    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, deadline=deadline, **judge)
     if not disc.needed:
         why = disc.summary().removeprefix("discovery: ").replace("\n", ";")
         return None, model, None, " Term discovery outside the catalogue: " + why
