@@ -21,7 +21,7 @@ field-asymmetry      u' = -eta (1 + fa_a tanh((i-u)/fa_eps)) (u - i) (command mo
 input-delay          Pade all-pass state q; d -> 2q - d                                delay_tau
 input-shift          d -> d - tau d', d' -> d' - tau d'' (hold vs interpolation)       shift_tau
 backlash             smooth play state b; d -> b                                       bl_h
-contact-gap          y -> smooth deadzone of y, half-width gap_w (gap.py; linkage play) gap_w
+contact-gap          y -> smooth deadzone of y, half-width gap_w (gap.py; play)        gap_w
 quadratic-stiffness  x'' += -quad_k x^2 (polynomial.py)                                quad_k
 cubic-damping        x'' += -cdamp_c x'^3 (polynomial.py)                              cdamp_c
 input-curvature      d -> d + curv_k d'' (polynomial.py; reconstruction, even part)    curv_k
