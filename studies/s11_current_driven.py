@@ -86,6 +86,13 @@ class Config:
     dyke_val_seconds: float | None = None
 
     @classmethod
+    def long(cls) -> "Config":
+        """The whole study: both field forms, the six hold-out refits, the slowest pair alone, the earthquake
+        record and the Dyke sequence (``benchmarks/bench_s11_current_driven.py`` runs it)."""
+        return cls(forms=("mr-damper-current", "mr-damper-current-saturating"), holdout="excitation",
+                   earthquake=True, alone=True, dyke=True)
+
+    @classmethod
     def smoke(cls) -> "Config":
         """Two tests at two currents, one form, no hold-out; a 1 s Dyke fit of the base model at 500 Hz."""
         return cls(tests=("2mm5Hz", "5mm3Hz"), currents=(0.0, 1.0), samples_per_period=25,
