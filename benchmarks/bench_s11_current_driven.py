@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT / "studies"))
 
 import s11_current_driven as S  # noqa: E402
 
-from _provenance import stamp  # noqa: E402  (benchmarks/ is on sys.path: the script's folder)
+from _provenance import provenance, stamp  # noqa: E402  (benchmarks/ is on sys.path: the script's folder)
 
 RESULT = ROOT / "benchmarks" / "results" / f"{S.STUDY}.json"
 
@@ -38,14 +38,15 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     cfg = S.Config.long()
     print(cfg.summary(), flush=True)
+    prov = provenance({**asdict(cfg), "out": a.out})  # the commit and the load at the start: what ran
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         os.environ["DUFFSYM_OUTPUT_ROOT"] = tmp
         S.compute(cfg)
         _, meta = S.read()
     meta.pop("run_mode", None)
-    doc = stamp({"study_provenance": meta.pop("provenance", None) or {}, **meta,
-                 "bench_wall_s": time.perf_counter() - t0}, {**asdict(cfg), "out": a.out})
+    doc = stamp({"provenance": prov, **meta,
+                 "bench_wall_s": time.perf_counter() - t0})
     print(S.summarize(doc))
     out = Path(a.out)
     tmp_file = out.with_suffix(".tmp")
