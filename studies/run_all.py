@@ -37,8 +37,8 @@ STUDIES = tuple(sorted(p.stem for p in HERE.glob("s[0-9][0-9]_*.py")))
 #: typical full-run seconds per study (2 cores, fresh virtualenv; paper/README.md): the order of a
 #: parallel run (longest first) and the weights of the estimate of the time left; 60 s if not listed
 TYPICAL_SECONDS = {"s01": 20, "s02": 8, "s03": 4, "s04": 3, "s05": 23, "s06": 220, "s07": 230, "s08": 127,
-                   "s09": 42, "s10": 143, "s11": 1500, "s12": 35, "s13": 165,
-                   "s14": 2670}  # s14: measured under load average ~20 (the Spencer campaign fit: 1822 s)
+                   "s09": 42, "s10": 143, "s11": 170, "s12": 35, "s13": 165,
+                   "s14": 60}  # s11, s14: their short versions (the long ones are benchmarks/bench_s1[14]_*.py)
 #: study prefix -> the studies whose results it reads (it runs after them) or whose code it imports
 AFTER = {"s11": ("s06",)}
 IMPORTS = {"s07": ("s06",), "s11": ("s06",)}
