@@ -2,8 +2,8 @@
 
 The studies are the files ``studies/sNN_<name>.py``. Each study's outputs are cached under a hash of
 what it depends on (:func:`study_key`: the duffsym version and the bytes of its source, the study's
-own scripts, the shipped records in ``data/``, the names, sizes and times of the external data files,
-the mode and the Python version); a study whose key is unchanged and whose recorded files are all
+own scripts, the stored benchmark results it reads (:data:`READS`), the shipped records in ``data/``,
+the names, sizes and times of the external data files, the mode and the Python version); a study whose key is unchanged and whose recorded files are all
 there is skipped with a line saying so (``--force`` reruns it). The key and the file list are in
 ``<derived>/.reproduce/<study>.json``.
 
@@ -37,11 +37,14 @@ STUDIES = tuple(sorted(p.stem for p in HERE.glob("s[0-9][0-9]_*.py")))
 #: typical full-run seconds per study (2 cores, fresh virtualenv; paper/README.md): the order of a
 #: parallel run (longest first) and the weights of the estimate of the time left; 60 s if not listed
 TYPICAL_SECONDS = {"s01": 20, "s02": 8, "s03": 4, "s04": 3, "s05": 23, "s06": 220, "s07": 230, "s08": 127,
-                   "s09": 42, "s10": 143, "s11": 1500, "s12": 35, "s13": 165,
-                   "s14": 2670}  # s14: measured under load average ~20 (the Spencer campaign fit: 1822 s)
+                   "s09": 42, "s10": 143, "s11": 170, "s12": 35, "s13": 165,
+                   "s14": 60}  # s11, s14: their short versions (the long ones are benchmarks/bench_s1[14]_*.py)
 #: study prefix -> the studies whose results it reads (it runs after them) or whose code it imports
 AFTER = {"s11": ("s06",)}
 IMPORTS = {"s07": ("s06",), "s11": ("s06",)}
+#: study prefix -> the stored benchmark results it reads in its default (reproduce) mode: part of its key
+READS = {"s11": ("benchmarks/results/s11_current_driven.json",),
+         "s14": ("benchmarks/results/s14_model_comparison.json",)}
 USAGE = "usage: run_all.py [--smoke] [--workers N] [--force]"
 
 
@@ -103,6 +106,7 @@ def study_key(name: str, smoke: bool, *, package: str | None = None, external: s
     h.update((package or package_hash()).encode())
     own = [HERE / f"{name}.py", HERE / "_common.py", HERE / "paths.py", HERE / "duffsym.mplstyle"]
     own += [p for dep in IMPORTS.get(name[:3], ()) for p in HERE.glob(f"{dep}_*.py")]
+    own += [paths.repo_root() / f for f in READS.get(name[:3], ())]
     _hash_files(h, [p for p in own if p.is_file()])
     _hash_files(h, [p for p in (paths.repo_root() / "data").glob("*") if p.is_file()])
     if external is None:

@@ -57,6 +57,10 @@ DYKE = "mr_damper_dyke_nees1996"
 DYKE_COLUMNS = dict(time="t", input="D", output="F", velocity="V", voltage="Y")
 LSTM_RMSE_N = 49.46
 GOAL_MEDIAN, GOAL_WORST = 0.10, 0.20
+#: the long parts' results, written by ``benchmarks/bench_s11_current_driven.py`` (``Config.long()``)
+STORED_NAME = "benchmarks/results/s11_current_driven.json"
+#: the settings the stored results must share with this run to be used
+SAME_SETTINGS = ("tests", "currents", "samples_per_period", "campaign_eta")
 
 
 @dataclass(frozen=True)
@@ -73,11 +77,12 @@ class Config:
     tests: tuple[str, ...] = ("2mm5Hz", "5mm3Hz", "10mm1Hz", "25mm0x5Hz", "25mm0x25Hz", "25mm0x1Hz")
     currents: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)
     samples_per_period: int = 25
-    forms: tuple[str, ...] = ("mr-damper-current", "mr-damper-current-saturating")
-    holdout: str = "excitation"
+    forms: tuple[str, ...] = ("mr-damper-current",)
+    holdout: str = "none"
     campaign_eta: float = 100.0
     earthquake: bool = True
-    alone: bool = True             # also fit the slowest excitation's tests alone (is one parameter set the limit?)
+    alone: bool = False            # also fit the slowest excitation's tests alone (is one parameter set the limit?)
+    stored: bool = True            # read the long parts from the benchmark's results file (STORED) when present
     dyke: bool = True
     dyke_decimation: int = 6
     dyke_fit_seconds: float = 6.0
@@ -86,17 +91,25 @@ class Config:
     dyke_val_seconds: float | None = None
 
     @classmethod
+    def long(cls) -> "Config":
+        """The whole study: both field forms, the six hold-out refits, the slowest pair alone, the earthquake
+        record and the Dyke sequence (``benchmarks/bench_s11_current_driven.py`` runs it)."""
+        return cls(forms=("mr-damper-current", "mr-damper-current-saturating"), holdout="excitation",
+                   earthquake=True, alone=True, dyke=True, stored=False)
+
+    @classmethod
     def smoke(cls) -> "Config":
         """Two tests at two currents, one form, no hold-out; a 1 s Dyke fit of the base model at 500 Hz."""
         return cls(tests=("2mm5Hz", "5mm3Hz"), currents=(0.0, 1.0), samples_per_period=25,
                    forms=("mr-damper-current",), holdout="none", earthquake=False, alone=False, dyke_decimation=6,
                    dyke_forms=("mr-damper-current",),
-                   dyke_fit_seconds=1.0, dyke_val_seconds=1.0)
+                   dyke_fit_seconds=1.0, dyke_val_seconds=1.0, stored=False)
 
     def summary(self) -> str:
         return (f"s11 config: campaign {len(self.tests)} tests x {len(self.currents)} currents at "
                 f"~{self.samples_per_period} samples/period, forms {', '.join(self.forms)}, hold-out "
-                f"{self.holdout}; Dyke q={self.dyke_decimation}, fit {self.dyke_fit_seconds:g} s")
+                f"{self.holdout}{'; the long parts read from ' + STORED_NAME if self.stored else ''}; "
+                f"Dyke q={self.dyke_decimation}, fit {self.dyke_fit_seconds:g} s")
 
 
 # ------------------------------------------------------------------------------------------- data
@@ -260,6 +273,35 @@ def holdout(cfg: Config, recs, model, arrays) -> tuple[dict, float]:
     return held, time.perf_counter() - t0
 
 
+def stored_long(cfg: Config, camp: dict) -> dict:
+    """The long parts (other field forms, hold-out refits, the slowest pair alone) from :data:`STORED_NAME`.
+
+    Used only when the file was made with this run's campaign settings (:data:`SAME_SETTINGS`); ``same_fit`` is
+    the largest difference between this run's in-sample NRMSE and the stored run's for the same form (0 when
+    the package fits as it did then). Without a usable file: ``{"file": ..., "absent": reason}``.
+    """
+    import json
+
+    import paths
+
+    path = paths.repo_root() / STORED_NAME
+    if not path.is_file():
+        return {"file": STORED_NAME, "absent": f"{STORED_NAME} is absent (python benchmarks/bench_s11_current_driven.py)"}
+    doc = json.loads(path.read_text())
+    theirs = doc.get("config", {})
+    differ = [k for k in SAME_SETTINGS if theirs.get(k) != (list(v) if isinstance(v := getattr(cfg, k), tuple) else v)]
+    if differ:
+        return {"file": STORED_NAME, "absent": f"{STORED_NAME} was made with other settings ({', '.join(differ)})"}
+    them, prov = doc.get("campaign", {}), doc.get("provenance", {})
+    mine = camp["forms"].get(them.get("chosen"), {}).get("nrmse_in_sample", {})
+    stored_ins = them.get("forms", {}).get(them.get("chosen"), {}).get("nrmse_in_sample", {})
+    same = max((abs(mine[k] - stored_ins[k]) for k in mine if k in stored_ins), default=None)
+    return dict(file=STORED_NAME, commit=prov.get("commit"), date=prov.get("date"), load=prov.get("load"),
+                holdout=theirs.get("holdout"), forms=them.get("forms", {}), chosen=them.get("chosen"),
+                heldout=them.get("heldout", {}), holdout_wall_s=them.get("holdout_wall_s"), alone=them.get("alone"),
+                total_s=doc.get("total_s"), same_fit=same)
+
+
 def earthquake(res, model, arrays) -> dict:
     import s06_real_mr_damper as s06
 
@@ -331,6 +373,8 @@ def compute(cfg: Config) -> dict:
         meta["missing"] = True
     if _folder("mr_damper_utfsm_quiroz2022") is not None:
         meta["campaign"] = compute_campaign(cfg, arrays)
+        if cfg.stored:
+            meta["campaign"]["stored"] = stored_long(cfg, meta["campaign"])
     if cfg.dyke and _folder(DYKE) is not None:
         meta["dyke"] = compute_dyke(cfg, arrays)
     meta["total_s"] = time.perf_counter() - t0
@@ -359,18 +403,37 @@ def plot(results: dict | None = None) -> list:
         return _plot_campaign(plt, meta) + _plot_dyke(plt, meta)
 
 
+def long_parts(camp: dict) -> dict:
+    """The form comparison, the hold-out and the slowest pair alone: this run's if it made them, else the stored
+    benchmark run's (:func:`stored_long`); ``source`` is ``""`` for this run, else where they come from."""
+    st = camp.get("stored") or {}
+    if camp.get("heldout") or not st.get("heldout"):
+        return dict(forms=camp["forms"], chosen=camp["chosen"], heldout=camp.get("heldout") or {},
+                    alone=camp.get("alone"), holdout_wall_s=camp.get("holdout_wall_s"), source="")
+    return dict(forms=st["forms"], chosen=st["chosen"], heldout=st["heldout"], alone=st.get("alone"),
+                holdout_wall_s=st.get("holdout_wall_s"), source=stored_source(st))
+
+
+def stored_source(st: dict) -> str:
+    """``benchmarks/results/... (run of DATE, commit abcdef1)``."""
+    return f"{st['file']} (run of {st.get('date') or '?'}, commit {(st.get('commit') or '?')[:7]})"
+
+
 def _plot_campaign(plt, meta: dict) -> list:
     camp = meta.get("campaign")
-    if not (camp and camp.get("heldout")):
+    if not camp:
         return []
+    long = long_parts(camp)
     names = camp["records"]
-    held = [camp["heldout"].get(n, {}).get("nrmse", math.nan) for n in names]
+    held = [long["heldout"].get(n, {}).get("nrmse", math.nan) for n in names]
     ins = [camp["forms"][camp["chosen"]]["nrmse_in_sample"][n] for n in names]
     s06 = _s06_per_test()
     fig, ax = plt.subplots(figsize=(10, 4))
     x = np.arange(len(names))
-    ax.bar(x - 0.2, np.minimum(held, 1.0), 0.4, color="k", label=f"one model ({camp['chosen']}), held out")
-    ax.plot(x + 0.2, ins, "s", color="0.5", ms=4, label="one model, in sample")
+    if long["heldout"]:
+        where = " (stored benchmark run)" if long["source"] else ""
+        ax.bar(x - 0.2, np.minimum(held, 1.0), 0.4, color="k", label=f"one model ({long['chosen']}), held out{where}")
+    ax.plot(x + 0.2, ins, "s", color="0.5", ms=4, label="one model, in sample (this run)")
     if s06.get("single"):
         ax.plot(x, [s06["single"].get(n, math.nan) for n in names], "o", mfc="none", color="tab:blue", ms=5,
                 label="s06: one fit per test (in sample)")
@@ -378,8 +441,15 @@ def _plot_campaign(plt, meta: dict) -> list:
     ax.axhline(GOAL_WORST, color="tab:red", ls=":", lw=0.8, label="goal: worst 0.20")
     ax.set_xticks(x, names, rotation=90, fontsize=7)
     ax.set_ylabel("free-run NRMSE")
-    ax.set_title(f"UTFSM campaign: one parameter set, each test predicted without its excitation "
+    if long["heldout"]:
+        title = (f"UTFSM campaign: one parameter set, each test predicted without its excitation "
                  f"(median {np.nanmedian(held):.3f}, worst {np.nanmax(held):.3f})")
+        if long["source"]:
+            title += f"\nheld out: {long['source']}; in sample: this run"
+    else:
+        title = (f"UTFSM campaign: one parameter set, in sample (median {np.median(ins):.3f}, worst "
+                 f"{np.max(ins):.3f}); no hold-out in this run")
+    ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, ncol=2)
     return [C.save(fig, STUDY, "campaign")]
 
@@ -419,16 +489,19 @@ def _fmt(v) -> str:
 def write_numbers(meta: dict) -> list:
     files = []
     camp = meta.get("campaign")
-    if camp and camp.get("heldout"):
-        held = [h["nrmse"] for h in camp["heldout"].values()]
-        files += [C.write_number(STUDY, "heldout_median", _fmt(float(np.median(held)))),
-                  C.write_number(STUDY, "heldout_worst", _fmt(float(np.max(held)))),
-                  C.write_number(STUDY, "chosen_form", camp["chosen"].replace("mr-damper-current", "linear")
-                                 .replace("linear-", ""))]
-        rows = [r"\begin{tabular}{lrr}\toprule test & one model, held out & one model, in sample\\\midrule"]
+    if camp:
+        long = long_parts(camp)
         ins = camp["forms"][camp["chosen"]]["nrmse_in_sample"]
+        files += [C.write_number(STUDY, "insample_median", _fmt(float(np.median(list(ins.values()))))),
+                  C.write_number(STUDY, "chosen_form", long["chosen"].replace("mr-damper-current", "linear")
+                                 .replace("linear-", ""))]
+        if long["heldout"]:
+            held = [h["nrmse"] for h in long["heldout"].values()]
+            files += [C.write_number(STUDY, "heldout_median", _fmt(float(np.median(held)))),
+                      C.write_number(STUDY, "heldout_worst", _fmt(float(np.max(held))))]
+        rows = [r"\begin{tabular}{lrr}\toprule test & one model, held out & one model, in sample\\\midrule"]
         for n in camp["records"]:
-            rows.append(f"{n} & {_fmt(camp['heldout'][n]['nrmse'])} & {_fmt(ins[n])}\\\\")
+            rows.append(f"{n} & {_fmt(long['heldout'].get(n, {}).get('nrmse'))} & {_fmt(ins[n])}\\\\")
         rows.append(r"\bottomrule\end{tabular}")
         files.append(C.write_number(STUDY, "campaign_table", "\n".join(rows)))
     dyke = meta.get("dyke")
@@ -441,22 +514,51 @@ def write_numbers(meta: dict) -> list:
     return files
 
 
+def _form(name: str) -> str:
+    return name.replace("mr-damper-current", "linear").replace("linear-", "")
+
+
+def _tex(text: str) -> str:
+    return text.replace("_", "\\_")
+
+
 def campaign_text(meta: dict) -> str:
-    """The campaign's numbers as sentences for the paper."""
+    """The campaign's numbers as sentences for the paper (which run made each, said)."""
     camp = meta.get("campaign")
     if not camp:
         return "(The UTFSM data were absent when the study ran.)"
-    forms = camp["forms"]
-    parts = [f"{f.replace('mr-damper-current', 'linear').replace('linear-', '')}: BIC {v['bic']:.0f}, in-sample "
-             f"NRMSE median {np.median(list(v['nrmse_in_sample'].values())):.3f}, worst "
-             f"{np.max(list(v['nrmse_in_sample'].values())):.3f}" for f, v in forms.items()]
-    text = "Field forms compared (" + "; ".join(parts) + f"); BIC chooses {camp['chosen']}."
-    if camp.get("heldout"):
-        held = np.array([h["nrmse"] for h in camp["heldout"].values()])
+    long, st = long_parts(camp), camp.get("stored") or {}
+    mine = camp["forms"]
+    text = "This run fits " + "; ".join(
+        f"the {_form(f)} form to all {len(camp['records'])} tests: in-sample free-run NRMSE median "
+        f"{np.median(list(v['nrmse_in_sample'].values())):.3f}, worst {np.max(list(v['nrmse_in_sample'].values())):.3f} "
+        f"(fit {v['wall_s']:.0f}\\,s)" for f, v in mine.items()) + "."
+    if long["source"]:
+        same, fit_name = st.get("same_fit"), _form(long["chosen"])
+        if same is None:
+            agree = ""
+        elif same < 5e-4:
+            agree = f"; its all-test {fit_name} fit gives this run's in-sample errors to within 5e-4"
+        else:
+            agree = f"; its all-test {fit_name} fit differs from this run's by up to {same:.2g} in a test's NRMSE"
+        total = f", {st['total_s'] / 60:.0f}\\,min on the shared 2-core machine" if st.get("total_s") else ""
+        text += (" The longer parts (the other field form, the six hold-out refits, the slowest pair fitted alone) "
+                 "are the benchmark \\texttt{benchmarks/bench\\_s11\\_current\\_driven.py}; the numbers that follow are "
+                 f"from its stored run, \\texttt{{{_tex(st['file'])}}} ({st.get('date')}, commit "
+                 f"\\texttt{{{(st.get('commit') or '?')[:7]}}}{total}{agree}).")
+    elif st.get("absent"):
+        text += (f" The hold-out refits and the form comparison were not run: {_tex(st['absent'])}.")
+    if len(long["forms"]) > 1:
+        parts = [f"{_form(f)}: BIC {v['bic']:.0f}, in-sample NRMSE median "
+                 f"{np.median(list(v['nrmse_in_sample'].values())):.3f}, worst "
+                 f"{np.max(list(v['nrmse_in_sample'].values())):.3f}" for f, v in long["forms"].items()]
+        text += " Field forms compared (" + "; ".join(parts) + f"); BIC chooses {long['chosen']}."
+    if long["heldout"]:
+        held = np.array([h["nrmse"] for h in long["heldout"].values()])
         text += (f" Held out (each amplitude/frequency pair left out at all five currents, six refits): median "
                  f"NRMSE {np.median(held):.3f} (goal 0.10), worst {held.max():.3f} (goal 0.20); "
                  f"{int(np.sum(held <= GOAL_MEDIAN))} of {held.size} tests at or below 0.10.")
-    alone = camp.get("alone")
+    alone = long.get("alone")
     if alone:
         a = [v["alone"] for v in alone["records"].values()]
         b = [v["all_tests"] for v in alone["records"].values()]
@@ -466,7 +568,7 @@ def campaign_text(meta: dict) -> str:
                  f"NRMSE {min(a):.3f}--{max(a):.3f}, against {min(b):.3f}--{max(b):.3f} in the all-test fit: {verdict}.")
     eq = camp.get("earthquake", {})
     if eq:
-        text += (" The earthquake-type record, predicted by the all-test model: "
+        text += (" The earthquake-type record, predicted by this run's all-test model: "
                  + ", ".join(f"{k} {v['nrmse']:.3f}" for k, v in eq.items())
                  + " (0.2--0.8\\,A are currents the campaign never saw).")
     return text
@@ -497,19 +599,31 @@ def summarize(meta: dict) -> str:
     lines = [f"{STUDY}:"]
     camp = meta.get("campaign")
     if camp:
+        long = long_parts(camp)
         for form, f in camp["forms"].items():
             e = list(f["nrmse_in_sample"].values())
-            lines.append(f"  campaign {form}: BIC {f['bic']:.1f}, in-sample NRMSE median {np.median(e):.3f}, "
+            lines.append(f"  campaign {form} (this run): BIC {f['bic']:.1f}, in-sample NRMSE median {np.median(e):.3f}, "
                          f"worst {np.max(e):.3f}, fit {f['wall_s']:.0f} s")
-        lines.append(f"  chosen by BIC: {camp['chosen']}")
-        if camp.get("heldout"):
-            held = [h["nrmse"] for h in camp["heldout"].values()]
-            lines.append(f"  held out ({meta['config']['holdout']}): median {np.median(held):.3f} (goal "
+        st = camp.get("stored") or {}
+        if long["source"]:
+            lines.append(f"  the long parts below are read from {long['source']}, not computed here "
+                         f"(python benchmarks/bench_s11_current_driven.py reruns them); largest difference between "
+                         f"its all-test fit and this run's in a test's in-sample NRMSE: {st.get('same_fit')}")
+            for form, f in long["forms"].items():
+                e = list(f["nrmse_in_sample"].values())
+                lines.append(f"  campaign {form} (stored): BIC {f['bic']:.1f}, in-sample NRMSE median {np.median(e):.3f}, "
+                             f"worst {np.max(e):.3f}, fit {f['wall_s']:.0f} s")
+        elif st.get("absent"):
+            lines.append(f"  no hold-out: {st['absent']}")
+        lines.append(f"  chosen by BIC: {long['chosen']}")
+        if long["heldout"]:
+            held = [h["nrmse"] for h in long["heldout"].values()]
+            lines.append(f"  held out (by excitation): median {np.median(held):.3f} (goal "
                          f"{GOAL_MEDIAN}), worst {np.max(held):.3f} (goal {GOAL_WORST}); folds took "
-                         f"{camp['holdout_wall_s']:.0f} s")
-        if camp.get("alone"):
-            al = camp["alone"]["records"]
-            lines.append(f"  {camp['alone']['test']} fitted alone: in-sample NRMSE "
+                         f"{long['holdout_wall_s']:.0f} s")
+        if long.get("alone"):
+            al = long["alone"]["records"]
+            lines.append(f"  {long['alone']['test']} fitted alone: in-sample NRMSE "
                          + ", ".join(f"{k} {v['alone']:.3f} (all-test fit {v['all_tests']:.3f})" for k, v in al.items()))
         for k, v in camp.get("earthquake", {}).items():
             lines.append(f"  earthquake record {k}: NRMSE {v['nrmse']:.3f} ({v['method']})")

@@ -50,6 +50,11 @@ DYKE_COLUMNS = dict(time="t", input="D", output="F", velocity="V", voltage="Y")
 #: The UTFSM authors' Spencer fit (design.md): p1..p12.
 UTFSM_P = (1.50e-4, 1.239, 2.31e-3, -38.15, 41.51, 15.22, 1.894, -3.656, 7.626, 0.925, 78.34, 9.867)
 UTFSM_QUOTED = (("5mm3Hz", 1.0, 0.079), ("10mm1Hz", 0.5, 0.118), ("2mm5Hz", 0.0, 0.169), ("25mm0x1Hz", 0.0, 0.247))
+#: the long run's results, written by ``benchmarks/bench_s14_model_comparison.py`` (``Config.long()``)
+STORED_NAME = "benchmarks/results/s14_model_comparison.json"
+#: the data settings the stored run must share with this one to be shown beside it
+SAME_SETTINGS = ("tests", "currents", "heldout_tests", "samples_per_period", "max_cycles", "eta", "dyke_decimation",
+                 "dyke_fit_seconds", "dyke_val_seconds")
 DUFFING_LIKE = ("mr-damper", "mr-damper-current", "mr-damper-current-quadratic", "mr-damper-current-saturating",
                 "mr-damper-current-path-viscous", "duffing-like")
 
@@ -64,21 +69,30 @@ class Config:
     samples_per_period: int = 50
     max_cycles: float = 2.0
     eta: float = 100.0
-    models: tuple[str, ...] = ("mr-damper-current", "spencer", "bouc-wen-current", "bingham-current")
-    n_starts: int = 3
+    models: tuple[str, ...] = ("mr-damper-current", "bouc-wen-current", "bingham-current")
+    n_starts: int = 1
     dyke: bool = True
     dyke_compare: bool = True
     dyke_decimation: int = 6
     dyke_fit_seconds: float = 1.5
     dyke_val_seconds: float = 2.0
-    dyke_models: tuple[str, ...] = ("mr-damper-current", "spencer", "bouc-wen-current", "bingham-current")
+    dyke_models: tuple[str, ...] = ("mr-damper-current", "bouc-wen-current", "bingham-current")
+    stored: bool = True  # read the long run (STORED_NAME) when present and made with the same data settings
+
+    @classmethod
+    def long(cls) -> "Config":
+        """The whole comparison: Spencer's model too, three starts per model
+        (``benchmarks/bench_s14_model_comparison.py`` runs it)."""
+        both = ("mr-damper-current", "spencer", "bouc-wen-current", "bingham-current")
+        return cls(models=both, n_starts=3, dyke_models=both, stored=False)
 
     @classmethod
     def smoke(cls) -> "Config":
         """The published-parameter checks; two tests at two currents (one test held out) with the two fastest
         classical fits (static Bingham per current, constant Bouc-Wen), one start; no Dyke fit."""
         return cls(tests=("2mm5Hz", "5mm3Hz"), currents=(0.0, 1.0), heldout_tests=("5mm3Hz",), samples_per_period=25,
-                   max_cycles=1.5, models=("bingham-current", "bouc-wen"), n_starts=1, dyke_compare=False)
+                   max_cycles=1.5, models=("bingham-current", "bouc-wen"), n_starts=1, dyke_compare=False,
+                   stored=False)
 
     def summary(self) -> str:
         return (f"s14 config: UTFSM {len(self.tests)} tests x {len(self.currents)} currents (held out: "
@@ -241,9 +255,41 @@ def compute(cfg: Config) -> dict:
         meta["utfsm"] = compute_utfsm(cfg, arrays)
     if cfg.dyke and cfg.dyke_compare and _folder(DYKE) is not None:
         meta["dyke"] = compute_dyke(cfg, arrays)
+    if cfg.stored:
+        meta["stored"] = stored_long(cfg)
     arrays.setdefault("empty", np.zeros(0))
     C.write_derived(STUDY, arrays, meta)
     return meta
+
+
+def stored_long(cfg: Config) -> dict:
+    """The long run's comparison (Spencer's model, three starts) from :data:`STORED_NAME`, when it was made with
+    this run's data settings (:data:`SAME_SETTINGS`); else ``{"file": ..., "absent": reason}``. Reads both the
+    benchmark's stamped file and the study's own derived JSON (``provenance.config``)."""
+    import json
+
+    import paths
+
+    path = paths.repo_root() / STORED_NAME
+    if not path.is_file():
+        return {"file": STORED_NAME, "absent": f"{STORED_NAME} is absent (python benchmarks/bench_s14_model_comparison.py)"}
+    doc = json.loads(path.read_text())
+    prov = doc.get("provenance", {})
+    theirs = prov.get("settings") or prov.get("config") or {}
+    differ = [k for k in SAME_SETTINGS if theirs.get(k) != (list(v) if isinstance(v := getattr(cfg, k), tuple) else v)]
+    if differ:
+        return {"file": STORED_NAME, "absent": f"{STORED_NAME} was made with other settings ({', '.join(differ)})"}
+    out = {"file": STORED_NAME, "commit": prov.get("commit") or prov.get("git_sha"), "date": prov.get("date"),
+           "load": prov.get("load"), "models": theirs.get("models"), "n_starts": theirs.get("n_starts")}
+    for k in ("utfsm", "dyke"):
+        if k in doc:
+            out[k] = {key: doc[k].get(key) for key in ("split", "table", "seconds", "side_by_side", "best")}
+    return out
+
+
+def stored_source(st: dict) -> str:
+    when = f"run of {st['date']}, " if st.get("date") else ""
+    return f"{st['file']} ({when}commit {(st.get('commit') or '?')[:7]}; {st.get('n_starts')} starts)"
 
 
 def read() -> tuple[dict, dict]:
@@ -259,16 +305,27 @@ def plot(results: dict | None = None) -> list:
     files = [paths.figures_dir() / f"{STUDY}_{k}.png" for k in ("utfsm", "dyke") if k in meta]
     if not rows:
         return files
+    st = meta.get("stored") or {}
     with C.style() as plt:
-        fig, ax = plt.subplots(figsize=(6.4, 3.6))
+        fig, ax = plt.subplots(figsize=(6.4, 3.8))
         x = np.arange(len(rows))
-        ax.bar(x - 0.18, [r["nrmse_duffing_like"] for _, r in rows], 0.36, label="best Duffing-like", color="0.3")
-        ax.bar(x + 0.18, [r["nrmse_classical"] for _, r in rows], 0.36, label="best classical", color="0.7")
-        ax.set_xticks(x, [f"{k}\n{r['duffing_like']} | {r['classical']}" for k, r in rows], fontsize="small")
+        n = meta["provenance"]["config"]["n_starts"]
+        ax.bar(x - 0.18, [r["nrmse_duffing_like"] for _, r in rows], 0.36, label=f"best Duffing-like, this run "
+               f"({n} start{'s' if n > 1 else ''})", color="0.3")
+        ax.bar(x + 0.18, [r["nrmse_classical"] for _, r in rows], 0.36, label="best classical, this run", color="0.7")
+        labels = [f"{k}\n{r['duffing_like']} | {r['classical']}" for k, r in rows]
+        title = "held-out error: best Duffing-like vs best classical model (same fit, same data)"
+        long = [(j, st[k]["side_by_side"]) for j, (k, _) in enumerate(rows) if (st.get(k) or {}).get("side_by_side")]
+        if long:
+            for j, r in long:
+                ax.plot([j - 0.18, j + 0.18], [r["nrmse_duffing_like"], r["nrmse_classical"]], "D", color="tab:red",
+                        ms=6, mfc="none", label="stored long run" if j == long[0][0] else None)
+                labels[j] += f"\nlong run: {r['duffing_like']} | {r['classical']}"
+            title += f"\nlong run (Spencer included): {stored_source(st)}"
+        ax.set_xticks(x, labels, fontsize="x-small")
         ax.set_ylabel("held-out NRMSE")
-        ax.set_title("held-out error: best Duffing-like vs best classical model (same fit, same data)",
-                     fontsize="small")
-        ax.legend(fontsize="small")
+        ax.set_title(title, fontsize="x-small")
+        ax.legend(fontsize="x-small")
         files.append(C.save(fig, STUDY, "summary"))
     return files
 
@@ -307,6 +364,14 @@ def summarize(meta: dict) -> str:
                              f"{sbs['starts_duffing_like']} vs {sbs['starts_classical']}; classical/Duffing-like fit "
                              f"time x{sbs['fit_time_ratio_classical_over_duffing']:.2f}, simulation cost per sample "
                              f"x{sbs['sim_cost_ratio_classical_over_duffing']:.2f}")
+    st = meta.get("stored") or {}
+    if st.get("absent"):
+        lines.append(f"the long run (Spencer's model, three starts) was not read: {st['absent']}")
+    for k in ("utfsm", "dyke"):
+        if st.get(k):
+            lines.append(f"{k}, stored long run, read from {stored_source(st)}, not computed here "
+                         f"(python benchmarks/bench_s14_model_comparison.py reruns it; {st[k]['seconds']:.0f} s):")
+            lines += ["  " + ln for ln in (st[k]["table"] or "").splitlines()[1:]]
     return "\n".join(lines)
 
 

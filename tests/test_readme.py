@@ -113,7 +113,7 @@ def _run_readme(tmp_path: Path, include_slow: bool) -> list[str]:
 def test_readme_blocks_run_in_order(tmp_path):
     skipped = _run_readme(tmp_path, include_slow=False)
     # what the lines made exists and is what they claim (a record, a fit, a plot)
-    made = ["sim.csv", "loops.png", "fit.json", "fit.png", "from_mat.csv"]
+    made = ["sim.csv", "loops.png", "fit.json", "fit.png", "from_mat.csv", "campaign.json", "val.png"]
     for name in made:
         assert (tmp_path / name).stat().st_size > 0, name
     assert all(any(k in s for k in ("pip install", "reproduce", "pytest", "long", "real data")) for s in skipped)
@@ -145,7 +145,8 @@ def test_files_named_in_docstrings_exist():
 
 
 def test_shipped_synthetic_records_are_what_make_examples_makes():
-    """data/make_examples.py regenerates the shipped synthetic records (same samples to 1e-12) and their truth."""
+    """data/make_examples.py regenerates the shipped synthetic records (same samples to 1e-12; the campaign's,
+    written with 7 significant digits, to 1e-6) and their truth."""
     import importlib.util
     import json
 
@@ -162,3 +163,8 @@ def test_shipped_synthetic_records_are_what_make_examples_makes():
         np.testing.assert_allclose(shipped.y, rec.y, rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(shipped.d, rec.d, rtol=1e-12, atol=1e-12)
         assert truth[name]["params"] == dict(rec.metadata["truth"]) and truth[name]["n_samples"] == rec.n_times
+    for name, cols in mod._campaign_records().items():  # numpy-only records, written with 7 digits
+        shipped = read_csv(ROOT / "data" / f"{name}.csv")
+        np.testing.assert_allclose(shipped.y, cols["force"], rtol=1e-6, atol=1e-6 * np.abs(cols["force"]).max())
+        np.testing.assert_allclose(shipped.d, cols["displacement"], rtol=1e-6, atol=1e-7)
+        assert shipped.current == cols["current"][0] and truth[name]["params"] == mod.CAMPAIGN_TRUTH
