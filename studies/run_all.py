@@ -34,11 +34,11 @@ import paths  # noqa: E402
 HERE = Path(__file__).resolve().parent
 #: every ``studies/sNN_<name>.py`` in order of NN (each has ``main(argv)`` taking ``--smoke``)
 STUDIES = tuple(sorted(p.stem for p in HERE.glob("s[0-9][0-9]_*.py")))
-#: typical full-run seconds per study (2 cores, fresh virtualenv; paper/README.md): the order of a
-#: parallel run (longest first) and the weights of the estimate of the time left; 60 s if not listed
-TYPICAL_SECONDS = {"s01": 20, "s02": 8, "s03": 4, "s04": 3, "s05": 23, "s06": 220, "s07": 230, "s08": 127,
-                   "s09": 42, "s10": 143, "s11": 170, "s12": 35, "s13": 165,
-                   "s14": 60}  # s11, s14: their short versions (the long ones are benchmarks/bench_s1[14]_*.py)
+#: typical full-run seconds per study: the order of a parallel run (longest first) and the weights of the estimate
+#: of the time left; 60 s if not listed. Measured 2026-11-27: fresh virtualenv and empty code cache,
+#: ``--workers 2`` on 2 cores with another job on one of them (load 3-4); s11 and s14 in their short versions
+TYPICAL_SECONDS = {"s01": 8, "s02": 11, "s03": 3, "s04": 2, "s05": 18, "s06": 464, "s07": 1216, "s08": 126,
+                   "s09": 78, "s10": 376, "s11": 468, "s12": 19, "s13": 233, "s14": 60}
 #: study prefix -> the studies whose results it reads (it runs after them) or whose code it imports
 AFTER = {"s11": ("s06",)}
 IMPORTS = {"s07": ("s06",), "s11": ("s06",)}

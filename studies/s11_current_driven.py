@@ -33,6 +33,14 @@ implicit ROS2 integrator when the stiff c3 x'^n term stops it); should both fail
 with scipy's LSODA (rtol 1e-6) and says so in the output.
 Reference: a windowed LSTM reached 49.5 N validation RMSE on this record (informal, see SOURCE.md).
 
+Default and long runs. The whole study (``Config.long()``) takes about half an hour on 2 cores, mostly the six
+hold-out refits; ``benchmarks/bench_s11_current_driven.py`` runs it and stores the result in
+``benchmarks/results/s11_current_driven.json`` (:data:`STORED_NAME`). The default run (``duffsym reproduce``)
+fits the linear form to all 30 tests, predicts the earthquake record and fits the Dyke sequence; the form
+comparison, the hold-out and the slowest pair alone it reads from the stored file when that was made with the
+same campaign settings, and says so (file, date, commit) in its output, the campaign figure's title and the
+paper's text, with the largest difference between its own all-test fit and the stored one.
+
 Files: ``data/derived/s11_current_driven.{npz,json}``; figures ``paper/figures/s11_current_driven_campaign.png``
 (held-out NRMSE per test, with s06's per-test and per-current fits when s06's derived file exists) and
 ``..._dyke.png`` (measured and predicted force on the validation half); numbers ``paper/output/s11_*.tex``.

@@ -25,6 +25,13 @@ output displacement): the classical damper laws here are driven by the displacem
 composition takes a two-state mechanical element, which the one-state Bouc–Wen law is not; they are not part of
 this comparison (s13 scores the benchmark's own Bouc–Wen law as a reference element).
 
+Default and long runs. The whole comparison (``Config.long()``: Spencer's model too, three starts per model) takes
+10-45 minutes on 2 cores, mostly Spencer's UTFSM fit, which ends at IPOPT's iteration limit;
+``benchmarks/bench_s14_model_comparison.py`` runs it and stores ``benchmarks/results/s14_model_comparison.json``
+(:data:`STORED_NAME`). The default run (``duffsym reproduce``) compares the other three models from one start
+and prints the stored long run's tables beside its own, and the summary figure marks them, naming the file,
+date and commit, when the stored run was made with the same data settings.
+
 Files: ``data/derived/s14_model_comparison.{npz,json}``; figures ``paper/figures/s14_model_comparison_utfsm.png``,
 ``..._dyke.png`` (the compare figure of each data set) and ``..._summary.png`` (best Duffing-like against best
 classical); numbers ``paper/output/s14_*.tex``.

@@ -61,9 +61,18 @@ def test_the_key_follows_what_a_study_depends_on(run_all, monkeypatch, tmp_path)
     assert key != run_all.study_key("s03_table2_loops", True, package="p", external="f")  # the external data
     assert key != run_all.study_key("s04_paper_claims", True, package="p", external="e")
     assert run_all.package_hash() == run_all.package_hash()
+    # a stored benchmark result the study reads (s11, s14: their long parts) is part of its key
+    stored = tmp_path / "stored.json"
+    stored.write_text("{}")
+    monkeypatch.setitem(run_all.READS, "s03", (str(stored),))
+    before = run_all.study_key("s03_table2_loops", True, package="p", external="e")
+    stored.write_text('{"x": 1}')
+    assert before != run_all.study_key("s03_table2_loops", True, package="p", external="e")
     # s11 reads s06's results: one task, s06 first; the longest task first
     groups = run_all._groups(["s03_table2_loops", "s11_current_driven", "s06_real_mr_damper", "s07_hidden_effect"])
-    assert groups[0] == ("s06_real_mr_damper", "s11_current_driven") and groups[-1] == ("s03_table2_loops",)
+    assert ("s06_real_mr_damper", "s11_current_driven") in groups and groups[-1] == ("s03_table2_loops",)
+    weights = [sum(run_all.TYPICAL_SECONDS.get(n[:3], 60) for n in g) for g in groups]
+    assert weights == sorted(weights, reverse=True)
 
 
 def test_studies_in_parallel_on_the_engine(run_all, tmp_path, capsys):
