@@ -97,8 +97,11 @@ def test_sample_json_stdout_stays_pure_with_the_progress_bar(tmp_path):
 def test_run_all_estimate_weights_the_studies_by_their_typical_time():
     import run_all  # studies/ is on sys.path (conftest.py): a failing import is a failure, not a skip
 
-    # s01 took 40 s where 20 s is typical: the run is 2x slower, so s06 (220 s typical) is 440 s away
-    assert run_all._estimate(["s01_a"], ["s06_b"], 40.0, smoke=False) == ", about 7:20 left"
+    # s01 took 4x its typical time: the run is 4x slower, so s06 is 4x its typical time away
+    typ = run_all.TYPICAL_SECONDS
+    left = round(4 * typ["s06"])
+    elapsed = 4.0 * typ["s01"]
+    assert run_all._estimate(["s01_a"], ["s06_b"], elapsed, smoke=False) == f", about {left // 60}:{left % 60:02d} left"
     assert run_all._estimate(["s01_a", "s02_b"], ["s03_c", "s04_d"], 10.0, smoke=True) == ", about 0:10 left"
     assert run_all._estimate([], ["s01_a"], 0.0, smoke=False) == ""
 
