@@ -44,6 +44,7 @@ from duffsym.identify.quality import fit_flags, usability
 from duffsym.identify.result import IdentificationResult
 from duffsym.identify.result import nrmse as record_nrmse
 from duffsym.identify.structure import rescaled_problem
+from duffsym.identify.unitscale import unit_plan
 from duffsym.simulate import simulate_record
 from duffsym.status import Status
 
@@ -194,6 +195,15 @@ def fit(
     is reported (the initial states are marginalised).
     """
     opts = fit_options(options, **settings)
+    plan = unit_plan(problem, x0)
+    if plan.applied:
+        assert plan.problem is not None
+        return plan.result(_fit(plan.problem, plan.x0, opts), problem)
+    return plan.annotate(_fit(problem, x0, opts))
+
+
+def _fit(problem: Problem, x0, opts: FitOptions) -> IdentificationResult:
+    """The fit of ``problem`` in its own units (the pipeline of :func:`fit`)."""
     t_build = time.perf_counter()
     n_starts, expand = _checked_options(problem, opts)
     say = opts.progress or _silent

@@ -1,0 +1,334 @@
+r"""A fit that does not depend on the units of the record: fit it normalised, map the answer back.
+
+The collocation NLP is scaled by the parameters' nominal magnitudes (``ParamSpec.scale``) and its
+bounds, start grid and IPOPT tolerances are those of a record of O(1) amplitudes: the same record in
+other units (a force in MN, a displacement in µm) met bounds the true parameters lie outside and
+tolerances that stop on an absolute scale (measured: an MR-damper record with its input x 1e-12 fitted
+at NRMSE 0.79 instead of 0.009, reported as a success).
+
+When a record's input or output peak lies outside :data:`UNIT_BAND`, :func:`unit_plan` divides them
+by powers of 1000 (:func:`unit_factor`, the SI prefixes), so the normalised record of the same
+experiment is the same whatever prefix it was written with. The model's unit-scaling map
+(:func:`duffsym.derive.units.find_unit_scaling`, derived from its equations) carries the fixed values,
+bounds and start into the normalised units, and :meth:`UnitPlan.result` carries the answer back:
+parameters, standard errors and covariance (through the map's Jacobian), initial states, free-run
+outputs and costs. Where the map moves a parameter the problem fixes as a gauge (``A_f``, set by the
+states' scaling symmetry), the answer is moved back along that symmetry
+(:mod:`duffsym.derive.symmetry`): the output is unchanged.
+
+A model without a derived map (the classical models, whose smoothing widths fix the velocity unit;
+composed structures and grouped problems, not handled here) is fitted in the record's units as
+before, and ``settings["unit_scaling"]`` (with a flag far from O(1)) says so.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from duffsym.derive.units import INPUT_SIGNALS, UnitScaling, find_unit_scaling
+from duffsym.identify.problem import Problem, effect_record_bounds
+from duffsym.identify.result import IdentificationResult
+
+#: Peaks in [10^-1.5, 10^1.5) are left as they are (the fit is bit for bit the one in the record's units).
+UNIT_BAND = (10**-1.5, 10**1.5)
+#: Outside this band a fit that cannot be normalised carries a flag (within it, the settings note only).
+FLAG_BAND = (1e-3, 1e3)
+
+
+def unit_factor(peak: float) -> float:
+    """The power of 1000 nearest ``peak`` on a log scale (1.0 within :data:`UNIT_BAND`)."""
+    if not (math.isfinite(peak) and peak > 0):
+        return 1.0
+    return float(1000.0 ** round(math.log10(peak) / 3))
+
+
+def record_factors(problem: Problem) -> tuple[float, float]:
+    """``(a, b)``: the unit factors of the input (if the model reads the record's input) and of the output."""
+    recs = problem.records
+    uses_input = any(ch.signal in INPUT_SIGNALS or ch.signal == "energy" for ch in problem.model.inputs)
+    a = unit_factor(max(float(np.max(np.abs(r.d))) for r in recs)) if uses_input else 1.0
+    b = unit_factor(max(float(np.max(np.abs(r.y))) for r in recs))
+    return a, b
+
+
+@functools.lru_cache(maxsize=64)
+def _state_symmetry(model):
+    from duffsym.derive.symmetry import find_scaling_symmetry
+
+    return find_scaling_symmetry(model)
+
+
+@dataclass(frozen=True)
+class UnitPlan:
+    """How :func:`~duffsym.identify.fit` treats the record's units: ``applied`` (fit ``problem``, the
+    normalised one, from ``x0``, then :meth:`result`) or not (``note`` says why, when it matters)."""
+
+    a: float
+    b: float
+    applied: bool
+    note: str
+    problem: Problem | None = None
+    x0: dict | None = None
+    scaling: UnitScaling | None = None
+    gauge: dict = field(default_factory=dict)
+
+    def info(self) -> dict:
+        """``settings["unit_scaling"]``: the factors, whether the fit ran normalised, and the map."""
+        out: dict = {"input_factor": self.a, "output_factor": self.b, "normalised": self.applied, "note": self.note}
+        if self.applied and self.scaling is not None:
+            out["map"] = {k: str(e) for k, e in self.scaling.mapping.items()}
+            out["states_scale"] = str(self.scaling.state_scale)
+            if self.gauge:
+                out["gauge"] = dict(self.gauge)
+        return out
+
+    def annotate(self, result: IdentificationResult) -> IdentificationResult:
+        """A fit run in the record's units with the plan's note (and a flag when the units are far from O(1))."""
+        if self.a == 1.0 and self.b == 1.0:
+            return result
+        flags = tuple(result.flags)
+        far = any(not FLAG_BAND[0] <= v <= FLAG_BAND[1] for v in (self.a, self.b))
+        if far and result.flags is not None:
+            flags += ({"flag": "units", "message": self.note},)
+        return dataclasses.replace(result, settings={**result.settings, "unit_scaling": self.info()}, flags=flags)
+
+    def result(self, fitted: IdentificationResult, original: Problem) -> IdentificationResult:
+        """The normalised fit ``fitted`` in the units of ``original`` (see the module docstring)."""
+        assert self.scaling is not None
+        model, a, b = original.model, self.a, self.b
+        params, s = self.to_record_units(fitted.params)
+        params.update({k: float(v) for k, v in original.fixed.items()})
+        free = list(fitted.free)
+        jac = self._jacobian(fitted.params, free, s)
+        cov = _congruence(jac, np.asarray(fitted.covariance, dtype=float))
+        stderr = {n: float(math.sqrt(cov[j, j])) if cov[j, j] >= 0 else math.nan for j, n in enumerate(free)}
+        x_scale = self._state_factors(s)
+        settings = dict(fitted.settings)
+        settings.update(_scaled_settings(settings, b))
+        if isinstance(settings.get("start"), Mapping) and self.problem is not None:
+            start = {**self.problem.fixed, **settings["start"]}
+            settings["start"] = {k: v for k, v in self.to_record_units(start, s)[0].items() if k in settings["start"]}
+        settings["unit_scaling"] = self.info()
+        flags = tuple(
+            {**f, "message": f["message"] + f" (bounds in the fit's normalised units: input / {a:g}, output / {b:g})"}
+            if f.get("flag") == "on-bound"
+            else f
+            for f in fitted.flags
+        )
+        return dataclasses.replace(
+            fitted,
+            params={n: params[n] for n in model.param_names},
+            fixed=dict(original.fixed),
+            stderr=stderr,
+            covariance=cov,
+            cost=fitted.cost * b**2,
+            x0=tuple(np.asarray(x, dtype=float) * x_scale for x in fitted.x0),
+            y_sim=tuple(np.asarray(y, dtype=float) * b for y in fitted.y_sim),
+            defaults_applied=dict(original.defaults_applied),
+            settings=settings,
+            flags=flags,
+        )
+
+    def to_record_units(self, params_n: Mapping[str, float], s: float | None = None) -> tuple[dict, float]:
+        """Normalised parameters -> the record's units (the unit map, then the gauge symmetry); with the
+        gauge's scale factor ``s`` (solved from the gauge parameter unless given)."""
+        assert self.scaling is not None
+        p = self.scaling.apply(params_n, self.a, self.b)
+        if not self.gauge:
+            return p, 1.0
+        sym = _state_symmetry(self.scaling.model)
+        if s is None:
+            s = _gauge_factor(sym, self.gauge["parameter"], p, self.gauge["value"])
+        return sym.apply(p, s), s
+
+    def _jacobian(self, params_n: Mapping[str, float], free: list, s: float) -> np.ndarray:
+        """d(free parameters in the record's units) / d(free normalised parameters): the unit map composed
+        with the gauge symmetry at ``s``, differentiated symbolically and evaluated at ``params_n``."""
+        import sympy as sp
+
+        from duffsym.derive.symmetry import S
+        from duffsym.derive.units import A, B
+
+        assert self.scaling is not None
+        model = self.scaling.model
+        syms = {p.name: p.symbol for p in model.params}
+        exprs = dict(self.scaling.mapping)
+        if self.gauge:
+            gauge_map = _state_symmetry(model).mapping
+            exprs = {k: gauge_map[k].xreplace({syms[n]: e for n, e in exprs.items()}) for k in model.param_names}
+        vals = {syms[n]: sp.Float(float(params_n[n]), 17) for n in model.param_names}
+        vals.update({A: sp.Float(self.a, 17), B: sp.Float(self.b, 17), S: sp.Float(s, 17)})
+        return np.array([[float(sp.diff(exprs[i], syms[j]).xreplace(vals)) for j in free] for i in free])
+
+    def _state_factors(self, s: float) -> np.ndarray:
+        assert self.scaling is not None
+        model = self.scaling.model
+        sig = self.scaling.state_factor(self.a, self.b)
+        f = np.array([1.0 if x in self.scaling.unscaled_states else sig for x in model.states])
+        if self.gauge:
+            sym = _state_symmetry(model)
+            f = f * np.array([s if x in sym.scaled_states else 1.0 for x in model.states])
+        return f
+
+
+def _gauge_factor(sym, name: str, params: Mapping[str, float], target: float) -> float:
+    """The scale ``s`` of the states' symmetry that moves parameter ``name`` from its value to ``target``."""
+    import sympy as sp
+
+    from duffsym.derive.symmetry import S
+
+    expr = sym.mapping[name].xreplace({sym.model.param(name).symbol: sp.Float(params[name], 17)})
+    sols = [float(v) for v in sp.solve(sp.Eq(expr, sp.Float(target, 17)), S) if v.is_real and v > 0]
+    if len(sols) != 1:
+        raise ValueError(f"no unique gauge factor for {name}")
+    return sols[0]
+
+
+def _congruence(jac: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``J C J^T`` summed over the non-zero entries of ``J`` only (an infinite variance stays where it acts)."""
+    n = jac.shape[0]
+    out = np.zeros((n, n))
+    for i in range(n):
+        for j in range(n):
+            ks, ls = np.flatnonzero(jac[i]), np.flatnonzero(jac[j])
+            out[i, j] = sum(jac[i, k] * cov[k, m] * jac[j, m] for k in ks for m in ls) if len(ks) and len(ls) else 0.0
+    return out
+
+
+def _scaled_settings(settings: dict, b: float) -> dict:
+    """The settings whose numbers carry the output's or the parameters' units, in the record's units."""
+    out: dict = {}
+    if "y_norm" in settings:
+        out["y_norm"] = settings["y_norm"] * b
+    if "start_costs" in settings:
+        out["start_costs"] = [c * b**2 for c in settings["start_costs"]]
+    note = settings.get("bound_restart")
+    if isinstance(note, dict):
+        out["bound_restart"] = {
+            **note,
+            **{k: note[k] * b**2 for k in ("cost_before", "cost_after") if isinstance(note.get(k), (int, float))},
+        }
+    return out
+
+
+def _why_not(problem: Problem, scaling: UnitScaling, a: float, b: float) -> str:
+    """Why the plan cannot normalise ``problem`` ("" when it can)."""
+    model = problem.model
+    if getattr(model, "composition", ()):
+        return "a composed structure is rescaled by its own elements' magnitudes, not by the record's units"
+    if problem.group_order or problem.per_group:
+        return "a grouped fit (per-group parameters) is not normalised"
+    if not scaling.applies(a, b):
+        return f"model {model.name} has no derived unit-scaling map ({scaling.text})"
+    if not scaling.diagonal:
+        return f"model {model.name}'s unit-scaling map mixes parameters, so its bounds cannot be carried over"
+    return ""
+
+
+def _gauge(problem: Problem, scaling: UnitScaling, a: float, b: float) -> dict:
+    """The gauge parameter (``A_f``, fixed, moved by the unit map and by the states' symmetry) and its value."""
+    if "A_f" not in problem.fixed:
+        return {}
+    sym = _state_symmetry(problem.model)
+    if not sym.exists or "A_f" not in sym.mapping or sym.tangent.get("A_f", 0) == 0:
+        return {}
+    return {"parameter": "A_f", "value": float(problem.fixed["A_f"])}
+
+
+def unit_plan(problem: Problem, x0=None) -> UnitPlan:
+    """How to fit ``problem`` whatever its units (see the module docstring)."""
+    a, b = record_factors(problem)
+    if a == 1.0 and b == 1.0:
+        return UnitPlan(a, b, False, "")
+    where = f"max|d| ~ {a:g}, max|y| ~ {b:g}"
+    scaling = find_unit_scaling(problem.model)
+    why = _why_not(problem, scaling, a, b)
+    gauge = {} if why else _gauge(problem, scaling, a, b)
+    if not why and gauge and problem.constraints:
+        why = "linear constraints on parameters the gauge symmetry mixes cannot be carried over"
+    x0_n = None
+    if not why:
+        try:
+            x0_n = _normalised_start(problem, scaling, a, b, gauge, x0)
+        except ValueError as e:
+            why = str(e)
+    if why:
+        note = (
+            f"the record is far from unit scale ({where}) and was fitted in its own units: {why}; its bounds, start "
+            "and tolerances are those of O(1) units, so rescale the record (change its units) if the fit is poor"
+        )
+        return UnitPlan(a, b, False, note, scaling=scaling)
+    plan = UnitPlan(
+        a,
+        b,
+        True,
+        f"fitted normalised ({where}: input / {a:g}, output / {b:g}) and mapped back through "
+        f"model {problem.model.name}'s unit-scaling map" + (" and its A_f gauge symmetry" if gauge else ""),
+        scaling=scaling,
+        gauge=gauge,
+        x0=x0_n,
+    )
+    return dataclasses.replace(plan, problem=_normalised_problem(problem, scaling, a, b, gauge))
+
+
+def _normalised_records(problem: Problem, a: float, b: float):
+    return [
+        r.replace(
+            d=np.asarray(r.d) / a, y=np.asarray(r.y) / b, d_dot=None if r.d_dot is None else np.asarray(r.d_dot) / a
+        )
+        for r in problem.records
+    ]
+
+
+def _normalised_problem(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict) -> Problem:
+    """``problem`` in the normalised units: its records divided, fixed values and given bounds mapped."""
+    model = problem.model
+    fixed = {k: v / scaling.factor(k, a, b) for k, v in problem.fixed.items()}
+    if gauge:  # keep the gauge's ratio to the output peak: O(1) states in the normalised fit
+        fixed[gauge["parameter"]] = gauge["value"] / b
+    record_scaled = effect_record_bounds(model, problem.records)
+    bounds = {}
+    for k, (lo, hi) in problem.bounds.items():
+        spec = model.param(k)
+        if (lo, hi) == (spec.lower, spec.upper) or record_scaled.get(k) == (lo, hi):
+            continue  # the model's (O(1) units) or the record's own: the normalised problem sets them
+        f = scaling.factor(k, a, b)
+        bounds[k] = (lo / f, hi / f) if f > 0 else (hi / f, lo / f)
+    constraints = [
+        ({k: c * scaling.factor(k, a, b) for k, c in coeffs.items()}, lo, hi) for coeffs, lo, hi in problem.constraints
+    ]
+    return Problem(
+        model,
+        _normalised_records(problem, a, b),
+        free=problem.free,
+        fixed=fixed,
+        bounds=bounds,
+        weights=problem.weights or None,
+        mask=problem.mask or None,
+        mask_info=problem.mask_info,
+        constraints=constraints or None,
+    )
+
+
+def _normalised_start(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict, x0) -> dict | None:
+    """The caller's start ``x0`` (by name or ordered as the free parameters) in the normalised units."""
+    if x0 is None:
+        return None
+    names = problem.slot_names
+    given = dict(x0) if isinstance(x0, Mapping) else dict(zip(names, map(float, np.asarray(x0, float).reshape(-1))))
+    if gauge:
+        missing = [n for n in problem.free if n not in given]
+        if missing:
+            raise ValueError(f"a partial start ({', '.join(missing)} missing) cannot be carried along the A_f gauge")
+        full = {**problem.fixed, **given}
+        sym = _state_symmetry(problem.model)
+        target = gauge["value"] / b * scaling.factor("A_f", a, b)  # the gauge the normalised fit maps back to
+        full = sym.apply(full, _gauge_factor(sym, "A_f", full, target))
+        given = {k: full[k] for k in given}
+    return {k: v / scaling.factor(k, a, b) for k, v in given.items()}
