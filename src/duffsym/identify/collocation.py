@@ -13,6 +13,10 @@ initial guess, so the decision variables are O(1). The states start from the dat
 (:mod:`duffsym.identify.states`): for the models with output :math:`y = A_f x_2`, :math:`x_2 = y / A_f`
 and :math:`x_1` its cumulative integral with its linear drift removed. Starting the states at the data,
 not at a simulation from a guess, is what makes the fit insensitive to the parameter guess.
+Those magnitudes, the bounds and IPOPT's tolerances are those of O(1) units: a record whose input or
+output peak is far from 1 is fitted divided by powers of 1000 and its answer mapped back through the
+model's derived unit-scaling map (:mod:`duffsym.identify.unitscale`), so the same record in any units
+gives the same fit (``settings["unit_scaling"]`` says what was done, or why not).
 
 This module is the fit's pipeline only: :func:`parameter_start` -> the NLP
 (:class:`~duffsym.identify.nlp.CollocationNLP`, built once) -> one IPOPT run per start -> :func:`best_run`
@@ -195,10 +199,15 @@ def fit(
     is reported (the initial states are marginalised).
     """
     opts = fit_options(options, **settings)
-    plan = unit_plan(problem, x0)
+    t_plan = time.perf_counter()
+    plan = unit_plan(problem, x0)  # a record far from unit scale: fitted normalised and mapped back
+    t_plan = time.perf_counter() - t_plan
     if plan.applied:
         assert plan.problem is not None
-        return plan.result(_fit(plan.problem, plan.x0, opts), problem)
+        fitted = _fit(plan.problem, plan.x0, opts)
+        t_map = time.perf_counter()
+        out = plan.result(fitted, problem)
+        return replace(out, timings={**out.timings, "unit_scaling": t_plan + time.perf_counter() - t_map})
     return plan.annotate(_fit(problem, x0, opts))
 
 
