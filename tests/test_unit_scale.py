@@ -96,6 +96,12 @@ def test_unit_scaling_map_derived_from_the_equations():
     g = {"gamma": 3.0, "alpha": 100.0, "beta": 5.0, "g": 7.0}
     got = find_unit_scaling(get_model("duffing-gain")).apply(g, 2.0, 10.0)
     assert got == pytest.approx({**g, "beta": 5.0 / 100.0, "g": 7.0 * 10.0 / 2.0}, rel=1e-12)
+    from duffsym.derive.units import A, B
+    from duffsym.effects import CATALOGUE, apply_effects
+
+    lagged = find_unit_scaling(apply_effects(get_model("mr-damper", 5), [CATALOGUE["output-lag"]]))
+    assert lagged.diagonal and lagged.state_scales == (A, A, B)  # the lagged force carries the output's unit
+    assert lagged.apply({**p, "lag_tau": 0.01}, 1e-3, 1e4) == pytest.approx({**want, "lag_tau": 0.01}, rel=1e-12)
     plain = find_unit_scaling(get_model("duffing"))  # unit input gain, output the state: only a = b
     assert plain.exists and plain.same_units and not plain.applies(2.0, 10.0) and plain.applies(10.0, 10.0)
 

@@ -60,8 +60,8 @@ class UnitScaling:
     mapping : ``{parameter: expression in the old parameters, a and b}``.
     factors : ``{parameter: expression in a and b}`` when the map multiplies each parameter by a
         factor (``diagonal``); empty otherwise.
-    state_scale : the factor of every state (``a`` or ``b``) but ``unscaled_states`` (an effect's state
-        that keeps its units, e.g. a filtered command).
+    state_scales : the factor of each state (``a``, ``b`` or 1: the mechanics with the input or the output,
+        an effect's state with the input, the output or neither, e.g. a lagged force or a filtered command).
     same_units : derived for ``a = b`` only (the model needs the input and output in one unit).
     """
 
@@ -69,10 +69,9 @@ class UnitScaling:
     exists: bool
     mapping: dict[str, sp.Expr]
     factors: dict[str, sp.Expr]
-    state_scale: sp.Expr
+    state_scales: tuple
     text: str
     same_units: bool = False
-    unscaled_states: tuple = ()
 
     @property
     def diagonal(self) -> bool:
@@ -86,8 +85,9 @@ class UnitScaling:
         """The numeric factor of parameter ``name`` (a diagonal map)."""
         return float(self.factors[name].xreplace({A: sp.Float(a, 17), B: sp.Float(b, 17)}))
 
-    def state_factor(self, a: float, b: float) -> float:
-        return float(sp.sympify(self.state_scale).xreplace({A: sp.Float(a, 17), B: sp.Float(b, 17)}))
+    def state_factors(self, a: float, b: float) -> tuple[float, ...]:
+        """The numeric factor of each state."""
+        return tuple(float(sp.sympify(f).xreplace({A: sp.Float(a, 17), B: sp.Float(b, 17)})) for f in self.state_scales)
 
     def apply(self, params: Mapping[str, float], a: float, b: float) -> dict[str, float]:
         """The parameters in the new units (input x ``a``, output x ``b``; both > 0).
@@ -110,20 +110,20 @@ class UnitScaling:
     def summary(self) -> str:
         if not self.exists:
             return f"unit scaling of {self.model.name}: none ({self.text})"
-        lines = [f"unit scaling of {self.model.name}: input x a, output x b, states x {self.state_scale} with"]
+        states = ", ".join(f"{x} x {f}" for x, f in zip(self.model.states, self.state_scales))
+        lines = [f"unit scaling of {self.model.name}: input x a, output x b, states {states}, with"]
         lines += [f"  {k} -> {sp.sstr(e)}" for k, e in self.mapping.items() if e != self.model.param(k).symbol]
         return "\n".join(lines + ["  " + self.text])
 
 
-def _equations(model: SymbolicModel, sigma, b, new: dict, fixed: tuple = ()) -> list[sp.Expr]:
-    """The coefficient equations of the map with the states scaled by ``sigma`` except those in ``fixed``
-    (non-polynomial factors matched by their arguments, as in
-    :func:`duffsym.derive.symmetry.find_scaling_symmetry`)."""
+def _equations(model: SymbolicModel, scales: tuple, b, new: dict) -> list[sp.Expr]:
+    """The coefficient equations of the map with the states scaled by ``scales`` (non-polynomial factors
+    matched by their arguments, as in :func:`duffsym.derive.symmetry.find_scaling_symmetry`)."""
     states = tuple(model.states)
     signals = states + tuple(model.input_symbols)
-    scale = {x: (1 if x in fixed else sigma) * x for x in states}
+    scale = {x: f * x for x, f in zip(states, scales)}
     scale.update({ch.symbol: channel_scale(ch.signal, A, b) * ch.symbol for ch in model.inputs})
-    pairs = [(e.xreplace(new).xreplace(scale), (1 if x in fixed else sigma) * e) for x, e in zip(states, model.rhs)]
+    pairs = [(e.xreplace(new).xreplace(scale), f * e) for f, e in zip(scales, model.rhs)]
     pairs.append((model.output.xreplace(new).xreplace(scale), b * model.output))
     unknowns = list(new.values())
     arg_eqs: list[sp.Expr] = []
@@ -147,11 +147,11 @@ def _equations(model: SymbolicModel, sigma, b, new: dict, fixed: tuple = ()) -> 
     return [e for e in {tidy(e) for e in equations} if e != 0]
 
 
-def _solve(model: SymbolicModel, sigma, b, fixed: tuple = ()) -> dict[str, sp.Expr] | None:
-    """The unique map ``{name: expression}`` with the states scaled by ``sigma`` (but ``fixed``), or None."""
+def _solve(model: SymbolicModel, scales: tuple, b) -> dict[str, sp.Expr] | None:
+    """The unique map ``{name: expression}`` with the states scaled by ``scales``, or None."""
     new = {p.symbol: sp.Symbol(p.name + "_new", real=True) for p in model.params}
     unknowns = list(new.values())
-    equations = _equations(model, sigma, b, new, fixed)
+    equations = _equations(model, scales, b, new)
     if any(not e.has(*unknowns) for e in equations):  # e.g. a - b from an output that is the state
         return None
     try:
@@ -179,37 +179,52 @@ def _factors(model: SymbolicModel, mapping: dict[str, sp.Expr]) -> dict[str, sp.
     return out
 
 
+def _state_choices(model: SymbolicModel, b) -> list[tuple]:
+    """The state scalings tried, in order: the mechanics with the input (``a``) or the output (``b``); every
+    other state with the mechanics first, then each with 1 or the other factor."""
+    states = tuple(model.states)
+    mech = tuple(s for s in (model.position, model.velocity) if s is not None) or states
+    out = []
+    for sigma in dict.fromkeys((A, b)):
+        options = [(sigma, 1, b if sigma == A else A) if x not in mech else (sigma,) for x in states]
+        out += [c for c in itertools.product(*options) if c not in out]
+    return out
+
+
 @functools.lru_cache(maxsize=64)
 def find_unit_scaling(model: SymbolicModel) -> UnitScaling:
     """Derive the parameter map of a change of units (input x a, output x b) for ``model``.
 
-    The states are tried scaled with the input (``a``: a displacement-driven damper) and then with the
-    output (``b``: an oscillator whose output is its position); when neither gives a unique map, the
-    same with ``a = b``. Models with symbolic powers (``n`` not a number) have none here.
+    The states are tried scaled as :func:`_state_choices` lists (a displacement-driven damper's mechanics
+    with the input, an oscillator whose output is its position with the output); a map that multiplies
+    each parameter by a factor is preferred to one that mixes them. When none exists, the same with
+    ``a = b``. Models with symbolic powers (``n`` not a number) have none here.
     """
     if any(isinstance(v, sp.Symbol) for _, v in model.structural):
-        return UnitScaling(model, False, {}, {}, sp.Integer(1), "the model's powers are symbolic; give n a value")
-    states = tuple(model.states)
-    mech = tuple(s for s in (model.position, model.velocity) if s is not None) or states
-    extra = [x for x in states if x not in mech]
-    unscaled = [c for k in range(len(extra) + 1) for c in itertools.combinations(extra, k)]
+        return UnitScaling(model, False, {}, {}, (), "the model's powers are symbolic; give n a value")
     for same in (False, True):
         b = A if same else B
-        for sigma, fixed in ((s, f) for s in (A, b) for f in unscaled):
-            mapping = _solve(model, sigma, b, fixed)
-            if mapping is not None:
-                factors = _factors(model, mapping)
-                kind = "each parameter scales by a factor" if factors else "the map mixes parameters"
-                text = f"exact for any a, b > 0 ({kind})" if not same else f"exact when a = b only ({kind})"
-                if fixed:
-                    text += f"; states {', '.join(map(str, fixed))} keep their units"
-                return UnitScaling(model, True, mapping, factors, sigma, text, same_units=same, unscaled_states=fixed)
+        mixed = None
+        for scales in _state_choices(model, b):
+            mapping = _solve(model, scales, b)
+            if mapping is None:
+                continue
+            factors = _factors(model, mapping)
+            kind = "each parameter scales by a factor" if factors else "the map mixes parameters"
+            text = f"exact for any a, b > 0 ({kind})" if not same else f"exact when a = b only ({kind})"
+            found = UnitScaling(model, True, mapping, factors, scales, text, same_units=same)
+            if factors:
+                return found
+            mixed = mixed or found
+        if mixed is not None:
+            return mixed
     return UnitScaling(
         model,
         False,
         {},
         {},
-        sp.Integer(1),
+        (),
         "no parameter change reproduces the record in other units: some term fixes the units of the input "
-        "or output (e.g. an input that enters with a fixed unit gain while the output is the state itself)",
+        "or output (a smoothing width written into the equation, e.g. tanh(1000 d_dot) or sqrt(d_dot^2 + 1e-6), "
+        "or an input that enters with a fixed unit gain while the output is the state itself)",
     )

@@ -98,7 +98,7 @@ class UnitPlan:
         out: dict = {"input_factor": self.a, "output_factor": self.b, "normalised": self.applied, "note": self.note}
         if self.applied and self.scaling is not None:
             out["map"] = {k: str(e) for k, e in self.scaling.mapping.items()}
-            out["states_scale"] = str(self.scaling.state_scale)
+            out["states_scale"] = {str(x): str(f) for x, f in zip(self.scaling.model.states, self.scaling.state_scales)}
             if self.gauge:
                 out["gauge"] = dict(self.gauge)
         return out
@@ -184,8 +184,7 @@ class UnitPlan:
     def _state_factors(self, s: float) -> np.ndarray:
         assert self.scaling is not None
         model = self.scaling.model
-        sig = self.scaling.state_factor(self.a, self.b)
-        f = np.array([1.0 if x in self.scaling.unscaled_states else sig for x in model.states])
+        f = np.array(self.scaling.state_factors(self.a, self.b))
         if self.gauge:
             sym = _state_symmetry(model)
             f = f * np.array([s if x in sym.scaled_states else 1.0 for x in model.states])
