@@ -115,3 +115,16 @@ def test_model_without_a_map_says_so(generated):
     assert "far from unit scale" in plan.note and "bingham" in plan.note
     unit = unit_plan(Problem(get_model("bingham"), _record(generated, 1.0, 1.0)))
     assert (unit.a, unit.b, unit.applied, unit.note) == (1.0, 1.0, False, "")
+
+
+def test_start_and_bounds_in_the_record_units_are_carried_over(fits, generated):
+    """A partial start and a bound given in the record's units (input and output x 1e-6) reach the same fit."""
+    unit = fits[(1.0, 1.0)]
+    a = 1e-6
+    rec = _record(generated, a, a)
+    # c3 is unchanged by this change of units (c3 a^-4 moved back by the A_f gauge's s^-4, s = 1/a)
+    res = fit(Problem(get_model("mr-damper", 5), rec, bounds={"c3": (0.0, 1e3)}), {"c3": 300.0})
+    assert res.success and res.settings["unit_scaling"]["normalised"] is True
+    assert res.nrmse == pytest.approx(unit.nrmse, rel=1e-6)
+    assert res.params["c3"] == pytest.approx(unit.params["c3"], rel=1e-6)
+    assert res.settings["start"]["c3"] == pytest.approx(300.0, rel=1e-12)  # the start reported in the record's units

@@ -266,11 +266,11 @@ def unit_plan(problem: Problem, x0=None) -> UnitPlan:
     scaling = find_unit_scaling(problem.model)
     why = _why_not(problem, scaling, a, b)
     gauge = {} if why else _gauge(problem, scaling, a, b)
-    if not why and gauge and problem.constraints:
-        why = "linear constraints on parameters the gauge symmetry mixes cannot be carried over"
-    x0_n = None
+    x0_n, normalised = None, None
     if not why:
         try:
+            factors = _composite_factors(problem, scaling, a, b, gauge)
+            normalised = _normalised_problem(problem, factors, a, b, gauge)
             x0_n = _normalised_start(problem, scaling, a, b, gauge, x0)
         except ValueError as e:
             why = str(e)
@@ -290,7 +290,7 @@ def unit_plan(problem: Problem, x0=None) -> UnitPlan:
         gauge=gauge,
         x0=x0_n,
     )
-    return dataclasses.replace(plan, problem=_normalised_problem(problem, scaling, a, b, gauge))
+    return dataclasses.replace(plan, problem=normalised)
 
 
 def _normalised_records(problem: Problem, a: float, b: float):
@@ -302,10 +302,43 @@ def _normalised_records(problem: Problem, a: float, b: float):
     ]
 
 
-def _normalised_problem(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict) -> Problem:
-    """``problem`` in the normalised units: its records divided, fixed values and given bounds mapped."""
+def _composite_factors(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict) -> dict:
+    """Each parameter's factor from the normalised units to the record's (the unit map, then the A_f gauge), or
+    None where the gauge mixes it with others (``c2 -> c1 + c2 - s c1``)."""
+    factors: dict[str, float | None] = {k: scaling.factor(k, a, b) for k in problem.model.param_names}
+    if not gauge:
+        return factors
+    import sympy as sp
+
+    from duffsym.derive.symmetry import S
+
+    sym = _state_symmetry(problem.model)
+    value = gauge["value"]
+    s = _gauge_factor(sym, "A_f", {"A_f": value / b * scaling.factor("A_f", a, b)}, value)
+    for k, f in factors.items():
+        ratio = sp.simplify(sym.mapping[k] / problem.model.param(k).symbol)
+        factors[k] = None if ratio.free_symbols - {S} or f is None else f * float(ratio.xreplace({S: sp.Float(s, 17)}))
+    return factors
+
+
+def _divided(name: str, value: float, factors: dict, what: str) -> float:
+    f = factors[name]
+    if f is None:
+        raise ValueError(f"{what} of {name} cannot be carried along the A_f gauge (it mixes {name} with others)")
+    return value / f
+
+
+def _normalised_problem(problem: Problem, factors: dict, a: float, b: float, gauge: dict) -> Problem:
+    """``problem`` in the normalised units: its records divided, fixed values and given bounds mapped.
+
+    Raises
+    ------
+    ValueError
+        For a fixed value, bound or constraint on a parameter the A_f gauge mixes with others."""
     model = problem.model
-    fixed = {k: v / scaling.factor(k, a, b) for k, v in problem.fixed.items()}
+    fixed = {
+        k: _divided(k, v, factors, "the fixed value") for k, v in problem.fixed.items() if k != gauge.get("parameter")
+    }
     if gauge:  # keep the gauge's ratio to the output peak: O(1) states in the normalised fit
         fixed[gauge["parameter"]] = gauge["value"] / b
     record_scaled = effect_record_bounds(model, problem.records)
@@ -314,11 +347,11 @@ def _normalised_problem(problem: Problem, scaling: UnitScaling, a: float, b: flo
         spec = model.param(k)
         if (lo, hi) == (spec.lower, spec.upper) or record_scaled.get(k) == (lo, hi):
             continue  # the model's (O(1) units) or the record's own: the normalised problem sets them
-        f = scaling.factor(k, a, b)
-        bounds[k] = (lo / f, hi / f) if f > 0 else (hi / f, lo / f)
-    constraints = [
-        ({k: c * scaling.factor(k, a, b) for k, c in coeffs.items()}, lo, hi) for coeffs, lo, hi in problem.constraints
-    ]
+        lo_n, hi_n = _divided(k, lo, factors, "a bound"), _divided(k, hi, factors, "a bound")
+        bounds[k] = (min(lo_n, hi_n), max(lo_n, hi_n))
+    constraints = []
+    for coeffs, lo, hi in problem.constraints:
+        constraints.append(({k: c / _divided(k, 1.0, factors, "a constraint") for k, c in coeffs.items()}, lo, hi))
     return Problem(
         model,
         _normalised_records(problem, a, b),
@@ -332,19 +365,50 @@ def _normalised_problem(problem: Problem, scaling: UnitScaling, a: float, b: flo
     )
 
 
-def _normalised_start(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict, x0) -> dict | None:
-    """The caller's start ``x0`` (by name or ordered as the free parameters) in the normalised units."""
+def _normalised_start(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict, x0):
+    """The caller's start ``x0`` (by name or ordered as the free parameters) in the normalised units; names
+    the model does not have (and a sequence of the wrong length) are passed on for the fit to refuse.
+
+    Raises
+    ------
+    ValueError
+        When a given value cannot be carried along the A_f gauge without a value that is missing (the fit then
+        runs in the record's units)."""
     if x0 is None:
         return None
     names = problem.slot_names
-    given = dict(x0) if isinstance(x0, Mapping) else dict(zip(names, map(float, np.asarray(x0, float).reshape(-1))))
+    if not isinstance(x0, Mapping):
+        vals = np.asarray(x0, dtype=float).reshape(-1)
+        if vals.size != len(names):
+            return x0
+        x0 = dict(zip(names, map(float, vals)))
+    known = set(problem.model.param_names)
+    given = {k: float(v) for k, v in x0.items() if k in known}
     if gauge:
-        missing = [n for n in problem.free if n not in given]
-        if missing:
-            raise ValueError(f"a partial start ({', '.join(missing)} missing) cannot be carried along the A_f gauge")
-        full = {**problem.fixed, **given}
-        sym = _state_symmetry(problem.model)
-        target = gauge["value"] / b * scaling.factor("A_f", a, b)  # the gauge the normalised fit maps back to
-        full = sym.apply(full, _gauge_factor(sym, "A_f", full, target))
-        given = {k: full[k] for k in given}
-    return {k: v / scaling.factor(k, a, b) for k, v in given.items()}
+        given = _along_gauge(problem, given, gauge["value"] / b * scaling.factor("A_f", a, b))
+    return {**dict(x0), **{k: v / scaling.factor(k, a, b) for k, v in given.items()}}
+
+
+def _along_gauge(problem: Problem, given: dict, target: float) -> dict:
+    """The given (partial) parameters moved along the states' symmetry until A_f equals ``target``.
+
+    Raises
+    ------
+    ValueError
+        When a given value's image needs a value that is neither given nor fixed."""
+    import sympy as sp
+
+    from duffsym.derive.symmetry import S
+
+    sym = _state_symmetry(problem.model)
+    known = {**problem.fixed, **given}
+    s = _gauge_factor(sym, "A_f", known, target)
+    values = {problem.model.param(k).symbol: sp.Float(v, 17) for k, v in known.items()}
+    values[S] = sp.Float(s, 17)
+    out = {}
+    for k in given:
+        image = sym.mapping[k].xreplace(values)
+        if image.free_symbols:
+            raise ValueError(f"the start of {k} cannot be carried along the A_f gauge without {image.free_symbols}")
+        out[k] = float(image)
+    return out
