@@ -102,10 +102,28 @@ def _conditions(model) -> tuple:
 
     For a command-driven model the conditions are those of its mechanics at a held command i (the field
     at its equilibrium u = i, :func:`~duffsym.model.library.at_constant_command`): each test then takes
-    the parameters and i, and is checked at every command level the records drive the model through."""
+    the parameters and i, and is checked at every command level the records drive the model through.
+
+    The derivation (SymPy, ~0.3 s per model) is stored in the code cache
+    (:mod:`duffsym.identify.conditions_cache`) and read back by later processes."""
     if model.key in _CONDITIONS:
         return _CONDITIONS[model.key]
+    from duffsym.identify.conditions_cache import load_conditions, save_conditions, tests_from
+
+    stored = load_conditions(model)
+    if stored is None:
+        stored = _derived_conditions(model)
+        if stored is not None:
+            save_conditions(model, stored)
+    _CONDITIONS[model.key] = tests_from(stored or [])
+    return _CONDITIONS[model.key]
+
+
+def _derived_conditions(model) -> list[tuple[str, list[str], str]] | None:
+    """``[(name, argument names, Python expression)]`` of the conditions that depend on parameters; None when
+    the derivation failed (a model it does not cover gets no certificate flag)."""
     import sympy as sp
+    from sympy.printing.pycode import pycode
 
     from duffsym.derive.stability import stability_conditions
     from duffsym.model.library import at_constant_command
@@ -120,16 +138,16 @@ def _conditions(model) -> tuple:
             named = {f"Hurwitz {i + 1}": h > 0 for i, h in enumerate(coupled_analysis(model).hurwitz)}
         else:
             named = stability_conditions(target).named()
+        args = [str(p) for p in target.param_symbols]
         for name, cond in named.items():
             if cond in (sp.true, sp.false):  # structural (e.g. an extended model this V does not cover)
                 continue
             if not cond.free_symbols <= set(target.param_symbols):
                 continue
-            out.append((name, sp.lambdify(target.param_symbols, cond, "math")))
+            out.append((name, args, pycode(cond, fully_qualified_modules=True)))
     except Exception:  # noqa: BLE001 - a model the derivation does not cover gets no certificate flag
-        out = []
-    _CONDITIONS[model.key] = tuple(out)
-    return _CONDITIONS[model.key]
+        return None
+    return out
 
 
 #: Command levels checked across a record's command range (besides its extremes), for a command-driven model.
