@@ -20,7 +20,20 @@ if TYPE_CHECKING:
     from duffsym.data.record import Record
 
 
+#: (model key, driven states) -> :func:`_output_gain`'s answer (a fit's starts ask for it once per start; each
+#: answer costs a SymPy simplification and lambdify, ~15 ms).
+_OUTPUT_GAINS: dict = {}
+
+
 def _output_gain(model, driven=()):
+    """:func:`_derived_output_gain`, derived once per model and driven states."""
+    key = (model.key, tuple(driven))
+    if key not in _OUTPUT_GAINS:
+        _OUTPUT_GAINS[key] = _derived_output_gain(model, driven)
+    return _OUTPUT_GAINS[key]
+
+
+def _derived_output_gain(model, driven=()):
     """If the output is ``g * x_i`` for one state i, with ``g`` a function of the parameters and of the
     ``driven`` states (those the inputs alone determine): ``(i, g as a function of (params, driven))``, with
     a third item, the output's term of the inputs as a function of ``(params, driven, inputs)``, when the
