@@ -78,6 +78,13 @@ def test_parameters_are_the_unit_ones_moved_by_the_symmetry(fits, generated, a, 
     y_hat = np.asarray(scaled.simulate(rec, x0=scaled.x0[0]).y)
     nrmse = float(np.sqrt(np.mean((rec.y - y_hat) ** 2)) / np.std(rec.y))
     assert nrmse == pytest.approx(unit.nrmse, rel=1e-4)
+    # a prediction (the initial state estimated from the record, as `duffsym validate` does) too: at 1e-12 it
+    # was 0.0133 while its estimate ran in the record's units
+    y_pred = scaled.predict(rec)
+    unit_pred = unit.predict(_record(generated, 1.0, 1.0))
+    assert float(np.sqrt(np.mean((rec.y - y_pred) ** 2)) / np.std(rec.y)) == pytest.approx(
+        float(np.sqrt(np.mean((generated.y - unit_pred) ** 2)) / np.std(generated.y)), rel=1e-3
+    )
     np.testing.assert_allclose(scaled.y_sim[0], unit.y_sim[0] * b, rtol=1e-6, atol=1e-6 * b * np.max(np.abs(rec.y)))
     # standard errors follow the parameters: relative errors of c1, k1, c3 unchanged
     for k in ("c1", "k1", "c3"):

@@ -203,6 +203,13 @@ def start_state(model, p, record: Record) -> tuple[np.ndarray, str]:
     """The initial state of a free run of ``model`` with parameters ``p`` on ``record`` and a note ("" when
     none): started from the data as in the fit and refined over the first input period (see
     :func:`duffsym.identify.validation.validate`)."""
+    from duffsym.identify.unitscale import normalised_run
+
+    run = normalised_run(model, model.param_dict(np.asarray(p, dtype=float)), record)
+    if run is not None:  # a record far from unit scale: estimated where the differences keep their digits
+        p_n, rec_n, back = run
+        x0_n, note = start_state(model, model.param_vector(p_n), rec_n)
+        return back(x0_n), note
     X = initial_states(model, record, p)
     return _bounded_x0(_estimate_x0(model, p, record, X[0]), X)
 

@@ -57,6 +57,41 @@ def unit_factor(peak: float) -> float:
     return float(1000.0 ** round(math.log10(peak) / 3))
 
 
+def model_record_factors(model, records) -> tuple[float, float]:
+    """:func:`record_factors` of ``model`` on ``records`` (without a :class:`Problem`)."""
+    uses_input = any(ch.signal in INPUT_SIGNALS for ch in model.inputs)
+    a = unit_factor(max(float(np.max(np.abs(r.d))) for r in records)) if uses_input else 1.0
+    b = unit_factor(max(float(np.max(np.abs(r.y))) for r in records))
+    return a, (1.0 if OUTPUT_BAND[0] <= b <= OUTPUT_BAND[1] else b)
+
+
+def normalised_run(model, params: Mapping[str, float], record):
+    """``(parameters, record, states back)`` of a free run of ``model`` on ``record`` in the normalised units
+    (as a fit would run it; the states back to the record's units with ``states back(x)``), or None when the
+    record is at unit scale or the model has no map (the caller then works in the record's units).
+
+    Used by the initial-state estimate of a free run (:func:`duffsym.identify.states.start_state`): its
+    least-squares differences of a run in the record's units lose digits where the units make the
+    parameters large and cancelling (``c1 + c2`` of ~1e13 each at an input in 1e-12 units)."""
+    a, b = model_record_factors(model, [record])
+    if (a == 1.0 and b == 1.0) or bool(getattr(model, "composition", ())):
+        return None
+    from duffsym.derive.units import find_unit_scaling
+
+    scaling = find_unit_scaling(model)
+    if not scaling.applies(a, b) or not scaling.diagonal:
+        return None
+    p = scaling.apply(params, 1 / a, 1 / b)
+    back = 1.0 / np.array(scaling.state_factors(1 / a, 1 / b))
+    sym = _state_symmetry(model)
+    if "A_f" in model.param_names and sym.exists and sym.tangent.get("A_f", 0) != 0:
+        s = _gauge_factor(sym, "A_f", p, float(params["A_f"]) / b)  # the ratio A_f / max|y| kept, as in a fit
+        p = sym.apply(p, s)
+        back = back / np.array([s if x in sym.scaled_states else 1.0 for x in model.states])
+    rec = _normalised_records_of([record], a, b)[0]
+    return p, rec, lambda x: np.asarray(x, dtype=float) * back
+
+
 def record_factors(problem: Problem) -> tuple[float, float]:
     """``(a, b)``: the unit factors of the input (if the model reads the record's input) and of the output.
 
@@ -65,11 +100,7 @@ def record_factors(problem: Problem) -> tuple[float, float]:
     max|y|`` absorbs it), while an input x 1e-3 alone already fitted worse (NRMSE 0.0174 against 0.0091).
     Refitting such records normalised would only move fits along ridges of equal cost (the Dyke record's
     k1, k2; output ~1.7e3 N)."""
-    recs = problem.records
-    uses_input = any(ch.signal in INPUT_SIGNALS for ch in problem.model.inputs)
-    a = unit_factor(max(float(np.max(np.abs(r.d))) for r in recs)) if uses_input else 1.0
-    b = unit_factor(max(float(np.max(np.abs(r.y))) for r in recs))
-    return a, (1.0 if OUTPUT_BAND[0] <= b <= OUTPUT_BAND[1] else b)
+    return model_record_factors(problem.model, problem.records)
 
 
 @functools.lru_cache(maxsize=64)
@@ -294,11 +325,15 @@ def unit_plan(problem: Problem, x0=None) -> UnitPlan:
 
 
 def _normalised_records(problem: Problem, a: float, b: float):
+    return _normalised_records_of(problem.records, a, b)
+
+
+def _normalised_records_of(records, a: float, b: float):
     return [
         r.replace(
             d=np.asarray(r.d) / a, y=np.asarray(r.y) / b, d_dot=None if r.d_dot is None else np.asarray(r.d_dot) / a
         )
-        for r in problem.records
+        for r in records
     ]
 
 
