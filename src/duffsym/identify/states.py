@@ -203,7 +203,7 @@ def start_state(model, p, record: Record) -> tuple[np.ndarray, str]:
     """The initial state of a free run of ``model`` with parameters ``p`` on ``record`` and a note ("" when
     none): started from the data as in the fit and refined over the first input period (see
     :func:`duffsym.identify.validation.validate`)."""
-    from duffsym.identify.unitscale import normalised_run
+    from duffsym.identify.unitmap import normalised_run
 
     run = normalised_run(model, model.param_dict(np.asarray(p, dtype=float)), record)
     if run is not None:  # a record far from unit scale: estimated where the differences keep their digits

@@ -24,7 +24,6 @@ before, and ``settings["unit_scaling"]`` (with a flag far from O(1)) says so.
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -34,62 +33,23 @@ import numpy as np
 
 from duffsym.identify.problem import Problem, effect_record_bounds
 from duffsym.identify.result import IdentificationResult
+from duffsym.identify.unitmap import (
+    OUTPUT_BAND,
+    UNIT_BAND,
+    gauge_factor,
+    model_record_factors,
+    normalised_records,
+    state_symmetry,
+    unit_factor,
+)
 
 if TYPE_CHECKING:  # the derivation (SymPy) is imported only when a record needs it
     from duffsym.derive.units import UnitScaling
 
-#: Input signals that carry the record's input unit (as :data:`duffsym.derive.units.INPUT_SIGNALS`) and the
-#: dissipated energy (input x output units).
-INPUT_SIGNALS = ("d", "F", "energy")
-
-#: Peaks in [10^-1.5, 10^1.5) are left as they are (the fit is bit for bit the one in the record's units).
-UNIT_BAND = (10**-1.5, 10**1.5)
 #: Outside this band a fit that cannot be normalised carries a flag (within it, the settings note only).
 FLAG_BAND = (1e-3, 1e3)
-#: Output factors within this band are not applied (see :func:`record_factors`).
-OUTPUT_BAND = (1e-3, 1e3)
 
-
-def unit_factor(peak: float) -> float:
-    """The power of 1000 nearest ``peak`` on a log scale (1.0 within :data:`UNIT_BAND`)."""
-    if not (math.isfinite(peak) and peak > 0):
-        return 1.0
-    return float(1000.0 ** round(math.log10(peak) / 3))
-
-
-def model_record_factors(model, records) -> tuple[float, float]:
-    """:func:`record_factors` of ``model`` on ``records`` (without a :class:`Problem`)."""
-    uses_input = any(ch.signal in INPUT_SIGNALS for ch in model.inputs)
-    a = unit_factor(max(float(np.max(np.abs(r.d))) for r in records)) if uses_input else 1.0
-    b = unit_factor(max(float(np.max(np.abs(r.y))) for r in records))
-    return a, (1.0 if OUTPUT_BAND[0] <= b <= OUTPUT_BAND[1] else b)
-
-
-def normalised_run(model, params: Mapping[str, float], record):
-    """``(parameters, record, states back)`` of a free run of ``model`` on ``record`` in the normalised units
-    (as a fit would run it; the states back to the record's units with ``states back(x)``), or None when the
-    record is at unit scale or the model has no map (the caller then works in the record's units).
-
-    Used by the initial-state estimate of a free run (:func:`duffsym.identify.states.start_state`): its
-    least-squares differences of a run in the record's units lose digits where the units make the
-    parameters large and cancelling (``c1 + c2`` of ~1e13 each at an input in 1e-12 units)."""
-    a, b = model_record_factors(model, [record])
-    if (a == 1.0 and b == 1.0) or bool(getattr(model, "composition", ())):
-        return None
-    from duffsym.derive.units import find_unit_scaling
-
-    scaling = find_unit_scaling(model)
-    if not scaling.applies(a, b) or not scaling.diagonal:
-        return None
-    p = scaling.apply(params, 1 / a, 1 / b)
-    back = 1.0 / np.array(scaling.state_factors(1 / a, 1 / b))
-    sym = _state_symmetry(model)
-    if "A_f" in model.param_names and sym.exists and sym.tangent.get("A_f", 0) != 0:
-        s = _gauge_factor(sym, "A_f", p, float(params["A_f"]) / b)  # the ratio A_f / max|y| kept, as in a fit
-        p = sym.apply(p, s)
-        back = back / np.array([s if x in sym.scaled_states else 1.0 for x in model.states])
-    rec = _normalised_records_of([record], a, b)[0]
-    return p, rec, lambda x: np.asarray(x, dtype=float) * back
+__all__ = ["FLAG_BAND", "OUTPUT_BAND", "UNIT_BAND", "UnitPlan", "record_factors", "unit_factor", "unit_plan"]
 
 
 def record_factors(problem: Problem) -> tuple[float, float]:
@@ -101,13 +61,6 @@ def record_factors(problem: Problem) -> tuple[float, float]:
     Refitting such records normalised would only move fits along ridges of equal cost (the Dyke record's
     k1, k2; output ~1.7e3 N)."""
     return model_record_factors(problem.model, problem.records)
-
-
-@functools.lru_cache(maxsize=64)
-def _state_symmetry(model):
-    from duffsym.derive.symmetry import find_scaling_symmetry
-
-    return find_scaling_symmetry(model)
 
 
 @dataclass(frozen=True)
@@ -188,9 +141,9 @@ class UnitPlan:
         p = self.scaling.apply(params_n, self.a, self.b)
         if not self.gauge:
             return p, 1.0
-        sym = _state_symmetry(self.scaling.model)
+        sym = state_symmetry(self.scaling.model)
         if s is None:
-            s = _gauge_factor(sym, self.gauge["parameter"], p, self.gauge["value"])
+            s = gauge_factor(sym, self.gauge["parameter"], p, self.gauge["value"])
         return sym.apply(p, s), s
 
     def _jacobian(self, params_n: Mapping[str, float], free: list, s: float) -> np.ndarray:
@@ -206,7 +159,7 @@ class UnitPlan:
         syms = {p.name: p.symbol for p in model.params}
         exprs = dict(self.scaling.mapping)
         if self.gauge:
-            gauge_map = _state_symmetry(model).mapping
+            gauge_map = state_symmetry(model).mapping
             exprs = {k: gauge_map[k].xreplace({syms[n]: e for n, e in exprs.items()}) for k in model.param_names}
         vals = {syms[n]: sp.Float(float(params_n[n]), 17) for n in model.param_names}
         vals.update({A: sp.Float(self.a, 17), B: sp.Float(self.b, 17), S: sp.Float(s, 17)})
@@ -217,22 +170,9 @@ class UnitPlan:
         model = self.scaling.model
         f = np.array(self.scaling.state_factors(self.a, self.b))
         if self.gauge:
-            sym = _state_symmetry(model)
+            sym = state_symmetry(model)
             f = f * np.array([s if x in sym.scaled_states else 1.0 for x in model.states])
         return f
-
-
-def _gauge_factor(sym, name: str, params: Mapping[str, float], target: float) -> float:
-    """The scale ``s`` of the states' symmetry that moves parameter ``name`` from its value to ``target``."""
-    import sympy as sp
-
-    from duffsym.derive.symmetry import S
-
-    expr = sym.mapping[name].xreplace({sym.model.param(name).symbol: sp.Float(params[name], 17)})
-    sols = [float(v) for v in sp.solve(sp.Eq(expr, sp.Float(target, 17)), S) if v.is_real and v > 0]
-    if len(sols) != 1:
-        raise ValueError(f"no unique gauge factor for {name}")
-    return sols[0]
 
 
 def _congruence(jac: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -280,7 +220,7 @@ def _gauge(problem: Problem, scaling: UnitScaling, a: float, b: float) -> dict:
     """The gauge parameter (``A_f``, fixed, moved by the unit map and by the states' symmetry) and its value."""
     if "A_f" not in problem.fixed:
         return {}
-    sym = _state_symmetry(problem.model)
+    sym = state_symmetry(problem.model)
     if not sym.exists or "A_f" not in sym.mapping or sym.tangent.get("A_f", 0) == 0:
         return {}
     return {"parameter": "A_f", "value": float(problem.fixed["A_f"])}
@@ -325,16 +265,7 @@ def unit_plan(problem: Problem, x0=None) -> UnitPlan:
 
 
 def _normalised_records(problem: Problem, a: float, b: float):
-    return _normalised_records_of(problem.records, a, b)
-
-
-def _normalised_records_of(records, a: float, b: float):
-    return [
-        r.replace(
-            d=np.asarray(r.d) / a, y=np.asarray(r.y) / b, d_dot=None if r.d_dot is None else np.asarray(r.d_dot) / a
-        )
-        for r in records
-    ]
+    return normalised_records(problem.records, a, b)
 
 
 def _composite_factors(problem: Problem, scaling: UnitScaling, a: float, b: float, gauge: dict) -> dict:
@@ -347,9 +278,9 @@ def _composite_factors(problem: Problem, scaling: UnitScaling, a: float, b: floa
 
     from duffsym.derive.symmetry import S
 
-    sym = _state_symmetry(problem.model)
+    sym = state_symmetry(problem.model)
     value = gauge["value"]
-    s = _gauge_factor(sym, "A_f", {"A_f": value / b * scaling.factor("A_f", a, b)}, value)
+    s = gauge_factor(sym, "A_f", {"A_f": value / b * scaling.factor("A_f", a, b)}, value)
     for k, f in factors.items():
         ratio = sp.simplify(sym.mapping[k] / problem.model.param(k).symbol)
         factors[k] = None if ratio.free_symbols - {S} or f is None else f * float(ratio.xreplace({S: sp.Float(s, 17)}))
@@ -435,9 +366,9 @@ def _along_gauge(problem: Problem, given: dict, target: float) -> dict:
 
     from duffsym.derive.symmetry import S
 
-    sym = _state_symmetry(problem.model)
+    sym = state_symmetry(problem.model)
     known = {**problem.fixed, **given}
-    s = _gauge_factor(sym, "A_f", known, target)
+    s = gauge_factor(sym, "A_f", known, target)
     values = {problem.model.param(k).symbol: sp.Float(v, 17) for k, v in known.items()}
     values[S] = sp.Float(s, 17)
     out = {}
