@@ -43,7 +43,7 @@ from duffsym.errors import ModelError
 from duffsym.identify.covariance import laplace_covariance
 from duffsym.identify.initial import initial_guess
 from duffsym.identify.nlp import CollocationNLP, Run, ipopt_settings, restart_guard
-from duffsym.identify.problem import Problem, effect_record_bounds
+from duffsym.identify.problem import Problem, record_scaled_bounds
 from duffsym.identify.quality import fit_flags, usability
 from duffsym.identify.result import IdentificationResult
 from duffsym.identify.result import nrmse as record_nrmse
@@ -445,13 +445,13 @@ def parameter_start(problem: Problem, x0: Mapping[str, float] | Sequence[float] 
                 fixed_i = {k: problem.fixed_value(i, k) for k in problem.fixed}
                 guesses[i] = initial_guess(problem.records[i], model, fixed=fixed_i)
             start[sn] = guesses[i][n]
-    scaled = set(effect_record_bounds(model, problem.records))
+    scaled = set(record_scaled_bounds(model, problem.records))
     for sn, (n, _lab) in zip(slot_names, slots):
         lo, hi = problem.bounds[n]
         v = start[sn]
         if not math.isfinite(v):
             raise ModelError(f"x0: initial value of {sn} must be finite; got {v}")
-        if not lo <= v <= hi and n in scaled:  # a bound scaled to the record (Effect.record_bounds): moved inside
+        if not lo <= v <= hi and n in scaled:  # a bound scaled to the record (record_scaled_bounds): moved inside
             v = start[sn] = min(max(v, lo), hi)
         if not lo <= v <= hi:
             raise ModelError(

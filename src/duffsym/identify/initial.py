@@ -10,6 +10,7 @@ import numpy as np
 
 from duffsym.data.record import Record
 from duffsym.errors import DataError
+from duffsym.identify.problem import sampling_bounds
 from duffsym.identify.states import driven_states, initial_states
 from duffsym.model.classical import TUNING_STEPS as CLASSICAL_TUNING_STEPS
 from duffsym.model.library import EPS_PARAM
@@ -191,11 +192,13 @@ def command_start(
     U = record.input_matrix(model)
     regress = _EquationError(model, record, lin, U, lowpass=lowpass, skip=skip)
     candidates = []
+    limits = sampling_bounds(model, [record])  # no rate faster than the sampling resolves
     for f in rate_factors:
         values = dict(base)
         for r in rates:
             spec = model.param(r)
-            values[r] = float(np.clip(spec.default * f, spec.lower, spec.upper))
+            lo, hi = limits.get(r, (spec.lower, spec.upper))
+            values[r] = float(np.clip(spec.default * f, lo, hi))
         values.update(dict.fromkeys(lin, 0.0))
         X = initial_states(model, record, np.array([values[n] for n in model.param_names]))
         values.update(regress(X, values))

@@ -15,11 +15,13 @@ through a ``progress`` callable and stops the solve when the user presses Ctrl-C
 from __future__ import annotations
 
 import math
+import os
 import signal
 import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -98,6 +100,31 @@ class RecordBlock:
 #: Hessian regularisation had reached 1e11-1e17 (3000 Silverbox samples in mV and ms), which the bound
 #: restart's guard and the time limit now bound; a larger start would only move the cost of those iterations.
 MUMPS_MEM_PERCENT = 1000
+
+
+#: whether CasADi's bundled OpenBLAS has been held to one thread (see :func:`one_blas_thread`)
+_BLAS_HELD: list[bool] = []
+
+
+def one_blas_thread(ca) -> None:
+    """Hold the OpenBLAS that CasADi bundles for MUMPS (loaded with the IPOPT plugin) to one thread, once per
+    process. Its second thread spins while it waits: on 6 s of the Dyke record (1050 samples, 2 cores) it spent
+    37 s of kernel time beside 35 s of work with the same wall time (36.6 s against 36.4 s with one thread), so it
+    only took a core from the other processes (the candidates of a diagnosis on ``--workers``). threadpoolctl does
+    not see this library (it is named ``libcasadi-tp-openblas``); the environment's ``OPENBLAS_NUM_THREADS``, when
+    set, is left to rule. Without the library (another CasADi build) nothing is done."""
+    if _BLAS_HELD or "OPENBLAS_NUM_THREADS" in os.environ:
+        return
+    _BLAS_HELD.append(True)
+    import ctypes
+
+    # the copies the plugin loaded (the folder holds the library under three file names, each its own copy)
+    mode = getattr(os, "RTLD_NOLOAD", 0) | getattr(os, "RTLD_LAZY", 0)
+    for path in sorted(Path(ca.__file__).parent.glob("libcasadi-tp-openblas*")):
+        try:
+            ctypes.CDLL(str(path), mode=mode).openblas_set_num_threads(1)
+        except (OSError, AttributeError):
+            continue
 
 
 def ipopt_settings(
@@ -364,7 +391,9 @@ class CollocationNLP:
             opts.update({"jac_g": jac_g, "hess_lag": hess_lag, "expand": False})
         self._hook = _iteration_hook()
         opts["iteration_callback"] = self._hook
-        return ca.nlpsol("duffsym_fit", "ipopt", {"x": self.wsym, "f": self.obj, "g": g}, opts)
+        solver = ca.nlpsol("duffsym_fit", "ipopt", {"x": self.wsym, "f": self.obj, "g": g}, opts)
+        one_blas_thread(ca)
+        return solver
 
     # ------------------------------------------------------------------ solving
     def with_params(self, th: np.ndarray) -> np.ndarray:

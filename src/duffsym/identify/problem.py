@@ -75,6 +75,69 @@ def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
     return {k: v for k, v in out.items() if k in model.param_names}
 
 
+#: A first-order state's own rate times the sampling step is at most this (its time constant at least a sixth of a
+#: step): the record does not resolve a much faster state, and the collocation of such a stiff state is
+#: ill-conditioned. Measured on 6 s of the Dyke record (``mr-damper-current``, the field rate ``eta`` free up to its
+#: ParamSpec bound 1e4/s): at 250 Hz the start took 3000/s (12 per step), IPOPT's iterations grew to 36 s (Hessian
+#: regularisation 1.3e9) and the fit took 511 s; with the rate (and its start) capped at 6/dt, 6.5 s and 48
+#: iterations to eta = 128/s, inside the cap. The cap at 1/dt or 2/dt also converged there (16 s, 48 s) but made
+#: the 500 Hz fit of the same seconds run to IPOPT's iteration limit (at 6/dt: 44 s, success, NRMSE 0.193, eta =
+#: 120/s; uncapped 12 s, 0.200).
+RATE_STEP_LIMIT = 6.0
+
+#: model key -> ((parameter, "rate" | "time"), ...): see :func:`decay_parameters`
+_DECAY: dict[str, tuple[tuple[str, str], ...]] = {}
+
+
+def decay_parameters(model) -> tuple[tuple[str, str], ...]:
+    """The parameters that set a first-order state's own decay: ``(name, "rate")`` where the state's equation has
+    d f_s / d s = -p (the field rate ``eta``), ``(name, "time")`` where it is -1/p (a lag's time constant)."""
+    if model.key in _DECAY:
+        return _DECAY[model.key]
+    import sympy as sp
+
+    out = []
+    for s, f in zip(model.states, model.rhs):
+        if s in (model.position, model.velocity):
+            continue
+        j = sp.diff(f, s)
+        for p in model.params:
+            if p.symbol not in j.free_symbols:
+                continue
+            if sp.expand(j + p.symbol) == 0:
+                out.append((p.name, "rate"))
+            elif sp.expand(j * p.symbol + 1) == 0:
+                out.append((p.name, "time"))
+    _DECAY[model.key] = tuple(out)
+    return _DECAY[model.key]
+
+
+def sampling_bounds(model, records) -> dict[str, tuple[float, float]]:
+    """Default bounds set by the records' sampling (the finest step ``dt`` of them): a decay rate at most
+    ``RATE_STEP_LIMIT / dt``, a time constant at least ``dt / RATE_STEP_LIMIT`` (:data:`RATE_STEP_LIMIT`), within
+    the parameter's own bounds; {} for a model without such a parameter. Explicit ``bounds`` override them."""
+    names = decay_parameters(model)
+    if not names:
+        return {}
+    dt = min(float(r.dt) for r in records)
+    if not dt > 0:
+        return {}
+    out = {}
+    for name, kind in names:
+        spec = model.param(name)
+        lo, hi = float(spec.lower), float(spec.upper)
+        lo, hi = (lo, min(hi, RATE_STEP_LIMIT / dt)) if kind == "rate" else (max(lo, dt / RATE_STEP_LIMIT), hi)
+        if lo < hi and (lo, hi) != (spec.lower, spec.upper):
+            out[name] = (lo, hi)
+    return out
+
+
+def record_scaled_bounds(model, records) -> dict[str, tuple[float, float]]:
+    """The default bounds scaled to the records: the sampling's (:func:`sampling_bounds`) and the effects'
+    (:func:`effect_record_bounds`). An automatic start outside them is moved inside."""
+    return {**sampling_bounds(model, records), **effect_record_bounds(model, records)}
+
+
 def _as_records(records) -> tuple[Record, ...]:
     if isinstance(records, Record):
         return (records,)
@@ -324,9 +387,10 @@ def _applied_defaults(model, recs, labels, groups, free, fixed_vals):
 
 
 def _free_bounds(model, recs, free_t, bounds) -> dict[str, tuple[float, float]]:
-    """The bounds of the free parameters: given, else the effects' record-scaled ones, else the model's."""
+    """The bounds of the free parameters: given, else the record-scaled ones (:func:`record_scaled_bounds`), else
+    the model's."""
     bnds: dict[str, tuple[float, float]] = {}
-    bounds = {**effect_record_bounds(model, recs), **dict(bounds or {})}
+    bounds = {**record_scaled_bounds(model, recs), **dict(bounds or {})}
     for n in free_t:
         spec = model.param(n)
         lo, hi = (bounds or {}).get(n, (spec.lower, spec.upper))

@@ -89,8 +89,24 @@ def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
         "flag": "on-bound",
         "parameters": [n for n, _, _ in hits],
         "message": f"{text}: the optimum may lie beyond it (a bound that is active is a modelling choice, "
-        "not a result); check the bounds, the model and --starts",
+        "not a result); check the bounds, the model and --starts" + _sampling_note(problem, hits),
     }
+
+
+def _sampling_note(problem, hits) -> str:
+    """Why a rate on the bound set by the sampling (:func:`~duffsym.identify.problem.sampling_bounds`) is not
+    resolved by the record, and what to do; "" for other bounds."""
+    from duffsym.identify.problem import RATE_STEP_LIMIT, sampling_bounds
+
+    limits = sampling_bounds(problem.model, problem.records)
+    names = [n for n, side, b in hits if n in limits and math.isclose(b, limits[n][side == "upper"], rel_tol=1e-6)]
+    if not names:
+        return ""
+    return (
+        f"; {names[0]}'s bound is set by the sampling (a time constant of 1/{RATE_STEP_LIMIT:g} step): the record "
+        "does not resolve a faster state, so treat it as instantaneous, or fit a record sampled faster "
+        "(--decimate off)"
+    )
 
 
 #: model key -> ((condition name, numeric test), ...) of its parameter-dependent stability conditions.
