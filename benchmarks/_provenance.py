@@ -49,3 +49,33 @@ def stamp(doc: dict, settings=None) -> dict:
     if "provenance" in doc:
         return doc
     return {"provenance": provenance(settings), **doc}
+
+
+def run_long_study(study, out) -> dict:
+    """Run ``study`` (a module of ``studies/``) with its ``Config.long()`` into a temporary output root (the paper's
+    figures and numbers are not touched), and write its derived JSON, stamped, atomically to ``out``: the document
+    of a study's long part that ``duffsym reproduce`` reads back. The study's own provenance, when it has one, is
+    kept as ``study_provenance``."""
+    import json
+    import tempfile
+    from dataclasses import asdict
+
+    cfg = study.Config.long()
+    print(cfg.summary(), flush=True)
+    prov = provenance({**asdict(cfg), "out": str(out)})  # the commit and the load at the start: what ran
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        os.environ["DUFFSYM_OUTPUT_ROOT"] = tmp
+        study.compute(cfg)
+        _, meta = study.read()
+    meta.pop("run_mode", None)
+    own = meta.pop("provenance", None)
+    doc = stamp({"provenance": prov, **({"study_provenance": own} if own is not None else {}), **meta,
+                 "bench_wall_s": time.perf_counter() - t0})
+    print(study.summarize(doc if own is None else {**doc, "provenance": own}))
+    out = Path(out)
+    tmp_file = out.with_suffix(".tmp")
+    tmp_file.write_text(json.dumps(doc, indent=1, default=float) + "\n")
+    tmp_file.replace(out)
+    print(f"wrote {out} ({doc['bench_wall_s']:.0f} s)")
+    return doc

@@ -13,12 +13,7 @@ to ``benchmarks/results/s14_model_comparison.json`` (each model's fit time is in
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
-import tempfile
-import time
-from dataclasses import asdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -26,7 +21,7 @@ sys.path.insert(0, str(ROOT / "studies"))
 
 import s14_model_comparison as S  # noqa: E402
 
-from _provenance import provenance, stamp  # noqa: E402  (benchmarks/ is on sys.path: the script's folder)
+from _provenance import run_long_study  # noqa: E402  (benchmarks/ is on sys.path: the script's folder)
 
 RESULT = ROOT / S.STORED_NAME
 
@@ -35,23 +30,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(RESULT), help="the results file (default: %(default)s)")
     a = ap.parse_args(argv)
-    cfg = S.Config.long()
-    print(cfg.summary(), flush=True)
-    prov = provenance({**asdict(cfg), "out": a.out})  # the commit and the load at the start: what ran
-    t0 = time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        os.environ["DUFFSYM_OUTPUT_ROOT"] = tmp
-        S.compute(cfg)
-        _, meta = S.read()
-    meta.pop("run_mode", None)
-    study = meta.pop("provenance", {})
-    doc = stamp({"provenance": prov, "study_provenance": study, **meta, "bench_wall_s": time.perf_counter() - t0})
-    print(S.summarize({**doc, "provenance": study}))
-    out = Path(a.out)
-    tmp_file = out.with_suffix(".tmp")
-    tmp_file.write_text(json.dumps(doc, indent=1, default=float) + "\n")
-    tmp_file.replace(out)
-    print(f"wrote {out} ({doc['bench_wall_s']:.0f} s)")
+    run_long_study(S, a.out)
     return 0
 
 

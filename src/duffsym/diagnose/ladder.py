@@ -292,19 +292,7 @@ def _climb(run: _Run) -> None:
         run.say(f"step {len(run.steps)}: {' + '.join((base,) + tuple(run.model.effects))}" + _left_text(run.end))
         t_step = time.perf_counter()
         try:
-            dg = diagnose(
-                record,
-                run.model,
-                candidates=o.candidates,
-                fixed=o.fixed,
-                holdout=o.holdout,
-                noise=o.noise,
-                mask=o.mask,
-                start=run.start,
-                progress=o.progress,
-                deadline=_step_deadline(run.steps_end, run.steps, o.max_steps),
-                **o.rules,
-            )
+            dg = diagnose(record, run.model, candidates=o.candidates, start=run.start, **_step_settings(run))
         except (ModelError, DataError) as exc:
             if not run.steps:
                 raise
@@ -325,6 +313,21 @@ def _climb(run: _Run) -> None:
                 continue
         if not _take(run, dg, chosen):
             return
+
+
+def _step_settings(run: _Run) -> dict:
+    """The diagnosis settings every step of ``run`` shares (its options, decision rules and the step's share of the
+    time budget); the candidates and the start are the step's own."""
+    o = run.o
+    return dict(
+        fixed=o.fixed,
+        holdout=o.holdout,
+        noise=o.noise,
+        mask=o.mask,
+        progress=o.progress,
+        deadline=_step_deadline(run.steps_end, run.steps, o.max_steps),
+        **o.rules,
+    )
 
 
 #: rate-dependent base models and their rate-independent form (the element in the path of d)
@@ -353,13 +356,10 @@ def _element_switch(run: _Run, dg: Diagnosis) -> bool:
         trial = apply_effects(base, [CATALOGUE[e] for e in (*run.model.effects, "contact-gap")])
     except (ModelError, TypeError, ValueError):
         return False
-    o, before = run.o, min(dg.nrmse_heldout, gap.nrmse_after)
+    before = min(dg.nrmse_heldout, gap.nrmse_after)
     run.say(f"  contact-gap on a rate-dependent element: trying the rate-independent element {name}")
     try:
-        kw = {**o.rules, "sindy": False}
-        deadline = _step_deadline(run.steps_end, run.steps, o.max_steps)
-        trial_dg = diagnose(run.record, trial, candidates=[], fixed=o.fixed, holdout=o.holdout, noise=o.noise,
-                            mask=o.mask, progress=o.progress, deadline=deadline, **kw)  # fmt: skip
+        trial_dg = diagnose(run.record, trial, candidates=[], **{**_step_settings(run), "sindy": False})
     except (ModelError, DataError) as exc:
         run.say(f"  {name}: {exc}")
         return False
