@@ -90,16 +90,10 @@ def _atoms_with(expr: sp.Expr, symbols) -> list[sp.Expr]:
     return [a for a in expr.atoms(sp.Function) if a.has(*symbols)]
 
 
-def _solve_scaling(model: SymbolicModel, scaled: tuple[sp.Symbol, ...]):
-    """Solutions theta'(s) for the states in ``scaled`` scaled by s (the others fixed), or []."""
-    states = tuple(model.states)
-    signals = states + tuple(model.input_symbols)
-    new = {p.symbol: sp.Symbol(p.name + "_new", real=True) for p in model.params}
-    unknowns = list(new.values())
-    scale = {x: S * x for x in scaled}
-    pairs = [(e.xreplace(new).xreplace(scale), (S if x in scaled else 1) * e) for x, e in zip(states, model.rhs)]
-    pairs.append((model.output.xreplace(new).xreplace(scale), model.output))
-    # non-polynomial factors first: f(arg') must equal f(arg), so match the arguments identically
+def coefficient_equations(pairs, unknowns, signals) -> list[sp.Expr]:
+    """The equations on ``unknowns`` that make each ``(lhs, rhs)`` pair equal for all ``signals``: non-polynomial
+    factors first (f(arg') must equal f(arg), so their arguments are matched identically and solved for), then the
+    coefficients of every term in the signals; tidied, without zeros."""
     arg_eqs: list[sp.Expr] = []
     for lhs, rhs in pairs:
         for atom in _atoms_with(lhs, unknowns):
@@ -118,7 +112,19 @@ def _solve_scaling(model: SymbolicModel, scaled: tuple[sp.Symbol, ...]):
             pairs = [(lhs.subs(arg_sol[0]), rhs) for lhs, rhs in pairs]
     for lhs, rhs in pairs:
         equations += list(split_terms(lhs - rhs, signals).values())
-    equations = [e for e in {tidy(e) for e in equations} if e != 0]
+    return [e for e in {tidy(e) for e in equations} if e != 0]
+
+
+def _solve_scaling(model: SymbolicModel, scaled: tuple[sp.Symbol, ...]):
+    """Solutions theta'(s) for the states in ``scaled`` scaled by s (the others fixed), or []."""
+    states = tuple(model.states)
+    signals = states + tuple(model.input_symbols)
+    new = {p.symbol: sp.Symbol(p.name + "_new", real=True) for p in model.params}
+    unknowns = list(new.values())
+    scale = {x: S * x for x in scaled}
+    pairs = [(e.xreplace(new).xreplace(scale), (S if x in scaled else 1) * e) for x, e in zip(states, model.rhs)]
+    pairs.append((model.output.xreplace(new).xreplace(scale), model.output))
+    equations = coefficient_equations(pairs, unknowns, signals)
     # an equation without unknowns (e.g. 1 - s from an output that sees the state) must hold by itself
     if any(not e.has(*unknowns) for e in equations):
         return [], new

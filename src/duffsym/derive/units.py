@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from duffsym.derive._mechanics import split_terms, tidy
+from duffsym.derive.symmetry import coefficient_equations
 from duffsym.errors import ModelError
 from duffsym.model.core import SymbolicModel
 
@@ -125,26 +125,7 @@ def _equations(model: SymbolicModel, scales: tuple, b, new: dict) -> list[sp.Exp
     scale.update({ch.symbol: channel_scale(ch.signal, A, b) * ch.symbol for ch in model.inputs})
     pairs = [(e.xreplace(new).xreplace(scale), f * e) for f, e in zip(scales, model.rhs)]
     pairs.append((model.output.xreplace(new).xreplace(scale), b * model.output))
-    unknowns = list(new.values())
-    arg_eqs: list[sp.Expr] = []
-    for lhs, rhs in pairs:
-        for atom in (f for f in lhs.atoms(sp.Function) if f.has(*unknowns)):
-            for cand in rhs.atoms(sp.Function):
-                if cand.func == atom.func and len(cand.args) == len(atom.args):
-                    for a_new, a_old in zip(atom.args, cand.args):
-                        num = sp.together(a_new - a_old).as_numer_denom()[0]
-                        arg_eqs += list(split_terms(num, signals).values())
-    if arg_eqs:
-        try:
-            arg_sol = sp.solve(arg_eqs, unknowns, dict=True)
-        except NotImplementedError:
-            arg_sol = []
-        if arg_sol:
-            pairs = [(lhs.subs(arg_sol[0]), rhs) for lhs, rhs in pairs]
-    equations = list(arg_eqs)
-    for lhs, rhs in pairs:
-        equations += list(split_terms(lhs - rhs, signals).values())
-    return [e for e in {tidy(e) for e in equations} if e != 0]
+    return coefficient_equations(pairs, list(new.values()), signals)
 
 
 def _solve(model: SymbolicModel, scales: tuple, b) -> dict[str, sp.Expr] | None:
