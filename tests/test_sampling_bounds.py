@@ -49,7 +49,7 @@ def _fast_field_record() -> Record:
 
 
 def test_a_field_faster_than_the_sampling_is_fitted_at_the_sampling_bound():
-    """The record cannot tell a field of 0.2 ms from one of 0.67 ms (a sixth of its 4 ms step): the start and the
+    """The record cannot tell a field of 0.2 ms from one of 0.33 ms (a twelfth of its 4 ms step): the start and the
     fit stay inside the sampling's bound, the fit converges near the noise (1 %), and the on-bound flag says the
     bound comes from the sampling."""
     rec = _fast_field_record()

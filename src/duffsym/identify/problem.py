@@ -75,15 +75,16 @@ def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
     return {k: v for k, v in out.items() if k in model.param_names}
 
 
-#: A first-order state's own rate times the sampling step is at most this (its time constant at least a sixth of a
-#: step): the record does not resolve a much faster state, and the collocation of such a stiff state is
+#: A first-order state's own rate times the sampling step is at most this (its time constant at least a twelfth of
+#: a step): the record does not resolve a much faster state, and the collocation of such a stiff state is
 #: ill-conditioned. Measured on 6 s of the Dyke record (``mr-damper-current``, the field rate ``eta`` free up to its
-#: ParamSpec bound 1e4/s): at 250 Hz the start took 3000/s (12 per step), IPOPT's iterations grew to 36 s (Hessian
-#: regularisation 1.3e9) and the fit took 511 s; with the rate (and its start) capped at 6/dt, 6.5 s and 48
-#: iterations to eta = 128/s, inside the cap. The cap at 1/dt or 2/dt also converged there (16 s, 48 s) but made
-#: the 500 Hz fit of the same seconds run to IPOPT's iteration limit (at 6/dt: 44 s, success, NRMSE 0.193, eta =
-#: 120/s; uncapped 12 s, 0.200).
-RATE_STEP_LIMIT = 6.0
+#: ParamSpec bound 1e4/s; the start from :func:`~duffsym.identify.initial.command_start` at 3000/s): at 250 Hz
+#: IPOPT's iterations grew to 36 s (Hessian regularisation 1.3e9) and the fit took 511 s; with the bound at 12/dt
+#: (3000/s) 15 s and 117 iterations to the same optimum, eta = 128/s, well inside it. At 500 Hz the bound at 12/dt
+#: leaves the fit as it was (54 iterations, NRMSE 0.1996, eta = 131/s). Tighter limits changed the start, and with
+#: it the local optimum: at 6/dt the 500 Hz fit ended at another one (NRMSE 0.193) and the diagnosis's base fit at
+#: 250 Hz at a poor one (0.396 against 0.204); at 1/dt or 2/dt the 500 Hz fit ran to IPOPT's iteration limit.
+RATE_STEP_LIMIT = 12.0
 
 #: model key -> ((parameter, "rate" | "time"), ...): see :func:`decay_parameters`
 _DECAY: dict[str, tuple[tuple[str, str], ...]] = {}
