@@ -111,16 +111,13 @@ def test_nested_simpler_effects_come_from_the_parameters():
 
 @pytest.mark.slow
 @pytest.mark.claim
-@pytest.mark.xfail(
-    strict=True,
-    reason="fails on main d580dd2 (3 of 3 runs, 2026-11-26): nothing is needed "
-    "(needed == ()), not output-lag; a claim the README makes, left visible until the diagnosis "
-    "is fixed",
-)
 def test_a_candidate_stopped_half_way_is_not_ranked_against_converged_ones():
     # measured before: on the offset + lag record, with the offset taken (as gas-accumulator), output-lag was
     # still being fitted after the 30 screening iterations, ranked 10 of 11 behind converged candidates and was
-    # screened out, so the ladder stopped 2.2x above the noise; continued, it converges to the true lag
+    # screened out, so the ladder stopped 2.2x above the noise; continued, it converges to the true lag.
+    # Failed on main d580dd2 .. 3434698 (nothing needed); passes since the lag's time constant is bounded by the
+    # sampling (lag_tau >= dt/12 = 4.2e-4 s here, not 1e-4: duffsym.identify.problem.sampling_bounds); with that
+    # bound lifted the same run still needs nothing (lag_tau 0.0087 fitted but not supported)
     from duffsym.effects import CATALOGUE, apply_effects
 
     rec, g = record(("force-offset", "output-lag"), 0)
