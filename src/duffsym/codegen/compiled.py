@@ -250,6 +250,13 @@ def load_generated(key: str, source: str) -> ModuleType:
     return module
 
 
+def trusted_file(st: os.stat_result) -> bool:
+    """Whether a file (its ``os.lstat``) may be loaded from the code cache: a regular file (not a link) of this user
+    that no one else can write to."""
+    foreign = hasattr(os, "getuid") and st.st_uid != os.getuid()
+    return stat.S_ISREG(st.st_mode) and not foreign and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
+
+
 def remove_untrusted(folder: Path, key: str) -> list[Path]:
     """Remove the files of module ``key`` in the cache ``folder`` that this process may not trust: its
     source and numba's index and machine code (``__pycache__/<key>.*.nbi``/``.nbc``; numba unpickles the
@@ -262,13 +269,7 @@ def remove_untrusted(folder: Path, key: str) -> list[Path]:
             st = os.lstat(p)
         except FileNotFoundError:
             continue
-        foreign = hasattr(os, "getuid") and st.st_uid != os.getuid()
-        if (
-            stat.S_ISLNK(st.st_mode)
-            or foreign
-            or st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
-            or not stat.S_ISREG(st.st_mode)
-        ):
+        if not trusted_file(st):
             try:
                 p.unlink()
             except OSError as exc:

@@ -17,6 +17,7 @@ behaviour, so one parameter must be fixed (the paper fixes :math:`A_f = \max|y|`
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Mapping
@@ -134,6 +135,7 @@ def _solve_scaling(model: SymbolicModel, scaled: tuple[sp.Symbol, ...]):
         return [], new
 
 
+@functools.lru_cache(maxsize=64)
 def find_scaling_symmetry(model: SymbolicModel) -> ScalingSymmetry:
     """Find the parameter map that compensates the state scaling :math:`\\mathbf x \\to s\\mathbf x`.
 

@@ -18,7 +18,6 @@ import json
 import keyword
 import math
 import os
-import stat
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -58,13 +57,13 @@ def _path(model) -> Path | None:
 
 
 def _trusted(path: Path) -> bool:
-    """A regular file of this user that no one else can write to."""
+    """A regular file of this user that no one else can write to (:func:`duffsym.codegen.compiled.trusted_file`)."""
+    from duffsym.codegen.compiled import trusted_file
+
     try:
-        st = os.lstat(path)
+        return trusted_file(os.lstat(path))
     except OSError:
         return False
-    foreign = hasattr(os, "getuid") and st.st_uid != os.getuid()
-    return stat.S_ISREG(st.st_mode) and not foreign and not st.st_mode & (stat.S_IWGRP | stat.S_IWOTH)
 
 
 def load_conditions(model) -> list[tuple[str, list[str], str]] | None:

@@ -5,7 +5,6 @@ shared by the fit (:mod:`duffsym.identify.unitscale`) and the initial-state esti
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 
@@ -66,9 +65,9 @@ def normalised_run(model, params: Mapping[str, float], record):
     return p, rec, lambda x: np.asarray(x, dtype=float) * back
 
 
-@functools.lru_cache(maxsize=64)
 def state_symmetry(model):
-    """The model's state-scaling symmetry (:func:`duffsym.derive.symmetry.find_scaling_symmetry`), derived once."""
+    """The model's state-scaling symmetry (:func:`duffsym.derive.symmetry.find_scaling_symmetry`, which keeps each
+    model's), imported when first needed: SymPy is not loaded at start-up."""
     from duffsym.derive.symmetry import find_scaling_symmetry
 
     return find_scaling_symmetry(model)
