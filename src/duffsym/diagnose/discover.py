@@ -13,7 +13,10 @@ times a polynomial (degree 2) in the positions (pysindy's tensor product): ``d²
 whose level grows toward the stroke ends. Selection is *stability selection* (:func:`stability`):
 scikit-learn's orthogonal matching pursuit on the standardised library, fitted on a random half of the
 whole input cycles and sized on the other half, 40 times; a family of terms (members that differ only
-in ε or v_s) is kept when selected in at least 60 % of the resamples. The stable set, its nested simpler
+in ε or v_s) is kept when selected in at least 60 % of the resamples. Before selecting, the base model's own
+linearised refit is projected out of the residual and the library (:func:`without_base`: the derivatives of
+its free run with respect to its free parameters), so a term the base mimics by moving its own parameters
+(a viscous ``d'`` against ``c1``) does not crowd out one it cannot. The stable set, its nested simpler
 form (a Stribeck shape -> the plain sign) and its smaller subsets become :class:`DiscoveredEffect`\ s —
 model extensions adding ``Σ c_i·term_i`` to the output, the coefficients as parameters — fitted through
 the normal path (:func:`duffsym.identify.fit_with_effects`); the lowest BIC on the fitting part is kept
@@ -287,6 +290,50 @@ def _simpler(terms: list, i: int) -> int:
     return terms.index(plain) if plain != t and plain in terms else i
 
 
+#: a library column whose part outside the base model's sensitivities is below this fraction of its norm is a
+#: term the base absorbs by refitting its own parameters (left out of the selection)
+ABSORBED = 1e-3
+
+
+def base_sensitivities(model, base_fit, record, k: int) -> np.ndarray | None:
+    """``(k, n_free)``: the derivatives of the base model's free run (first ``k`` samples, from the fitted initial
+    state) with respect to its free parameters, by central differences (step 1e-4 of the value or of the
+    parameter's scale). None when a free run fails."""
+    params = dict(base_fit.params)
+    x0 = base_fit.x0[0]
+    spec = {p.name: p for p in model.params}
+    cols = []
+    for name in base_fit.free:
+        if name not in spec:
+            continue
+        h = 1e-4 * max(abs(float(params[name])), float(spec[name].scale or 0.0), 1e-8)
+        runs = []
+        for sign in (1.0, -1.0):
+            tr = simulate_record(model, {**params, name: params[name] + sign * h}, record, x0=x0, on_failure="return")
+            if not (tr.success and np.all(np.isfinite(tr.y))):
+                return None
+            runs.append(np.asarray(tr.y, float)[:k])
+        cols.append((runs[0] - runs[1]) / (2 * h))
+    return np.column_stack(cols) if cols else None
+
+
+def without_base(J: np.ndarray | None, Theta: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, set[int]]:
+    """The library and the residual with the span of the base model's sensitivities ``J`` projected out
+    (Frisch-Waugh-Lovell: a regression on the projected data is the regression with the base's own linearised
+    refit always included), and the columns the base absorbs (projected norm below ``ABSORBED`` of the
+    original). A term the base can mimic by moving its parameters (``d'`` against ``c1``) is then not proposed;
+    one it cannot (``d²·tanh(d'/ε)``) stands out."""
+    if J is None:
+        return Theta, r, set()
+    U, s, _ = np.linalg.svd(J, full_matrices=False)
+    Q = U[:, s > s[0] * 1e-10] if s.size and s[0] > 0 else U[:, :0]
+    Tp = Theta - Q @ (Q.T @ Theta)
+    rp = r - Q @ (Q.T @ r)
+    norm = np.linalg.norm(Theta, axis=0)
+    absorbed = {int(j) for j in np.flatnonzero(np.linalg.norm(Tp, axis=0) <= ABSORBED * np.where(norm > 0, norm, 1))}
+    return Tp, rp, absorbed
+
+
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
     """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
     resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
@@ -299,7 +346,11 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     ok = [j for j in ok if j not in same]
     terms, Theta = [terms[j] for j in ok], Theta[:, ok]
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
-    stab = stability(Theta[:k], r[:k], blocks(record, k), terms)
+    J = base_sensitivities(model, dg.base_fit, record, k)
+    Theta_k, r_k, absorbed = without_base(J, Theta[:k], r[:k])
+    keep = [j for j in range(len(terms)) if j not in absorbed]
+    terms, Theta_k = [terms[j] for j in keep], Theta_k[:, keep]
+    stab = stability(Theta_k, r_k, blocks(record, k), terms)
     stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
     selection = {
         "library": len(terms),
@@ -312,6 +363,10 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
         },
         "n_terms": len(stable),
         "duplicates_left_out": len(same),
+        "base_refit": "none (the base free run's sensitivities could not be computed)"
+        if J is None
+        else f"projected out: the base model's {J.shape[1]} free parameters (linearised refit); "
+        f"{len(absorbed)} terms it absorbs left out",
     }
     if not stable:
         return [], selection
@@ -322,7 +377,7 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
         supports.insert(1, simpler)
     out = []
     for sup in supports[: max(tries, 1)]:
-        coefs, *_ = np.linalg.lstsq(Theta[:k, sup], r[:k], rcond=None)
+        coefs, *_ = np.linalg.lstsq(Theta_k[:, sup], r_k, rcond=None)  # the terms' share beside a refit base
         out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
     return out, selection
 
