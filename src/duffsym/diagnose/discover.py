@@ -295,12 +295,12 @@ def _simpler(terms: list, i: int) -> int:
 ABSORBED = 1e-3
 
 
-def base_sensitivities(model, base_fit, record, k: int) -> np.ndarray | None:
+def base_sensitivities(model, base_fit, record, k: int, x0=None) -> np.ndarray | None:
     """``(k, n_free)``: the derivatives of the base model's free run (first ``k`` samples, from the fitted initial
-    state) with respect to its free parameters, by central differences (step 1e-4 of the value or of the
-    parameter's scale). None when a free run fails."""
+    state, or ``x0``) with respect to its free parameters, by central differences (step 1e-4 of the value or of
+    the parameter's scale). None when a free run fails."""
     params = dict(base_fit.params)
-    x0 = base_fit.x0[0]
+    x0 = base_fit.x0[0] if x0 is None else x0
     spec = {p.name: p for p in model.params}
     cols = []
     for name in base_fit.free:

@@ -25,9 +25,10 @@ PREFIX = "discovered: "
 SUFFIX = " on the output"
 
 D, DD, DDD = state_symbol("d"), state_symbol("d_dot"), state_symbol("d_ddot")
+COMMAND = state_symbol("command")
 #: how the signals are printed in words and in LaTeX
-_WORDS = {"d": "d", "d_dot": "d'", "d_ddot": "d''", "x": "x", "x_dot": "x'"}
-_TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot": r"\dot{x}"}
+_WORDS = {"d": "d", "d_dot": "d'", "d_ddot": "d''", "x": "x", "x_dot": "x'", "command": "command"}
+_TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot": r"\dot{x}", "command": "i"}
 
 
 # ---------------------------------------------------------------------------------------------- the effect
@@ -84,7 +85,12 @@ class DiscoveredEffect(Effect):
         subs = {state_symbol(k): s for k, s in (("x", model.position), ("x_dot", model.velocity)) if s is not None}
         expr = self.expression().xreplace(subs)
         known = {c.symbol for c in model.inputs} | set(model.states) | {p.symbol for p in self.parameters()}
-        extra = (InputChannel("d", 2),) if DDD in expr.free_symbols and DDD not in known else ()
+        extra: tuple[InputChannel, ...] = (
+            (InputChannel("d", 2),) if DDD in expr.free_symbols and DDD not in known else ()
+        )
+        if COMMAND in expr.free_symbols and COMMAND not in known:  # a measured command (current, pressure)
+            extra += (InputChannel("command", 0),)
+            known |= {COMMAND}
         missing = expr.free_symbols - known - {DDD}
         if missing:
             raise ModelError(f"{self.name}: model {model.name} has no signal(s) {sorted(map(str, missing))}")
@@ -163,7 +169,8 @@ def _kind(term: sp.Expr) -> tuple[str | None, str]:
         return vel[0], shape
     if len(others) == 1 and shape in ("sign", "stribeck"):
         k = int(sp.degree(poly, state_symbol(others[0])))
-        return f"{others[0]}|{vel[0]}", ("stroke-" + shape) if k % 2 == 0 else "stroke-direction"
+        level = k % 2 == 0 or others[0] == "command"  # a command's level is not a direction of the stroke
+        return f"{others[0]}|{vel[0]}", ("stroke-" + shape) if level else "stroke-direction"
     return None, "stroke-direction"
 
 
@@ -179,6 +186,12 @@ _RESEMBLES = {
         "stroke ends; the catalogue's seal-friction has one constant level)"
     ),
     ("d|d_dot", "stroke-stribeck"): "a Stribeck friction peak whose height changes over the stroke",
+    ("command|d_dot", "stroke-sign"): (
+        "a friction or yield force on the piston whose level follows the command (a seal pressed by the "
+        "pressure, an MR fluid's yield growing with the current: the rate module's field-yield)"
+    ),
+    ("command|d_dot", "stroke-stribeck"): "a Stribeck friction peak whose height follows the command",
+    ("command|x_dot", "stroke-sign"): "a friction on the internal velocity x' whose level follows the command",
     ("x_dot", "sign"): "coulomb-friction (dry friction on the internal velocity x')",
     (
         "x_dot",
