@@ -66,3 +66,26 @@ def test_held_out_records_must_be_named_and_leave_some_to_train_on():
         discover_campaign(recs, mr_damper(), ["p9"])
     with pytest.raises(DataError, match="at least one held-out record and one to train on"):
         discover_campaign(recs, mr_damper(), ["p1", "p3"])
+
+
+def test_the_command_line_reads_a_pressure_column_and_names_the_term(tmp_path):
+    """``duffsym discover`` on CSV files with a measured ``pressure`` column (one line of JSON out): the held-out
+    file is judged, the term follows the pressure; without --validate, one line and exit 2."""
+    import json
+    import subprocess
+    import sys
+
+    from duffsym.data import write_csv
+
+    recs, *_ = _campaign()
+    paths = []
+    for r in recs:
+        paths.append(write_csv(r.replace(command_name="pressure"), tmp_path / f"{r.name}.csv"))
+    assert "pressure" in paths[0].read_text().splitlines()[0]
+    cmd = [sys.executable, "-m", "duffsym.cli", "discover", *map(str, paths[:2] + paths[3:])]
+    out = subprocess.run([*cmd, "--validate", str(paths[2]), "--json", "--quiet"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert doc["supported"] and "command·tanh(d'/" in doc["effect"] and list(doc["heldout_after"]) == ["p5.csv"]
+    bad = subprocess.run(cmd, capture_output=True, text=True)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1, bad.stderr

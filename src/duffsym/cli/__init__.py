@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "duffsym.cli.effects",  # effects
     "duffsym.cli.diagnose",  # diagnose, ladder
     "duffsym.cli.compare",  # compare
+    "duffsym.cli.discover",  # discover
     "duffsym.cli.sample",  # sample
     "duffsym.cli.sindy",  # sindy
     "duffsym.cli.convert",  # convert
@@ -69,6 +70,11 @@ COMMANDS = (
         "evidence supports it; the error at each step",
     ),
     ("compare", "duffsym.cli.compare", "fit several models on the same records and score them on held-out data"),
+    (
+        "discover",
+        "duffsym.cli.discover",
+        "what one parameter set misses across several records (a campaign), found outside the catalogue",
+    ),
     (
         "sample",
         "duffsym.cli.sample",

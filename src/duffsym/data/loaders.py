@@ -26,6 +26,7 @@ ROLES: dict[str, tuple[str, ...]] = {
     "velocity": ("velocity",),
     "current": ("current",),
     "voltage": ("voltage",),
+    "pressure": ("pressure",),
 }
 #: Names a user may use as keys of ``columns`` for each role.
 ROLE_KEYS: dict[str, str] = {
@@ -41,6 +42,7 @@ ROLE_KEYS: dict[str, str] = {
     "d_dot": "velocity",
     "current": "current",
     "voltage": "voltage",
+    "pressure": "pressure",
 }
 REQUIRED_ROLES = ("time", "input", "output")
 #: Record field of each role, used for units.
@@ -221,8 +223,8 @@ def read_csv(
     unit_map = {}
     for key, u in (units or {}).items():
         role = ROLE_KEYS.get(str(key).strip().lower())
-        if role is None:
-            raise DataError(f"unknown role {key!r} in units; use one of {{{', '.join(sorted(set(ROLE_KEYS)))}}}")
+        if role is None or role not in _FIELD:
+            raise DataError(f"unknown role {key!r} in units; use one of {{{', '.join(sorted(set(_FIELD)))}}}")
         unit_map[_FIELD[role]] = str(u)
     rec = Record(
         t=sig["time"],
@@ -248,16 +250,17 @@ def read_csv(
 def _command_columns(path: Path, sig: dict, header: list[str], index: dict[str, int], nan_policy: str):
     """The constant current/voltage values and the varying command history ``(name, values)`` or None.
 
-    A constant column is the record's ``current``/``voltage`` label; a varying one is its command history.
+    A constant column is the record's ``current``/``voltage`` label; a varying one is its command history; a
+    ``pressure`` column (a measured chamber pressure: a pneumatic seal's friction follows it) is always a history.
     NaN/inf in a command column is an error unless ``nan_policy="omit"`` (then those rows are dropped).
     """
     scalars: dict[str, float | None] = {}
     command = None
-    present = [r for r in ("current", "voltage") if r in sig]
-    if len(present) == 2:
+    present = [r for r in ("current", "voltage", "pressure") if r in sig]
+    if len(present) >= 2:
         raise DataError(
-            f"{path}: both a current column {header[index['current']]!r} and a voltage column "
-            f"{header[index['voltage']]!r}; a damper has one command: drop or rename one of them"
+            f"{path}: columns {[header[index[r]] for r in present]} are all commands ({', '.join(present)}); "
+            "a record has one command: drop or rename all but one"
         )
     for r in present:
         col = sig[r]
@@ -270,7 +273,7 @@ def _command_columns(path: Path, sig: dict, header: list[str], index: dict[str, 
         v = col[np.isfinite(col)]
         if v.size == 0:
             raise DataError(f"{path}: column {header[index[r]]!r} ({r}) holds no number; fill it or remove the column")
-        if bad.size or np.ptp(v) > 1e-9 * max(1.0, float(np.max(np.abs(v)))):
+        if r == "pressure" or bad.size or np.ptp(v) > 1e-9 * max(1.0, float(np.max(np.abs(v)))):
             command = (r, col)
         else:
             scalars[r] = float(v[0])

@@ -37,7 +37,9 @@ MIN_SAMPLES = 20
 DRIFT_SIGNALS = ("time", "energy")
 
 #: Names a command history may carry (the CSV columns of ``docs/contract.md``).
-COMMAND_NAMES = ("current", "voltage")
+COMMAND_NAMES = ("current", "voltage", "pressure")
+#: The unit each command is reported in (a pressure in the file's own unit).
+COMMAND_UNITS = {"current": "A", "voltage": "V", "pressure": "(pressure units)"}
 NAN_POLICIES = ("raise", "omit")
 #: Relative spread of the sampling step tolerated as "uniform".
 UNIFORM_RTOL = 1e-6
@@ -658,7 +660,7 @@ class Record:
             extra.append(f"voltage {self.voltage:g} V")
         if self.command is not None:
             c = np.asarray(self.command)
-            unit = "A" if self.command_name == "current" else "V"
+            unit = COMMAND_UNITS.get(self.command_name, "V")
             extra.append(f"{self.command_name} varying in [{c.min():g}, {c.max():g}] {unit}")
         vel = "given" if self.d_dot is not None else "derived (Savitzky-Golay)"
         return (

@@ -153,9 +153,9 @@ def _as_records(records) -> tuple[Record, ...]:
 
 def _command_text(record: Record) -> str:
     c = np.asarray(record.command_signal())
-    unit = (
-        "A" if (record.command_name or ("current" if record.current is not None else "voltage")) == "current" else "V"
-    )
+    from duffsym.data.record import COMMAND_UNITS
+
+    unit = COMMAND_UNITS[record.command_name or ("current" if record.current is not None else "voltage")]
     return f"{c.min():g} {unit}" if np.ptp(c) == 0 else f"{c.min():g} to {c.max():g} {unit}"
 
 
@@ -165,7 +165,9 @@ def check_command(model, records, free: Sequence[str] = ()) -> None:
     A model driven by the command (an input channel ``command``) needs a current or voltage in every
     record; to identify how the coefficients depend on it (``free`` holds a field parameter, ``*_u``,
     ``*_uu``, ``u_sat``, ``eta``) the command must vary, within a record or across records. A model
-    without a command input refuses a record whose command varies (it would average the levels).
+    without a command input refuses a record whose current or voltage varies (it would average the levels); a
+    measured ``pressure`` is an operating condition such a model may leave out (a campaign discovery then asks
+    whether a term in it is missing, :mod:`duffsym.diagnose.campaign`).
 
     Raises
     ------
@@ -175,7 +177,7 @@ def check_command(model, records, free: Sequence[str] = ()) -> None:
     recs = _as_records(records)
     if "command" not in model.signals:
         for r in recs:
-            if r.command_varies:
+            if r.command_varies and r.command_name != "pressure":
                 c = np.asarray(r.command)
                 raise DataError(
                     f"record {r.name or '(unnamed)'}: its {r.command_name} varies ({c.min():g} to {c.max():g}) but "
