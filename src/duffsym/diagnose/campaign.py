@@ -98,21 +98,34 @@ def discover_campaign(
     fixed: Mapping[str, float] | None = None,
     constraints=None,
     tries: int = D.TRIES,
+    time_limit: float | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> CampaignDiscovery:
     """Look for the term ``model`` lacks across the campaign ``records`` (module docstring).
 
     ``heldout``: names of the records judged only (never fitted, never used to select); at least one, and at
     least one record left to train on. ``base``: the base model's fit to the training records, if already made.
-    ``fixed``, ``constraints``: as for :class:`duffsym.identify.Problem`, in every fit.
+    ``fixed``, ``constraints``: as for :class:`duffsym.identify.Problem`, in every fit. ``time_limit``: wall
+    seconds of each fit (IPOPT's ``max_wall_time``; a fit stopped by it is not a success and is said so).
     """
     t0 = time.perf_counter()
     say = progress or (lambda msg: None)
     train, held = _split(records, heldout)
     if base is None:
         say(f"base fit of {model.name} on {len(train)} training records")
-        base = _fit(model, train, fixed, constraints)
+        base = _fit(model, train, fixed, constraints, limit=time_limit)
+        if not base.success:
+            raise DataError(f"the base fit of {model.name} on the training records failed: {base.message}")
     before = {r.name: _nrmse(base, r, model) for r in records}
+    poor = {r.name: before[r.name] for r in train if not before[r.name] < 1.0}
+    if poor:
+        worst = ", ".join(f"{k} {v:.3g}" for k, v in poor.items())
+        why = (
+            f"the base model's free run is no better than the records' mean on {worst} (NRMSE >= 1): a term found "
+            "in its residual would mean nothing; choose a base that follows the records (e.g. a friction model for "
+            "a seal)"
+        )
+        return _nothing({}, before, held, t0, why)
     effects, selection = propose_campaign(train, model, base, tries)
     if not effects:
         return _nothing(selection, before, held, t0)
@@ -121,7 +134,8 @@ def discover_campaign(
         say(f"fitting {eff.name} on the training records")
         ext = eff.apply(model)
         try:
-            res = _fit(ext, train, fixed, constraints, {**base.params, **{p.name: p.default for p in eff.parameters()}})
+            start = {**base.params, **{p.name: p.default for p in eff.parameters()}}
+            res = _fit(ext, train, fixed, constraints, start, limit=time_limit)
         except (ModelError, DataError) as exc:
             say(f"  failed: {exc}")
             continue
@@ -145,19 +159,20 @@ def _split(records, heldout: Sequence[str]):
     return train, held
 
 
-def _fit(model, records, fixed, constraints, x0=None):
+def _fit(model, records, fixed, constraints, x0=None, limit: float | None = None):
     from duffsym.identify import Problem, fit
 
     fixed = {k: v for k, v in (fixed or {}).items() if k in model.param_names}
     x0 = None if x0 is None else {k: v for k, v in x0.items() if k in model.param_names and k not in fixed}
-    return fit(Problem(model, list(records), fixed=fixed, constraints=constraints or ()), x0=x0)
+    problem = Problem(model, list(records), fixed=fixed, constraints=constraints or ())
+    return fit(problem, x0=x0) if limit is None else fit(problem, x0=x0, max_wall_time=float(limit))
 
 
 def _nrmse(res, record, model) -> float:
     from duffsym.identify import validate
 
-    v = validate(res, record, model)
-    return float(v.nrmse) if v.success else math.inf
+    v = validate(res, record, model)  # not a success when worse than the mean (R² < 0); its NRMSE says by how much
+    return float(v.nrmse) if math.isfinite(v.nrmse) else math.inf
 
 
 def _bic(res, records, model) -> float:

@@ -654,3 +654,56 @@ class SealFriction(Effect):
                 "the tanh is nearly linear there, a viscous term rather than a friction"
             )
         return _not_significant(f"{self.prefix}F", params, stderr or {})
+
+
+@dataclass(frozen=True)
+class PressureForce(Effect):
+    """The force of a measured pressure on the piston: :math:`y \\leftarrow y + A_p\\,p` with ``p`` the record's
+    ``pressure`` column (its command history) and :math:`A_p` the effective piston area (force per pressure unit).
+
+    Where it acts: on the piston, beside the seal friction the element describes; a pneumatic actuator's load cell
+    measures the chamber pressure's force plus the friction. Passive in the sense of the certificate: a force that
+    does not depend on the motion adds no state and no energy term (the element's Lyapunov argument is unchanged;
+    the equilibrium only shifts with the pressure).
+
+    Outside the catalogue (it needs a pressure column, and every ladder would otherwise try it): used with
+    ``apply_effects`` and by campaign fits over pressures (``benchmarks/bench_seal_campaign.py``).
+
+    Initial guess: least squares of the residual on the pressure (with a constant).
+    """
+
+    name: str = "pressure-force"
+    prefix: str = "pf_"
+    physics: str = "force of the measured chamber pressure on the piston area (pneumatic actuator)"
+    signature: str = "the force level shifts with the pressure from record to record"
+    form: str = "y += pf_A p"
+    guess: str = "pf_A = least squares of the residual on the pressure"
+
+    def parameters(self) -> tuple[ParamSpec, ...]:
+        return (
+            ParamSpec(
+                f"{self.prefix}A",
+                "A_{p}",
+                0.0,
+                -1e12,
+                1e12,
+                unit="output unit per pressure unit",
+                scale=1.0,
+                description="effective piston area (force per unit pressure)",
+            ),
+        )
+
+    def _extend(self, model: SymbolicModel) -> SymbolicModel:
+        (a,) = self.parameters()
+        ch = InputChannel("command", 0)
+        extra = () if ch.symbol in {c.symbol for c in model.inputs} else (ch,)
+        return model.extend(effect=self.name, params=(a,), inputs=extra, output_add=a.symbol * ch.symbol)
+
+    def initial_guess(self, record, y_model) -> dict[str, float]:
+        r = residual(record, y_model)
+        p = np.asarray(record.command_signal(), dtype=float)
+        _, c = lstsq_coeffs(r, np.ones_like(p), p)
+        return {f"{self.prefix}A": self._clip(f"{self.prefix}A", c)}
+
+    def base_output(self, y, record, params):
+        return y - params[f"{self.prefix}A"] * np.asarray(record.command_signal(), dtype=float)
