@@ -51,6 +51,17 @@ def stamp(doc: dict, settings=None) -> dict:
     return {"provenance": provenance(settings), **doc}
 
 
+def write_result(path, doc: dict, settings=None) -> None:
+    """``doc``, stamped (:func:`stamp`), written to ``path`` atomically (a temporary file beside it, then renamed)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(stamp(doc, settings), indent=1, default=float))
+    tmp.replace(path)
+
+
 def run_long_study(study, out) -> dict:
     """Run ``study`` (a module of ``studies/``) with its ``Config.long()`` into a temporary output root (the paper's
     figures and numbers are not touched), and write its derived JSON, stamped, atomically to ``out``: the document

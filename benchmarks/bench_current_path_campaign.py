@@ -13,7 +13,6 @@ period, eta held at 100, k1 + k2 >= 0 at u = 0 and 1). Prints in-sample free-run
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -30,7 +29,7 @@ from duffsym.identify import Problem, fit  # noqa: E402
 from duffsym.identify.initial import path_start  # noqa: E402
 from duffsym.identify.structure import scaled_to  # noqa: E402
 from duffsym.model import get_model  # noqa: E402
-from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
+from _provenance import write_result  # benchmarks/ is on sys.path (the script's folder)
 
 V_EPS0 = 300.0  # mm/s, the start: three times the campaign's fastest drive (94 mm/s), where path ~ clock time
 
@@ -77,9 +76,7 @@ def main(argv=None) -> int:
     print(f"{a.variant}{'' if a.holdout is None else ' held out ' + a.holdout}: {out['status']}, NRMSE median "
           f"{out['median']:.3f} worst {out['worst']:.3f} ({out['wall_s']:.0f} s)")
     path = ROOT / "benchmarks" / "results" / f"current_path_{a.variant}{'' if a.holdout is None else '_' + a.holdout}.json"
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(stamp(out, a), indent=1, default=float))
-    tmp.replace(path)
+    write_result(path, out, a)
     return 0
 
 

@@ -25,13 +25,12 @@ Writes ``benchmarks/results/seal_campaign.json`` (provenance, the records, the d
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
-from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
+from _provenance import write_result  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 PRESSURES = (1, 3, 5, 7)
@@ -80,10 +79,7 @@ def main(argv=None) -> int:
     print(f"records: {', '.join(f'{r.name} {r.n_times} samples' for r in recs)}; wall {wall:.0f} s")
     doc = dict(benchmark="seal_campaign", records={r.name: r.n_times for r in recs}, model=model.name,
                effects=list(model.effects), wall_seconds=wall, result=res.to_dict())  # fmt: skip
-    out = Path(args.out)
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(stamp(doc, args), indent=1, default=float))
-    tmp.replace(out)
+    write_result(args.out, doc, args)
     return 0
 
 

@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _provenance import stamp  # benchmarks/ is on sys.path (the script's folder)
+from _provenance import write_result  # benchmarks/ is on sys.path (the script's folder)
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "studies"))
@@ -136,10 +136,7 @@ def main(argv=None) -> int:
     print(json.dumps(summary, indent=1))
     doc = dict(benchmark="unseen_frequencies", rows=rows, summary=summary,
                params={k: dict(v[0].params) for k, v in fits.items()})  # fmt: skip
-    out = Path(args.out)
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(stamp(doc, args), indent=1, default=float))
-    tmp.replace(out)
+    write_result(args.out, doc, args)
     return 0
 
 
