@@ -4,7 +4,8 @@ Training: the 30 preprocessed sinusoid tests (6 amplitude/frequency pairs: 2 mm 
 25 mm 0.1/0.25/0.5 Hz, each at 0, 0.25, 0.5, 0.75, 1 A), fitted with one parameter set as study s11 does
 (``mr-damper-current``, eta held at 100 /s, ~25 samples per period), and the same with the rate module's
 ``field-yield`` (a Bingham yield that follows the current; the term the campaign discovery proposes first on these
-tests), started from the base optimum.
+tests), then with the catalogue's ``parallel-damping`` beside it (a viscous force that follows the current), each
+started from the previous optimum and its own data-based guess (``--variants``).
 
 Unseen: the two raw DAQ exports that have **no** preprocessed counterpart and whose frequencies are not in the
 training set, ``ME5mm4Hz`` (5 mm, 4 Hz) and ``ME10mm2Hz`` (10 mm, 2 Hz), each at the five currents (the segments
@@ -92,13 +93,15 @@ def main(argv=None) -> int:
     import s11_current_driven as s11
 
     from duffsym.data import external_data_dir
-    from duffsym.effects import apply_effects
+    from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.effects.rate import RATE_EFFECTS
     from duffsym.identify import Problem, fit, validate
     from duffsym.model import get_model
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=str(HERE / "results" / "unseen_frequencies.json"))
+    ap.add_argument("--variants", default="field-yield,field-yield+parallel-damping",
+                    help="effects added to the base, each variant started from the one without its last effect")  # fmt: skip
     args = ap.parse_args(argv)
     folder = external_data_dir() / "mr_damper_utfsm_quiroz2022" / "raw_sinusoidal"
     unseen = [r for name, f in UNSEEN.items() for r in raw_segments(folder / f"{name}.txt", f)]
@@ -108,14 +111,18 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     base = s11.campaign_fit(base_model, recs, cfg)
     fits = {"mr-damper-current": (base, base_model, time.perf_counter() - t0)}
-    fy = RATE_EFFECTS["field-yield"]
-    model = apply_effects(base_model, [fy])
-    guesses = [fy.initial_guess(r, s11.free_run(base, r, base_model)[0]) for r in recs]
-    start = {**base.params, **{k: float(np.median([g[k] for g in guesses])) for k in guesses[0]}}
-    t0 = time.perf_counter()
-    res = fit(Problem(model, recs, fixed={"eta": cfg.campaign_eta}, constraints=s11._constraints(base_model)),
-              x0={k: v for k, v in start.items() if k != "eta"})  # fmt: skip
-    fits["mr-damper-current + field-yield"] = (res, model, time.perf_counter() - t0)
+    known = {**CATALOGUE, **RATE_EFFECTS}
+    for variant in args.variants.split(","):
+        names = variant.split("+")
+        prev = fits[" + ".join(["mr-damper-current", *names[:-1]])]  # the variant without its last effect starts it
+        model = apply_effects(base_model, [known[e] for e in names])
+        eff = known[names[-1]]
+        guesses = [eff.initial_guess(r, s11.free_run(prev[0], r, prev[1])[0]) for r in recs]
+        start = {**prev[0].params, **{k: float(np.median([g[k] for g in guesses])) for k in guesses[0]}}
+        t0 = time.perf_counter()
+        res = fit(Problem(model, recs, fixed={"eta": cfg.campaign_eta}, constraints=s11._constraints(base_model)),
+                  x0={k: v for k, v in start.items() if k != "eta" and k in model.param_names})  # fmt: skip
+        fits[" + ".join(["mr-damper-current", *names])] = (res, model, time.perf_counter() - t0)
     rows = []
     for r in unseen:
         row = {"test": r.name, "samples": r.n_times, "spencer (published)": spencer_nrmse(r, r.current)}
