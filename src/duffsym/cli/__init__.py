@@ -179,10 +179,13 @@ def interrupts_reach_main() -> Iterator[None]:
 
     sys.unraisablehook = hook
     _unblock_sigint()
+    handler = _interrupting_handler()
     try:
         yield
     finally:
         sys.unraisablehook = previous
+        if handler is not None:
+            signal.signal(signal.SIGINT, handler)
         for timer in timers:  # a signal already sent raises here; one not yet sent must not outlive the block
             timer.cancel()
             timer.join()
@@ -197,6 +200,19 @@ def _unblock_sigint() -> None:
     short, while the same test passed alone and after its neighbouring test files (cause not confirmed)."""
     if threading.current_thread() is threading.main_thread() and hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _interrupting_handler():
+    """Make SIGINT raise KeyboardInterrupt in the main thread (Python's default handler) if something left another
+    handler installed (ignored, or a handler that only sets a flag); returns the handler to put back, or None.
+    Without it a redelivered interrupt (:func:`interrupts_reach_main`) would not cut a blocking wait short."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    current = signal.getsignal(signal.SIGINT)
+    if current is signal.default_int_handler:
+        return None
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    return current if current is not None else signal.default_int_handler
 
 
 def _quiet_dask_shutdown() -> None:

@@ -841,8 +841,8 @@ class _Watch:
         self.hook.interrupted = True  # IPOPT stops at its next iteration (the callback returns 1)
 
     def __exit__(self, *exc):
-        if self.previous is not None:
-            signal.signal(signal.SIGINT, self.previous)
+        if threading.current_thread() is threading.main_thread():  # put back what was there (Python's default if none)
+            signal.signal(signal.SIGINT, self.previous if self.previous is not None else signal.default_int_handler)
         return False
 
 
