@@ -71,6 +71,16 @@ def test_an_interrupt_swallowed_by_a_gc_callback_still_stops_the_command():
     Here a collector callback raises the interrupt: the command's work must stop, and nothing is printed."""
     import gc
 
+    fired, slept = _interrupt_swallowed_by_gc(30.0)  # the redelivered interrupt (after 50 ms) cuts the sleep short
+    state = (signal.getsignal(signal.SIGINT), signal.pthread_sigmask(signal.SIG_BLOCK, []), gc.callbacks)
+    assert fired == [1] and slept < 10.0, state  # the handler, blocked signals, callbacks
+
+
+def _interrupt_swallowed_by_gc(sleep: float) -> tuple[list[int], float]:
+    """A collector callback raises KeyboardInterrupt once (Python swallows it) inside ``interrupts_reach_main``,
+    then the block sleeps ``sleep`` s: (whether it fired, the seconds the sleep lasted). The block must raise."""
+    import gc
+
     from duffsym.cli import interrupts_reach_main
 
     fired: list[int] = []
@@ -86,11 +96,10 @@ def test_an_interrupt_swallowed_by_a_gc_callback_still_stops_the_command():
         with pytest.raises(KeyboardInterrupt), interrupts_reach_main():
             gc.collect()
             t0[0] = time.perf_counter()
-            time.sleep(30.0)  # the redelivered interrupt (after 50 ms) cuts this short
+            time.sleep(sleep)
     finally:
         gc.callbacks.remove(callback)
-    state = (signal.getsignal(signal.SIGINT), signal.pthread_sigmask(signal.SIG_BLOCK, []), gc.callbacks)
-    assert fired == [1] and time.perf_counter() - t0[0] < 10.0, state  # the handler, blocked signals, callbacks
+    return fired, time.perf_counter() - t0[0]
 
 
 def test_an_interrupt_swallowed_just_before_the_work_ends_is_not_lost():
@@ -138,30 +147,14 @@ def test_an_interrupt_is_redelivered_even_when_a_flag_only_handler_was_left_inst
     interrupt, and the work would run to its end. One candidate cause of the full-suite failure of the test above,
     which this test reproduces on purpose. Within the block, Python's default handler is put in place, and the
     other handler is put back afterwards."""
-    import gc
-
-    from duffsym.cli import interrupts_reach_main
-
-    fired: list[int] = []
-
-    def callback(phase, info):
-        if not fired:
-            fired.append(1)
-            raise KeyboardInterrupt
 
     def flag_only(signum, frame):
         pass
 
     old = signal.signal(signal.SIGINT, flag_only)
-    gc.callbacks.append(callback)
-    t0 = [math.inf]
     try:
-        with pytest.raises(KeyboardInterrupt), interrupts_reach_main():
-            gc.collect()
-            t0[0] = time.perf_counter()
-            time.sleep(5.0)
+        fired, slept = _interrupt_swallowed_by_gc(5.0)
         assert signal.getsignal(signal.SIGINT) is flag_only
     finally:
-        gc.callbacks.remove(callback)
         signal.signal(signal.SIGINT, old)
-    assert fired == [1] and time.perf_counter() - t0[0] < 3.0
+    assert fired == [1] and slept < 3.0
