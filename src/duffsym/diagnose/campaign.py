@@ -116,7 +116,8 @@ def discover_campaign(
         base = _fit(model, train, fixed, constraints, limit=time_limit)
         if not base.success:
             raise DataError(f"the base fit of {model.name} on the training records failed: {base.message}")
-    before = {r.name: _nrmse(base, r, model) for r in records}
+    base_runs = _free_runs(base, records, model)
+    before = {name: e for name, (e, _) in base_runs.items()}
     poor = {r.name: before[r.name] for r in train if not before[r.name] < 1.0}
     if poor:
         worst = ", ".join(f"{k} {v:.3g}" for k, v in poor.items())
@@ -140,11 +141,14 @@ def discover_campaign(
             say(f"  failed: {exc}")
             continue
         if res.success:
-            fits.append((eff, ext, res, _bic(res, train, ext)))
+            runs = _free_runs(res, train, ext)
+            fits.append((eff, ext, res, runs, _bic(runs, train, len(res.free))))
     if not fits:
         return _nothing(selection, before, held, t0, "the fits of the proposed terms failed")
-    eff, ext, res, bic = min(fits, key=lambda f: f[3])
-    return _judged(eff, ext, res, bic - _bic(base, train, model), before, records, held, selection, t0)
+    eff, ext, res, runs, bic = min(fits, key=lambda f: f[4])
+    after = {name: e for name, (e, _) in {**runs, **_free_runs(res, held, ext)}.items()}
+    dbic = bic - _bic(base_runs, train, len(base.free))
+    return _judged(eff, ext, res, dbic, before, after, held, selection, t0)
 
 
 def _split(records, heldout: Sequence[str]):
@@ -168,22 +172,28 @@ def _fit(model, records, fixed, constraints, x0=None, limit: float | None = None
     return fit(problem, x0=x0) if limit is None else fit(problem, x0=x0, max_wall_time=float(limit))
 
 
-def _nrmse(res, record, model) -> float:
+def _free_runs(res, records, model) -> dict[str, tuple[float, np.ndarray]]:
+    """Each record's free run, from the state estimated over its first period (:func:`duffsym.identify.validate`):
+    name -> (NRMSE, output). A run worse than the mean (R² < 0) is not a validation success; its NRMSE says by how
+    much."""
     from duffsym.identify import validate
 
-    v = validate(res, record, model)  # not a success when worse than the mean (R² < 0); its NRMSE says by how much
-    return float(v.nrmse) if math.isfinite(v.nrmse) else math.inf
+    out = {}
+    for r in records:
+        v = validate(res, r, model)
+        out[r.name] = (float(v.nrmse) if math.isfinite(v.nrmse) else math.inf, np.asarray(v.y_sim, float))
+    return out
 
 
-def _bic(res, records, model) -> float:
-    """n log(RSS/n) + k log n of the free runs on ``records``, each record's residual over its std(y)."""
+def _bic(runs: Mapping[str, tuple[float, np.ndarray]], records, n_free: int) -> float:
+    """n log(RSS/n) + k log n of the free runs (:func:`_free_runs`) on ``records``, each record's residual over its
+    std(y)."""
     rss, n = 0.0, 0
     for r in records:
-        tr = res.simulate(r)
-        e = (np.asarray(r.y, float) - np.asarray(tr.y, float)) / float(np.std(r.y))
+        e = (np.asarray(r.y, float) - runs[r.name][1]) / float(np.std(r.y))
         rss += float(np.sum(e**2)) if np.all(np.isfinite(e)) else math.inf
         n += e.size
-    return n * math.log(rss / n) + len(res.free) * math.log(n) if math.isfinite(rss) else math.inf
+    return n * math.log(rss / n) + n_free * math.log(n) if math.isfinite(rss) else math.inf
 
 
 def stacked(records, model, res) -> tuple[dict, np.ndarray, np.ndarray | None, list[np.ndarray]]:
@@ -225,27 +235,16 @@ def propose_campaign(records, model, res, tries: int = D.TRIES) -> tuple[list[Di
     weight = sig.pop("_weight")[:, None]
     terms, Theta = D.library_matrix(sig)
     Theta = Theta * weight
-    Tp, rp, absorbed = D.without_base(J, Theta, r)
-    keep = [j for j in range(len(terms)) if j not in absorbed and np.ptp(Theta[:, j]) > 0]
-    terms, Tp = [terms[j] for j in keep], Tp[:, keep]
-    stab = D.stability(Tp, rp, blocks, terms)
-    stable = sorted((f for f, p in stab["family"].items() if p >= D.INCLUSION), key=lambda f: -stab["family"][f])
+    varying = [j for j in range(len(terms)) if np.ptp(Theta[:, j]) > 0]  # e.g. the command of records without one
+    sel = D.select_stable([terms[j] for j in varying], Theta[:, varying], r, J, blocks)
     selection = {
-        "library": len(terms),
+        "library": len(sel.terms),
         "records": len(records),
         "blocks": len(blocks),
-        "inclusion": {
-            term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3)
-            for f, p in sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]
-        },
+        "inclusion": sel.inclusion(),
         "base_refit": "none" if J is None else f"projected out ({J.shape[1]} free parameters)",
     }
-    supports = [[stab["best"][f] for f in stable[:n]] for n in range(len(stable), 0, -1)][: max(tries, 1)]
-    out = []
-    for sup in supports:
-        coefs, *_ = np.linalg.lstsq(Tp[:, sup], rp, rcond=None)
-        out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), 1))
-    return out, selection
+    return sel.effects(sel.supports()[: max(tries, 1)], 1), selection
 
 
 def _nothing(selection, before, held, t0, message: str = "") -> CampaignDiscovery:
@@ -261,9 +260,8 @@ def _nothing(selection, before, held, t0, message: str = "") -> CampaignDiscover
     )  # fmt: skip
 
 
-def _judged(eff, ext, res, dbic, before, records, held, selection, t0) -> CampaignDiscovery:
+def _judged(eff, ext, res, dbic, before, after, held, selection, t0) -> CampaignDiscovery:
     names = {r.name for r in held}
-    after = {r.name: _nrmse(res, r, ext) for r in records}
     hb = {k: v for k, v in before.items() if k in names}
     ha = {k: v for k, v in after.items() if k in names}
     fitted = DiscoveredEffect(eff.terms, tuple(float(res.params[p.name]) for p in eff.parameters()), eff.index)

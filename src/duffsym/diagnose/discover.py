@@ -334,6 +334,50 @@ def without_base(J: np.ndarray | None, Theta: np.ndarray, r: np.ndarray) -> tupl
     return Tp, rp, absorbed
 
 
+@dataclass(frozen=True)
+class StableTerms:
+    """The stability selection of a residual on a term library, after the base's linearised refit is projected out
+    (:func:`select_stable`): the terms left, the projected library and residual, the selection's counts and the
+    stable families, most stable first."""
+
+    terms: list
+    Theta: np.ndarray
+    r: np.ndarray
+    stab: dict
+    stable: list
+    absorbed: int
+
+    def inclusion(self, top: int = 8) -> dict:
+        """The ``top`` families' inclusion probabilities, each named by its most selected member in words."""
+        ranked = sorted(self.stab["family"].items(), key=lambda fp: -fp[1])[:top]
+        return {term_words(self.terms[self.stab["best"][f]]).lstrip("+"): round(p, 3) for f, p in ranked}
+
+    def supports(self) -> list[list[int]]:
+        """The stable set, then it without its least stable family, and so on (term indices)."""
+        return [[self.stab["best"][f] for f in self.stable[:n]] for n in range(len(self.stable), 0, -1)]
+
+    def effects(self, supports, index: int) -> list[DiscoveredEffect]:
+        """Each support as a :class:`DiscoveredEffect`, its coefficients the terms' least-squares share of the
+        projected residual (their share beside a refit base)."""
+        out = []
+        for sup in supports:
+            coefs, *_ = np.linalg.lstsq(self.Theta[:, sup], self.r, rcond=None)
+            out.append(DiscoveredEffect(tuple(self.terms[i] for i in sup), tuple(float(c) for c in coefs), index))
+        return out
+
+
+def select_stable(terms: list, Theta: np.ndarray, r: np.ndarray, J: np.ndarray | None, parts) -> StableTerms:
+    """Project the base's sensitivities ``J`` out (:func:`without_base`), leave out the terms the base absorbs, and
+    run the stability selection over the row blocks ``parts`` (:func:`stability`); families included in at least
+    ``INCLUSION`` of the resamples are stable."""
+    Tp, rp, absorbed = without_base(J, Theta, r)
+    keep = [j for j in range(len(terms)) if j not in absorbed]
+    terms, Tp = [terms[j] for j in keep], Tp[:, keep]
+    stab = stability(Tp, rp, parts, terms)
+    stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
+    return StableTerms(terms, Tp, rp, stab, stable, len(absorbed))
+
+
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
     """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
     resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
@@ -347,39 +391,28 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     terms, Theta = [terms[j] for j in ok], Theta[:, ok]
     r = np.asarray(record.y, float) - np.asarray(dg.y_base, float)
     J = base_sensitivities(model, dg.base_fit, record, k)
-    Theta_k, r_k, absorbed = without_base(J, Theta[:k], r[:k])
-    keep = [j for j in range(len(terms)) if j not in absorbed]
-    terms, Theta_k = [terms[j] for j in keep], Theta_k[:, keep]
-    stab = stability(Theta_k, r_k, blocks(record, k), terms)
-    stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
+    sel = select_stable(terms, Theta[:k], r[:k], J, blocks(record, k))
     selection = {
-        "library": len(terms),
+        "library": len(sel.terms),
         "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
         f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
         "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
-        "inclusion": {
-            term_words(terms[stab["best"][f]]).lstrip("+"): round(p, 3)
-            for f, p in sorted(stab["family"].items(), key=lambda fp: -fp[1])[:8]
-        },
-        "n_terms": len(stable),
+        "inclusion": sel.inclusion(),
+        "n_terms": len(sel.stable),
         "duplicates_left_out": len(same),
         "base_refit": "none (the base free run's sensitivities could not be computed)"
         if J is None
         else f"projected out: the base model's {J.shape[1]} free parameters (linearised refit); "
-        f"{len(absorbed)} terms it absorbs left out",
+        f"{sel.absorbed} terms it absorbs left out",
     }
-    if not stable:
+    if not sel.stable:
         return [], selection
     index = 1 + sum(e.startswith("discovered:") for e in model.effects)
-    supports = [[stab["best"][f] for f in stable[:n]] for n in range(len(stable), 0, -1)]
-    simpler = [_simpler(terms, i) for i in supports[0]]
+    supports = sel.supports()
+    simpler = [_simpler(sel.terms, i) for i in supports[0]]
     if simpler != supports[0] and len(set(simpler)) == len(simpler):
         supports.insert(1, simpler)
-    out = []
-    for sup in supports[: max(tries, 1)]:
-        coefs, *_ = np.linalg.lstsq(Theta_k[:, sup], r_k, rcond=None)  # the terms' share beside a refit base
-        out.append(DiscoveredEffect(tuple(terms[i] for i in sup), tuple(float(c) for c in coefs), index))
-    return out, selection
+    return sel.effects(supports[: max(tries, 1)], index), selection
 
 
 def discover_term(
