@@ -17,7 +17,7 @@ from duffsym.cli import main
 from duffsym.data import synthetic_record
 from duffsym.data.synthetic import apply_backlash
 from duffsym.derive import derivation_report
-from duffsym.effects import CATALOGUE, Backlash, apply_effects, effect_chain
+from duffsym.effects import CATALOGUE, EXTENSIONS, Backlash, apply_effects, effect_chain
 from duffsym.effects import base as effects_base
 from duffsym.errors import ModelError
 from duffsym.excitation import Multisine
@@ -350,6 +350,30 @@ def test_cli_effects_lists_every_effect_with_its_parameters(capsys):
             assert {"unit", "lower", "upper", "default", "description"} <= set(p)
         assert r["signature"] and r["physics"] and r["form"] and r["initial_guess"]
     assert rows["input-delay"]["new_states"] == 1 and rows["force-offset"]["new_states"] == 0
+    assert [r["effect"] for r in data["extensions"]] == list(EXTENSIONS)
+    assert not set(EXTENSIONS) & set(CATALOGUE)
     assert main(["effects", "-v"]) == 0
     out = capsys.readouterr().out
     assert "param:     bl_h [input unit]" in out and "signature:" in out
+    assert out.index("outside the catalogue") < out.index("param:     fy_F_u [output unit per command unit]")
+
+
+def test_fit_adds_an_effect_outside_the_catalogue_by_name_and_validate_rebuilds_it(tmp_path, capsys):
+    from pathlib import Path
+
+    data = Path(__file__).resolve().parents[1] / "data"
+    out = tmp_path / "fit.json"
+    runs = [str(data / f"campaign_{i}A.csv") for i in ("0", "0.5", "1")]
+    assert (
+        main(["fit", *runs, "--model", "mr-damper-current", "--add", "field-yield", "--out", str(out), "--quiet"]) == 0
+    )
+    saved = json.loads(out.read_text())
+    assert saved["effects"] == ["field-yield"] and {"fy_F", "fy_F_u", "fy_eps"} <= set(saved["params"])
+    # the shipped campaign has no yield beyond the element's own: the fit switches it off and says so
+    assert [f["flag"] for f in saved["flags"]] == ["inactive-effect"]
+    capsys.readouterr()
+    assert main(["validate", str(out), str(data / "campaign_0.75A.csv"), "--json"]) == 0
+    held = json.loads(capsys.readouterr().out)
+    assert held["effects"] == ["field-yield"] and held["nrmse"] < 0.02  # measured 0.0104 on the unseen current
+    assert main(["fit", runs[0], "--add", "yield", "--out", str(tmp_path / "x.json")]) == 2
+    assert "outside the catalogue, {directional-damping, field-yield" in capsys.readouterr().err

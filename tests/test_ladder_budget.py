@@ -86,6 +86,35 @@ def test_seal_friction_is_not_flagged_where_it_acts_and_is_where_it_only_absorbs
     )
 
 
+def test_a_fit_flags_an_added_effect_that_does_nothing_and_not_one_that_acts():
+    from duffsym.identify import Problem, fit
+
+    model = _seal_model()
+    rec, _ = record("clean", 2)  # no friction in the generator's device
+    flags = {f["flag"]: f for f in fit(Problem(model, [rec])).flags}
+    assert flags["inactive-effect"]["effects"] == ["seal-friction"]  # measured: seal_F = 0, on its bound
+    assert "seal-friction: its force is negligible" in flags["inactive-effect"]["message"]
+    rec, g = record("seal-friction", 0)
+    res = fit(Problem(model, [rec]))
+    assert "inactive-effect" not in {f["flag"] for f in res.flags}
+    assert res.params["seal_F"] == pytest.approx(g.truth["physics"]["seal_friction"], rel=0.25)  # measured 0.0718
+
+
+def test_field_yield_activity_names_a_negligible_a_flat_and_an_insignificant_yield():
+    from duffsym.effects import EXTENSIONS
+
+    fy = EXTENSIONS["field-yield"]
+    t = np.arange(400) * 0.01
+    rec = Record(t=t, d=np.sin(2 * np.pi * t), y=10 * np.cos(2 * np.pi * t), current=0.5)  # max|d'| = 2 pi
+    acting = dict(fy_F=1.0, fy_F_u=2.0, fy_eps=0.1)  # a yield of 2 against a force spread of 7.07
+    assert fy.activity(rec, acting, {"fy_F": 0.1, "fy_F_u": 0.1}) == ""
+    assert "negligible" in fy.activity(rec, dict(acting, fy_F=0.0, fy_F_u=0.01), {})
+    assert "flat over the record" in fy.activity(rec, dict(acting, fy_eps=4.0), {})
+    said = fy.activity(rec, acting, {"fy_F": 1.0, "fy_F_u": 2.0})
+    assert "fy_F = 1 ± 1" in said and "fy_F_u = 2 ± 2" in said
+    assert fy.activity(rec, acting, {"fy_F": 1.0, "fy_F_u": 0.1}) == ""  # one magnitude is significant
+
+
 # ------------------------------------------------------------------------------------------- budget
 def test_a_tiny_budget_stops_the_ladder_with_its_finished_steps_written(tmp_path):
     from duffsym.cli import main

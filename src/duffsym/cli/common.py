@@ -188,12 +188,15 @@ def fit_model(args):
     model = get_model(args.model, args.n)
     effects = [e.strip() for e in (args.add or "").split(",") if e.strip()]
     if effects:
-        from duffsym.effects import CATALOGUE, apply_effects
+        from duffsym.effects import ADDABLE, CATALOGUE, EXTENSIONS, apply_effects
 
-        unknown = [e for e in effects if e not in CATALOGUE]
+        unknown = [e for e in effects if e not in ADDABLE]
         if unknown:
-            raise CLIError(f"unknown effect(s) {unknown}; choose from {{{', '.join(sorted(CATALOGUE))}}}")
-        model = apply_effects(model, [CATALOGUE[e] for e in effects])
+            raise CLIError(
+                f"unknown effect(s) {unknown}; choose from {{{', '.join(sorted(CATALOGUE))}}} or, outside the "
+                f"catalogue, {{{', '.join(sorted(EXTENSIONS))}}} (duffsym effects lists them)"
+            )
+        model = apply_effects(model, [ADDABLE[e] for e in effects])
     return model
 
 

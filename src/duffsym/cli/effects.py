@@ -1,20 +1,29 @@
-"""``duffsym effects``: list the effects catalogue (physics, parameters with units and bounds, residual signature)."""
+"""``duffsym effects``: list the effects catalogue and the extensions outside it (physics, parameters with units and
+bounds, residual signature)."""
 
 from __future__ import annotations
 
 
 def cmd_effects(args) -> int:
     from duffsym.cli.common import emit_json
-    from duffsym.effects import CATALOGUE
+    from duffsym.effects import CATALOGUE, EXTENSIONS
 
     rows = [e.describe() for e in CATALOGUE.values()]
+    extra = [e.describe() for e in EXTENSIONS.values()]
     if args.json:
-        emit_json({"effects": rows})
+        emit_json({"effects": rows, "extensions": extra})
         return 0
-    width = max(len(r["effect"]) for r in rows)
+    width = max(len(r["effect"]) for r in rows + extra)
+    _print_rows(rows, width, args.verbose)
+    print("\noutside the catalogue (fit --add takes them; the diagnosis and the ladder never try them):")
+    _print_rows(extra, width, args.verbose)
+    return 0
+
+
+def _print_rows(rows: list[dict], width: int, verbose: bool) -> None:
     for r in rows:
         print(f"{r['effect']:<{width}}  {r['physics']}")
-        if args.verbose:
+        if verbose:
             pad = " " * (width + 2)
             print(f"{pad}form:      {r['form']}")
             for p in r["parameters"]:
@@ -24,7 +33,6 @@ def cmd_effects(args) -> int:
                 )
             print(f"{pad}signature: {r['signature']}")
             print(f"{pad}guess:     {r['initial_guess']}")
-    return 0
 
 
 def register(sub) -> None:

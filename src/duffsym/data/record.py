@@ -596,17 +596,18 @@ class Record:
             return np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(t))])
         raise DataError(f"unknown drift signal {name!r}; choose from {DRIFT_SIGNALS}")
 
-    def command_signal(self, model_name: str = "") -> np.ndarray:
-        """The command history ``(n_times,)``: :attr:`command`, else the constant current, else the voltage.
+    def command_signal(self, model_name: str = "", *, missing: float | None = None) -> np.ndarray:
+        """The command history ``(n_times,)``: :attr:`command`, else the constant current, else the voltage, else
+        ``missing`` held over the record when it is given (a term that vanishes without a command).
 
         Raises
         ------
         DataError
-            If the record has no command (no ``current``/``voltage`` column or value).
+            If the record has no command (no ``current``/``voltage`` column or value) and ``missing`` is None.
         """
         if self.command is not None:
             return np.asarray(self.command)
-        for v in (self.current, self.voltage):
+        for v in (self.current, self.voltage, missing):
             if v is not None:
                 return np.full(self.n_times, float(v))
         who = f"model {model_name}" if model_name else "a command-driven model"

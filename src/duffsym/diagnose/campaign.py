@@ -206,7 +206,7 @@ def stacked(records, model, res) -> tuple[dict, np.ndarray, np.ndarray | None, l
         x0 = res.x0[i]
         tr = res.simulate(rec, x0=x0)
         c = D.signals(rec, model, np.asarray(tr.x, float))
-        c["command"] = _command(rec)
+        c["command"] = np.asarray(rec.command_signal(missing=0.0), float)
         wi = 1.0 / float(np.std(rec.y))
         J = D.base_sensitivities(model, res, rec, len(rec.y), x0=x0)
         Js.append(None if J is None else J * wi)
@@ -218,13 +218,6 @@ def stacked(records, model, res) -> tuple[dict, np.ndarray, np.ndarray | None, l
     sig = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
     J_all = None if any(J is None for J in Js) else np.vstack([J for J in Js if J is not None])
     return {**sig, "_weight": np.concatenate(w)}, np.concatenate(rs), J_all, blocks
-
-
-def _command(rec) -> np.ndarray:
-    try:
-        return np.asarray(rec.command_signal(), float)
-    except DataError:
-        return np.zeros(len(rec.y))
 
 
 def propose_campaign(records, model, res, tries: int = D.TRIES) -> tuple[list[DiscoveredEffect], dict]:

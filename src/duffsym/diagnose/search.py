@@ -301,28 +301,25 @@ def unmasked(model, mask):
 def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = None) -> dict:
     """The bounds of ``model``'s effect parameters scaled to ``record`` (:meth:`Effect.record_bounds`, e.g.
     a friction's smoothing velocity within a range of the record's velocities), for the free parameters."""
-    from duffsym.effects import CATALOGUE
+    from duffsym.identify.problem import effect_record_bounds
 
-    out = {}
-    for name in model.effects:
-        if name in CATALOGUE:
-            out.update(CATALOGUE[name].record_bounds(record))
-    return {k: v for k, v in out.items() if k in model.param_names and k not in (fixed or {})}
+    return {k: v for k, v in effect_record_bounds(model, [record]).items() if k not in (fixed or {})}
 
 
 def inactive_effects(
     model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None, effects=None
 ) -> dict:
     """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
-    standard errors), for the catalogued effects of ``model`` (or those in ``effects``) that are flagged; {}
-    when every effect acts."""
-    from duffsym.effects import CATALOGUE
+    standard errors), for the effects of ``model`` (or those in ``effects``) that are flagged: the objects the model
+    holds, else the catalogue's and the extensions' of those names; {} when every effect acts."""
+    from duffsym.effects import ADDABLE
 
+    known = {**ADDABLE, **{e.name: e for e in (model.effect_objects or ())}}
     out = {}
     for name in model.effects if effects is None else effects:
-        if name in CATALOGUE:
+        if name in known:
             try:
-                why = CATALOGUE[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
+                why = known[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
             except (KeyError, ValueError, ArithmeticError):
                 why = ""
             if why:

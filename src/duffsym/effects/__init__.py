@@ -27,11 +27,13 @@ cubic-damping        x'' += -cdamp_c x'^3 (polynomial.py)                       
 input-curvature      d -> d + curv_k d'' (polynomial.py; reconstruction, even part)    curv_k
 ===================  ================================================================  ================
 
-Outside the catalogue: ``directional-damping`` (:class:`duffsym.effects.mechanical.DirectionalDamping`,
+Outside the catalogue (:data:`EXTENSIONS`: ``fit --add`` and ``ladder --add`` take them, the diagnosis and the
+ladder never try them on their own): ``directional-damping`` (:class:`duffsym.effects.mechanical.DirectionalDamping`,
 x'' += -dir_c d' |x'|, for path-time elements inside a structure; ``duffsym benchmark bouc-wen`` applies it to
-its element; the ladder does not try it), and ``discovered: ...`` terms
-(:class:`duffsym.effects.discovered.DiscoveredEffect`,
-found by :func:`duffsym.diagnose.discover.discover_term`; ``duffsym ladder --discover``).
+its element), the rate physics of a device campaign (:mod:`duffsym.effects.rate`: ``maxwell-branch``,
+``field-yield``), ``pressure-force`` (:class:`duffsym.effects.output.PressureForce`, y += pf_A p, a pneumatic
+actuator's chamber pressure), and ``discovered: ...`` terms (:class:`duffsym.effects.discovered.DiscoveredEffect`,
+found by :func:`duffsym.diagnose.discover.discover_term`; on by default in ``duffsym ladder``).
 
 A model holds the effect objects applied to it (:attr:`~duffsym.model.SymbolicModel.effect_objects`, its
 :attr:`~duffsym.model.SymbolicModel.base_model`); :mod:`duffsym.effects.spec` writes a model as its base and
@@ -46,7 +48,7 @@ from duffsym.effects.base import (
 )
 from duffsym.effects.gap import ContactGap
 from duffsym.effects.inputs import Backlash, InputDelay, InputShift
-from duffsym.effects.mechanical import CoulombFriction
+from duffsym.effects.mechanical import CoulombFriction, DirectionalDamping
 from duffsym.effects.output import (
     Asymmetry,
     FieldAsymmetry,
@@ -55,9 +57,11 @@ from duffsym.effects.output import (
     OutputLag,
     ParallelDamping,
     PistonInertia,
+    PressureForce,
     SealFriction,
 )
 from duffsym.effects.polynomial import CubicDamping, InputCurvature, QuadraticStiffness
+from duffsym.effects.rate import RATE_EFFECTS
 
 #: Effects by name.
 CATALOGUE: dict[str, Effect] = {
@@ -82,8 +86,20 @@ CATALOGUE: dict[str, Effect] = {
     )
 }
 
+#: Effects outside the catalogue that a user may add by name (``fit --add``): the diagnosis and the ladder never
+#: try them on their own (they need a command or a pressure column, or a path-time element).
+EXTENSIONS: dict[str, Effect] = {
+    **RATE_EFFECTS,
+    **{e.name: e for e in (PressureForce(), DirectionalDamping())},
+}
+
+#: Every effect a user may add by name: the catalogue, then the extensions.
+ADDABLE: dict[str, Effect] = {**CATALOGUE, **EXTENSIONS}
+
 __all__ = [
+    "ADDABLE",
     "CATALOGUE",
+    "EXTENSIONS",
     "Asymmetry",
     "Backlash",
     "ContactGap",

@@ -28,9 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from duffsym.effects.base import Effect, lstsq_coeffs, residual
-from duffsym.effects.output import _piston, piston_path
-from duffsym.errors import DataError
+from duffsym.effects.base import Effect, _not_significant, lstsq_coeffs, residual
+from duffsym.effects.output import NEGLIGIBLE, _piston, piston_path
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
@@ -39,13 +38,6 @@ def _field(model: SymbolicModel):
     from duffsym.model.library import FIELD
 
     return FIELD if FIELD in model.states else None
-
-
-def _command_level(record) -> np.ndarray | float:
-    try:
-        return np.asarray(record.command_signal(), dtype=float)
-    except DataError:  # no command: the field term is absent
-        return 0.0
 
 
 def maxwell_force(v: np.ndarray, k: np.ndarray | float, tau: float, dt: float) -> np.ndarray:
@@ -139,7 +131,8 @@ class MaxwellBranch(Effect):
         }
 
     def initial_states(self, X_base, record, params) -> np.ndarray:
-        k = params.get(f"{self.prefix}k", 0.0) + params.get(f"{self.prefix}k_u", 0.0) * _command_level(record)
+        u = record.command_signal(missing=0.0)  # no command: the field term is absent
+        k = params.get(f"{self.prefix}k", 0.0) + params.get(f"{self.prefix}k_u", 0.0) * u
         z = maxwell_force(np.asarray(record.velocity(), dtype=float), k, params[f"{self.prefix}tau"], record.dt)
         return z[:, None]
 
@@ -214,7 +207,7 @@ class FieldYield(Effect):
         v = np.asarray(record.velocity(), dtype=float)
         eps = self._clip(f"{self.prefix}eps", 0.02 * (float(np.max(np.abs(v))) or 1.0))
         s = np.tanh(v / eps)
-        _, F, F_u = lstsq_coeffs(r, np.ones_like(v), s, _command_level(record) * s)
+        _, F, F_u = lstsq_coeffs(r, np.ones_like(v), s, record.command_signal(missing=0.0) * s)
         return {
             f"{self.prefix}F": self._clip(f"{self.prefix}F", F),
             f"{self.prefix}F_u": self._clip(f"{self.prefix}F_u", F_u),
@@ -222,9 +215,29 @@ class FieldYield(Effect):
         }
 
     def base_output(self, y, record, params):
+        return y - self._force(record, params)
+
+    def _force(self, record, params) -> np.ndarray:
         v = np.asarray(record.velocity(), dtype=float)
-        mag = params[f"{self.prefix}F"] + params.get(f"{self.prefix}F_u", 0.0) * _command_level(record)
-        return y - mag * np.tanh(v / params[f"{self.prefix}eps"])
+        mag = params[f"{self.prefix}F"] + params.get(f"{self.prefix}F_u", 0.0) * record.command_signal(missing=0.0)
+        return mag * np.tanh(v / params[f"{self.prefix}eps"])
+
+    def activity(self, record, params, stderr=None) -> str:
+        """Inactive when its force is negligible against the record's, when its switch is flat over the record (a
+        viscous term), or when neither of its magnitudes is distinguishable from zero."""
+        size = float(np.sqrt(np.mean(self._force(record, params) ** 2)))
+        scale = float(np.std(np.asarray(record.y, dtype=float))) or 1.0
+        if size < NEGLIGIBLE * scale:
+            return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
+        eps, vmax = float(params[f"{self.prefix}eps"]), float(np.max(np.abs(record.velocity()))) or 1.0
+        if eps >= 0.5 * vmax:
+            return (
+                f"its switch is flat over the record (fy_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
+                "the tanh is nearly linear there, a viscous term rather than a yield"
+            )
+        names = [n for n in (f"{self.prefix}F", f"{self.prefix}F_u") if n in params]
+        whys = [_not_significant(n, params, stderr or {}) for n in names]
+        return " and ".join(whys) if all(whys) else ""
 
 
 #: The rate candidates by name (outside the ladder's catalogue; see the module docstring).

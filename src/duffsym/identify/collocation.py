@@ -625,7 +625,7 @@ def _result(
     }
     params = problem.full_params(slot_values) if not problem.group_order else _grouped_params(problem, slot_values)
     t_flags = time.perf_counter()
-    flag_list = fit_flags(problem, nlp, best.w, fitted.rec_params, r2) if fitted.ok and flags else ()
+    flag_list = fit_flags(problem, nlp, best.w, fitted.rec_params, r2, stderr) if fitted.ok and flags else ()
     t_flags = time.perf_counter() - t_flags  # the first fit of a model derives its stability conditions
     casadi_version = casadi.__version__  # type: ignore[attr-defined]  # CasADi's stubs leave out __version__
     return IdentificationResult(

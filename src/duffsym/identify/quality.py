@@ -7,7 +7,8 @@
 - :func:`fit_flags`: doubtful but usable results, listed in ``IdentificationResult.flags`` (FIT.json
   ``"flags"``) and noted once on stderr by ``duffsym fit``: free parameters on a bound, a parameter
   set outside the model's derived stability certificate (:func:`duffsym.derive.stability_certificate`,
-  e.g. k1 + k2 < 0: a saddle at the origin), and a model that explains little (R² < 0.5).
+  e.g. k1 + k2 < 0: a saddle at the origin), an added effect that does nothing on the records
+  (:meth:`~duffsym.effects.base.Effect.activity`), and a model that explains little (R² < 0.5).
 
 Each flag is a dict ``{"flag": name, "message": one line, ...details}``.
 """
@@ -54,12 +55,17 @@ def usability(problem, rec_params: Sequence[dict], r2: float, status: str, messa
     return status, True, message
 
 
-def fit_flags(problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float) -> list[dict]:
+def fit_flags(
+    problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float, stderr: dict | None = None
+) -> list[dict]:
     """The doubtful features of a fit (see the module docstring), in a fixed order."""
     flags = []
     on_bound = _on_bound(problem, nlp, w)
     if on_bound:
         flags.append(on_bound)
+    inactive = _inactive_effects(problem, rec_params, stderr or {})
+    if inactive:
+        flags.append(inactive)
     flags += _outside_certificate(problem.model, rec_params, _command_levels(problem))
     if math.isfinite(r2) and 0 <= r2 < R2_LITTLE:
         flags.append(
@@ -72,6 +78,26 @@ def fit_flags(problem, nlp, w: np.ndarray, rec_params: Sequence[dict], r2: float
             }
         )
     return flags
+
+
+def _inactive_effects(problem, rec_params: Sequence[dict], stderr: dict) -> dict | None:
+    """The added effects that do nothing on any of the records at the fitted parameters
+    (:meth:`~duffsym.effects.base.Effect.activity`: a negligible size, a switch run flat, a size within two
+    standard errors of zero); None when every effect acts or the model holds no effect objects."""
+    whys: dict[str, str] = {}
+    for effect in problem.model.effect_objects or ():
+        said = [effect.activity(rec, p, stderr) for rec, p in zip(problem.records, rec_params, strict=True)]
+        if said and all(said):
+            whys[effect.name] = said[0]
+    if not whys:
+        return None
+    text = "; ".join(f"{name}: {why}" for name, why in whys.items())
+    return {
+        "flag": "inactive-effect",
+        "effects": list(whys),
+        "message": f"added effect(s) that do nothing on the data: {text}; the fit switched them off, so they "
+        "explain nothing here: drop them, or see whether another parameter took their part (on a bound?)",
+    }
 
 
 def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
