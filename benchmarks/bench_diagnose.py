@@ -7,7 +7,8 @@ velocity, accumulator on the piston displacement, lag on the load cell, ...; Tab
 by +-10 %, sine / multisine / random inputs, 1 % noise; optionally pre-filtered). Each record is
 diagnosed as a user would: ``diagnose(record)`` with the defaults (``A_f = max|y|``, the whole
 catalogue, 30 % held out; the SINDy cross-check off, it never decides). Two-effect records
-(``--pairs``) go through ``ladder``: does it find both, and does it end within 2x the noise?
+(``--pairs``, and a triple: offset, inertia and seal friction) go through ``ladder``: does it find every
+one, and does it end within 2x the noise?
 
     python benchmarks/bench_diagnose.py --seeds 3 --workers 2                 # independent, single effects
     python benchmarks/bench_diagnose.py --seeds 3 --pairs --workers 2         # two-effect ladders
@@ -66,7 +67,8 @@ RECOVER = {"force-offset": ("off_y0", "offset"), "gas-accumulator": ("gas_k", "g
            "inertia": ("inertia_m", "inertia"), "seal-friction": ("seal_F", "seal_friction"),
            "asymmetry": ("asym_a", "asymmetry"), "output-lag": ("lag_tau", "lag"),
            "input-delay": ("delay_tau", "delay"), "backlash": ("bl_h", "backlash")}
-PAIRS = (("seal-friction", "backlash"), ("force-offset", "output-lag"), ("gas-accumulator", "asymmetry"))
+PAIRS = (("seal-friction", "backlash"), ("force-offset", "output-lag"), ("gas-accumulator", "asymmetry"),
+         ("force-offset", "inertia", "seal-friction"))  # and a triple: three catalogued effects at once
 PREFILTERED = ("clean-movavg", "seal-friction-lowpass")
 
 

@@ -28,10 +28,9 @@ sys.path.insert(0, str(HERE.parent / "studies"))
 
 
 def _effect(name):
-    from duffsym.effects import CATALOGUE
-    from duffsym.effects.rate import RATE_EFFECTS
+    from duffsym.effects import ADDABLE
 
-    return {**CATALOGUE, **RATE_EFFECTS}[name]
+    return ADDABLE[name]
 
 
 def _scores(res, recs, model):

@@ -210,14 +210,12 @@ def lsoda_free_run(model, p, rec) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------------- compute
 def compute_campaign(cfg: Config, arrays: dict) -> dict:
-    from duffsym.model import get_model
-
     recs = campaign_records(cfg)
     names = [r.name for r in recs]
     out: dict = {"records": names, "forms": {}}
     best, best_bic = None, math.inf
     for form in cfg.forms:
-        model = get_model(form)
+        model = model_of(form)
         t0 = time.perf_counter()
         res = campaign_fit(model, recs, cfg)
         wall = time.perf_counter() - t0
@@ -328,16 +326,17 @@ def earthquake(res, model, arrays) -> dict:
     return out
 
 
-def dyke_model(spec: str):
-    """The model of a ``Config.dyke_forms`` entry: ``"NAME [n=N] [+EFFECT,...]"``."""
-    from duffsym.effects import CATALOGUE, apply_effects
+def model_of(spec: str):
+    """The model of a ``Config.forms`` or ``Config.dyke_forms`` entry: ``"NAME [n=N] [+EFFECT,...]"`` (effects of
+    the catalogue or outside it, e.g. ``field-yield``)."""
+    from duffsym.effects import ADDABLE, apply_effects
     from duffsym.model import get_model
 
     words = spec.split()
     n = next((int(w[2:]) for w in words[1:] if w.startswith("n=")), None)
     effects = next((w[1:].split(",") for w in words[1:] if w.startswith("+")), [])
     model = get_model(words[0], n)
-    return apply_effects(model, [CATALOGUE[e] for e in effects]) if effects else model
+    return apply_effects(model, [ADDABLE[e] for e in effects]) if effects else model
 
 
 def compute_dyke(cfg: Config, arrays: dict) -> dict:
@@ -356,7 +355,7 @@ def compute_dyke(cfg: Config, arrays: dict) -> dict:
     arrays["dyke_t"], arrays["dyke_y"], arrays["dyke_cmd"] = (np.asarray(val.t), np.asarray(val.y),
                                                               np.asarray(val.command))
     for k, form in enumerate(cfg.dyke_forms):
-        model = dyke_model(form)
+        model = model_of(form)
         t0 = time.perf_counter()
         res = fit(Problem(model, train))
         wall = time.perf_counter() - t0
