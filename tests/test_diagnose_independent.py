@@ -150,5 +150,6 @@ def test_noise_estimate_is_tightened_by_the_fitted_residual_where_the_force_has_
     dg = diagnose(rec, candidates=["force-offset"], sindy=False)
     assert dg.noise < own and dg.noise == pytest.approx(g.noise_std, rel=0.3)  # measured 1.27x
     assert "tightened by the third differences of" in dg.noise_method
+    assert f"from {dg.noise_method}" in dg.verdict  # whole: the verdict cuts a method at its first colon
     given = diagnose(rec, candidates=["force-offset"], sindy=False, noise=own)
     assert given.noise == own and given.noise_method == "given"

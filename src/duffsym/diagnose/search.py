@@ -783,8 +783,8 @@ def _tightened(s: _Setting, ev: BaseEvidence, runs: Sequence[CandidateRun]) -> t
     if not name:
         return s.est.sigma, s.est.method
     return best, (
-        f"{s.est.method}, tightened by the third differences of {name}'s residual ({best:.3g}; the force's own: "
-        f"{s.est.sigma:.3g}, which also sees the signal's sharp corners)"
+        f"{s.est.method}, tightened by the third differences of {name}'s residual (the force's own give "
+        f"{s.est.sigma:.3g}, as they also count the signal's sharp corners as noise)"
     )
 
 
