@@ -131,3 +131,17 @@ def test_split_holds_out_whole_cycles_at_the_end():
     short = Record(t=t, d=np.sin(2 * np.pi * 40 * t), y=np.cos(2 * np.pi * 40 * t))  # 4 cycles, 50 samples
     with pytest.raises(DataError, match="too short"):
         split_record(short, 0.3)
+
+
+def test_a_white_residual_between_1_25_and_1_5_times_the_noise_is_at_noise_level_yet_worth_a_search():
+    sigma = 0.01
+    rng = np.random.default_rng(5)
+    for scale, at_noise, search in ((1.0, True, False), (1.4, True, True), (1.7, False, True)):
+        rec, clean = damper_record(lambda d, v: 2.0 * v)
+        y_hat = clean - scale * sigma * rng.standard_normal(T.size)  # a white residual of RMS scale * sigma
+        res = analyse_residuals(rec, y_hat, noise=sigma)
+        assert res.excess == pytest.approx(scale, rel=0.05)
+        assert (res.at_noise_level, res.worth_a_search) == (at_noise, search)
+    rec, clean = damper_record(lambda d, v: 2.0 * v)  # small but structured: a residual that follows the velocity
+    res = analyse_residuals(rec, clean - 0.01 * np.cos(W * T) - sigma * rng.standard_normal(T.size), noise=sigma)
+    assert res.excess < 1.25 and not res.at_noise_level and res.worth_a_search

@@ -190,3 +190,16 @@ def test_no_stable_term_in_the_residual_of_a_clean_record():
     disc = discover_term(rec, mr_damper(), dg)
     assert not disc.found and "no term is stable over resampled cycles" in disc.message, disc.message
     assert all(p < 0.6 for p in disc.selection["inclusion"].values())
+
+
+def test_stribeck_friction_is_discovered_where_the_residual_is_called_white_at_the_noise():
+    """Seal friction already in the model: its residual is white and 1.25-1.5x the (tightened) noise, which the
+    verdict calls the noise level; the search still runs there and finds the static peak, exp(-(d'/v_s)²)·tanh
+    (measured: the ladder ended at 1.5x the true noise with seal friction alone, now at 1.1x)."""
+    rec, g = _record("stribeck-friction", 5)
+    model = apply_effects(mr_damper(), [CATALOGUE["seal-friction"]])
+    dg = diagnose(rec, model, candidates=[], sindy=False)
+    assert dg.residuals.at_noise_level and dg.residuals.worth_a_search, dg.residuals.excess
+    disc = discover_term(rec, model, dg)
+    assert disc.needed and "exp(-(d'/" in disc.effect, disc.summary()
+    assert disc.nrmse_after <= 1.3 * _floor(rec, g, dg)

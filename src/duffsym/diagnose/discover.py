@@ -146,7 +146,8 @@ class Discovery:
 
     ``supported``/``needed`` follow the rules of :func:`~duffsym.diagnose.diagnose` (ΔBIC below the
     threshold and a held-out fall of at least ``min_improvement``; needed when it also removes at
-    least ``min_explained`` of the excess held-out error and the base is not at the noise level).
+    least ``min_explained`` of the excess held-out error and the base's residual is worth a search:
+    :attr:`~duffsym.diagnose.residuals.ResidualAnalysis.worth_a_search`).
     """
 
     found: bool
@@ -717,5 +718,5 @@ def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
     explained = float(min((mse_held - mse_h) / excess, 1.0)) if excess > 0 else 0.0
     dbic = bic_ext - dg.bic_base
     supported = bool(dbic < rules["bic_threshold"] and improvement >= rules["min_improvement"])
-    needed = bool(supported and explained >= rules["min_explained"] and not dg.residuals.at_noise_level)
+    needed = bool(supported and explained >= rules["min_explained"] and dg.residuals.worth_a_search)
     return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)

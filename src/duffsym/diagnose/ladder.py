@@ -307,7 +307,7 @@ def _climb(run: _Run) -> None:
             chosen = next((c.effect for c in dg.candidates if c.success and c.supported), None)
         if chosen in (None, "contact-gap") and len(run.steps) <= o.max_steps and _element_switch(run, dg):
             continue
-        if chosen is None and o.discover and len(run.steps) <= o.max_steps and not dg.residuals.at_noise_level:
+        if chosen is None and o.discover and len(run.steps) <= o.max_steps and dg.residuals.worth_a_search:
             dg, found = _discovery_step(run, dg)
             if found:
                 continue
