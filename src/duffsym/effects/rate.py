@@ -18,7 +18,8 @@ are listed in :data:`RATE_EFFECTS` and tried by the campaign comparison of study
 - ``field-yield`` (a yield force that does not scale with the rate): ``y += (F + F_u u) tanh(d'/eps)``, a
   Bingham plastic's yield on the piston with the field's slope. Eq. 12's fluid force ``A_f x'`` reaches its
   plateau through the rate-dependent ``c3 x'^n`` term, so its plateau moves with the excitation's velocity;
-  a Bingham yield stays. An output term: passive (``F tanh(d'/eps) d' >= 0`` for ``F(u) >= 0``).
+  a Bingham yield stays. An output term: passive (``F tanh(d'/eps) d' >= 0`` for ``F(u) >= 0``), which the bounds
+  keep (F, F_u >= 0 for a command u >= 0: a fold of the UTFSM campaign fitted F = -9.4 N without them).
 """
 
 from __future__ import annotations
@@ -161,11 +162,11 @@ class FieldYield(Effect):
 
     def parameters(self) -> tuple[ParamSpec, ...]:
         return (
-            ParamSpec(
+            ParamSpec(  # >= 0 and rising with the field: a yield opposes the motion (a negative one would drive it)
                 f"{self.prefix}F",
                 "F_{y}",
                 0.0,
-                -1e9,
+                0.0,
                 1e9,
                 unit="output unit",
                 scale=0.1,
@@ -175,7 +176,7 @@ class FieldYield(Effect):
                 f"{self.prefix}F_u",
                 "F_{y}^{(u)}",
                 0.0,
-                -1e9,
+                0.0,
                 1e9,
                 unit="output unit per command unit",
                 scale=0.1,
