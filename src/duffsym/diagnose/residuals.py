@@ -205,9 +205,14 @@ class ResidualAnalysis:
 
     # ------------------------------------------------------------------
     @property
+    def white(self) -> bool:
+        """At most a fifth of the autocorrelation's lags lie outside the 95 % bounds of white noise."""
+        return self.acf_outside <= 0.2
+
+    @property
     def at_noise_level(self) -> bool:
         """The residual is as small as the measurement noise and white."""
-        return self.excess < 1.5 and self.acf_outside <= 0.2
+        return self.excess < 1.5 and self.white
 
     @property
     def worth_a_search(self) -> bool:
@@ -216,7 +221,7 @@ class ResidualAnalysis:
         verdict cautious: with the noise measured from the fitted residuals (0.99-1.27x the true noise on
         independent records) a residual 1.25-1.5x the noise is 1.6-2.3x its variance, where discovery found the
         Stribeck peak it missed before; discovery's own held-out evidence still decides."""
-        return not (self.excess < SEARCH_EXCESS and self.acf_outside <= 0.2)
+        return not (self.excess < SEARCH_EXCESS and self.white)
 
     def bin(self, region: str) -> Bin:
         for b in self.bins:
@@ -279,7 +284,7 @@ class ResidualAnalysis:
                     f"cycle by {100 * abs(float(np.median(ce))):.0f} % (median over {ce.size} cycles)",
                 )
             )
-        if self.acf_outside > 0.2:
+        if not self.white:
             out.append(
                 (
                     self.acf_outside,

@@ -51,6 +51,7 @@ from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, Candidate
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.diagnose.verdict import full_verdict, play_sentence, why_not
 from duffsym.errors import DataError, ModelError
+from duffsym.identify.quality import inactive_effects
 from duffsym.model.library import path_epsilon
 from duffsym.options import resolve
 from duffsym.simulate import simulate_record
@@ -304,27 +305,6 @@ def record_bounds(model, record: Record, fixed: Mapping[str, float] | None = Non
     from duffsym.identify.problem import effect_record_bounds
 
     return {k: v for k, v in effect_record_bounds(model, [record]).items() if k not in (fixed or {})}
-
-
-def inactive_effects(
-    model, record: Record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None, effects=None
-) -> dict:
-    """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
-    standard errors), for the effects of ``model`` (or those in ``effects``) that are flagged: the objects the model
-    holds, else the catalogue's and the extensions' of those names; {} when every effect acts."""
-    from duffsym.effects import ADDABLE
-
-    known = {**ADDABLE, **{e.name: e for e in (model.effect_objects or ())}}
-    out = {}
-    for name in model.effects if effects is None else effects:
-        if name in known:
-            try:
-                why = known[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
-            except (KeyError, ValueError, ArithmeticError):
-                why = ""
-            if why:
-                out[name] = why
-    return out
 
 
 def _fit(

@@ -643,17 +643,25 @@ class SealFriction(Effect):
     def activity(self, record, params, stderr=None) -> str:
         v = np.asarray(record.velocity(), dtype=float)
         F, eps = float(params[f"{self.prefix}F"]), float(params[f"{self.prefix}eps"])
-        vmax = float(np.max(np.abs(v))) or 1.0
-        size = float(np.sqrt(np.mean((F * np.tanh(v / eps)) ** 2)))
-        scale = float(np.std(np.asarray(record.y, dtype=float))) or 1.0
-        if size < NEGLIGIBLE * scale:
-            return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
-        if eps >= 0.5 * vmax:
-            return (
-                f"its switch is flat over the record (seal_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
-                "the tanh is nearly linear there, a viscous term rather than a friction"
-            )
-        return _not_significant(f"{self.prefix}F", params, stderr or {})
+        why = switch_inactivity(record, F * np.tanh(v / eps), f"{self.prefix}eps", eps, "a friction")
+        return why or _not_significant(f"{self.prefix}F", params, stderr or {})
+
+
+def switch_inactivity(record, force: np.ndarray, eps_name: str, eps: float, kind: str) -> str:
+    """Why a force that switches with the piston velocity (``tanh(d'/eps)``) does nothing on ``record``: its RMS
+    below :data:`NEGLIGIBLE` of the measured force's spread, or its switch flat over the record (``eps`` at least
+    half the largest piston speed: a viscous term rather than ``kind``); "" otherwise."""
+    size = float(np.sqrt(np.mean(np.asarray(force, dtype=float) ** 2)))
+    scale = float(np.std(np.asarray(record.y, dtype=float))) or 1.0
+    if size < NEGLIGIBLE * scale:
+        return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
+    vmax = float(np.max(np.abs(np.asarray(record.velocity(), dtype=float)))) or 1.0
+    if eps >= 0.5 * vmax:
+        return (
+            f"its switch is flat over the record ({eps_name} = {eps:.3g} against max|d'| = {vmax:.3g}): "
+            f"the tanh is nearly linear there, a viscous term rather than {kind}"
+        )
+    return ""
 
 
 @dataclass(frozen=True)

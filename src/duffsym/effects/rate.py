@@ -30,7 +30,7 @@ import numpy as np
 import sympy as sp
 
 from duffsym.effects.base import Effect, _not_significant, lstsq_coeffs, residual
-from duffsym.effects.output import NEGLIGIBLE, _piston, piston_path
+from duffsym.effects.output import _piston, piston_path, switch_inactivity
 from duffsym.model.core import SymbolicModel
 from duffsym.model.symbols import ParamSpec
 
@@ -226,16 +226,10 @@ class FieldYield(Effect):
     def activity(self, record, params, stderr=None) -> str:
         """Inactive when its force is negligible against the record's, when its switch is flat over the record (a
         viscous term), or when neither of its magnitudes is distinguishable from zero."""
-        size = float(np.sqrt(np.mean(self._force(record, params) ** 2)))
-        scale = float(np.std(np.asarray(record.y, dtype=float))) or 1.0
-        if size < NEGLIGIBLE * scale:
-            return f"its force is negligible (RMS {size:.3g}, {100 * size / scale:.2g} % of the force's spread)"
-        eps, vmax = float(params[f"{self.prefix}eps"]), float(np.max(np.abs(record.velocity()))) or 1.0
-        if eps >= 0.5 * vmax:
-            return (
-                f"its switch is flat over the record (fy_eps = {eps:.3g} against max|d'| = {vmax:.3g}): "
-                "the tanh is nearly linear there, a viscous term rather than a yield"
-            )
+        eps = float(params[f"{self.prefix}eps"])
+        why = switch_inactivity(record, self._force(record, params), f"{self.prefix}eps", eps, "a yield")
+        if why:
+            return why
         names = [n for n in (f"{self.prefix}F", f"{self.prefix}F_u") if n in params]
         whys = [_not_significant(n, params, stderr or {}) for n in names]
         return " and ".join(whys) if all(whys) else ""

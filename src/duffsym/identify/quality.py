@@ -16,7 +16,7 @@ Each flag is a dict ``{"flag": name, "message": one line, ...details}``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -81,14 +81,10 @@ def fit_flags(
 
 
 def _inactive_effects(problem, rec_params: Sequence[dict], stderr: dict) -> dict | None:
-    """The added effects that do nothing on any of the records at the fitted parameters
-    (:meth:`~duffsym.effects.base.Effect.activity`: a negligible size, a switch run flat, a size within two
-    standard errors of zero); None when every effect acts or the model holds no effect objects."""
-    whys: dict[str, str] = {}
-    for effect in problem.model.effect_objects or ():
-        said = [effect.activity(rec, p, stderr) for rec, p in zip(problem.records, rec_params, strict=True)]
-        if said and all(said):
-            whys[effect.name] = said[0]
+    """The flag of the added effects that do nothing on every record at the fitted parameters
+    (:func:`inactive_effects`); None when every effect acts on some record."""
+    said = [inactive_effects(problem.model, rec, p, stderr) for rec, p in zip(problem.records, rec_params, strict=True)]
+    whys = {name: why for name, why in said[0].items() if all(name in s for s in said)} if said else {}
     if not whys:
         return None
     text = "; ".join(f"{name}: {why}" for name, why in whys.items())
@@ -98,6 +94,27 @@ def _inactive_effects(problem, rec_params: Sequence[dict], stderr: dict) -> dict
         "message": f"added effect(s) that do nothing on the data: {text}; the fit switched them off, so they "
         "explain nothing here: drop them, or see whether another parameter took their part (on a bound?)",
     }
+
+
+def inactive_effects(
+    model, record, params: Mapping[str, float], stderr: Mapping[str, float] | None = None, effects=None
+) -> dict:
+    """effect -> why it does nothing on ``record`` at ``params`` (:meth:`Effect.activity`; ``stderr`` the
+    standard errors), for the effects of ``model`` (or those in ``effects``) that are flagged: the objects the model
+    holds, else the catalogue's and the extensions' of those names; {} when every effect acts."""
+    from duffsym.effects import ADDABLE
+
+    known = {**ADDABLE, **{e.name: e for e in (model.effect_objects or ())}}
+    out = {}
+    for name in model.effects if effects is None else effects:
+        if name in known:
+            try:
+                why = known[name].activity(record, {**model.defaults(), **dict(params)}, dict(stderr or {}))
+            except (KeyError, ValueError, ArithmeticError):
+                why = ""
+            if why:
+                out[name] = why
+    return out
 
 
 def _on_bound(problem, nlp, w: np.ndarray) -> dict | None:
