@@ -88,8 +88,8 @@ def worker(case: str, log: Path) -> None:
             self._prev = now
             return base.eval(self, arg)
 
-    def fresh_hook():
-        return Timed()
+    def fresh_hook(*args):  # the hook's arguments changed with the ridge check (n_w, n_slots)
+        return Timed(*args)
 
     nlp._iteration_hook = fresh_hook
     tic = time.perf_counter()

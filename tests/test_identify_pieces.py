@@ -2,6 +2,8 @@
 several starts, the choice of the best run, the bound-restart policy. Noise-free Table 2 data (0.4 V,
 2 Hz), whose optimum is the truth."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -167,3 +169,87 @@ def test_fit_options_and_keywords_are_the_same_settings(problem):
         assert "max_iter=3" in r.message
     assert by_opts.cost == by_kw.cost == mixed.cost
     assert FitOptions().max_iter == 500 and FitOptions().tol == 1e-10 and FitOptions().param_stride == 8
+
+
+def _crawl_log(gain: float, mu: float = 1e-9, move: float = 0.1, n: int = 60):
+    """An iteration log of ``n`` iterations whose cost falls by ``gain`` (relative) over the last 50 and whose
+    first parameter grows by ``move`` (relative) over them, the second fixed."""
+    from duffsym.identify.nlp import IterationLog
+
+    log = IterationLog(0.0)
+    k = np.arange(n, dtype=float)
+    log.obj += list(37.0 * (1 - gain * k / 50))
+    log.mu += [mu] * n
+    log.inf_pr += [1e-6] * n
+    log.params += [np.array([2000.0 * (1 + move * i / 50), 0.08]) for i in k]
+    return log
+
+
+def test_a_crawl_at_the_final_barrier_is_a_ridge_naming_what_still_moves():
+    """The ridge rule (UTFSM campaign: the cost fell ~1 % per 50 iterations at mu 1e-8.6 while c3 grew):
+    stops below a 1 % gain with a parameter moving, names it with its values; nothing else stops."""
+    names, scale = ("c3", "k1"), np.array([300.0, 30.0])
+    said = _crawl_log(0.005).ridge(names, scale)
+    assert said.startswith("ridge:") and "0.5 %" in said and "c3 6.108e+05 -> 6.708e+05" in said and "k1" not in said
+    assert _crawl_log(0.02).ridge(names, scale) == ""  # the cost still falls by 2 %: IPOPT goes on
+    assert _crawl_log(0.005, mu=1e-3).ridge(names, scale) == ""  # not yet at the final barrier
+    assert _crawl_log(0.005, move=0.001).ridge(names, scale) == ""  # nothing moves: converging, not crawling
+    assert _crawl_log(0.005, n=50).ridge(names, scale) == ""  # fewer iterations than the window
+
+
+def test_a_run_stopped_on_a_ridge_is_usable_with_its_status_and_flag():
+    from duffsym.identify.collocation import _on_ridge, ridge_flag
+    from duffsym.status import Status
+
+    why = "ridge: over the last 50 iterations the cost fell by 0.5 % while c3 6e+05 -> 6.6e+05 still moved"
+    run = _on_ridge(Run("User_Requested_Stop", False, 120, np.zeros(2), 1.0, "stopped", None, why))
+    assert run.status is Status.RIDGE and run.success and "120 iterations" in run.message and "c3" in run.message
+    (flag,) = ridge_flag(run)
+    assert flag["flag"] == "ridge" and "c3 6e+05 -> 6.6e+05" in flag["message"]
+    plain = Run("Maximum_Iterations_Exceeded", False, 500, np.zeros(2), 1.0, "limit", None, "")
+    assert _on_ridge(plain) is plain and ridge_flag(plain) == []
+
+
+def test_the_ridge_stop_reaches_ipopt_and_the_fit_reports_it(problem, monkeypatch):
+    """The wiring, on a real solve: with the rule made to fire on the first 5 iterations (any gain, any mu), IPOPT
+    is stopped there, and the fit carries the status, the message and the flag with the parameters that moved."""
+    from duffsym.identify import nlp as nlp_mod
+    from duffsym.status import Status
+
+    for name, value in (("RIDGE_WINDOW", 5), ("RIDGE_GAIN", 1.0), ("RIDGE_MU", math.inf), ("RIDGE_INF_PR", math.inf)):
+        monkeypatch.setattr(nlp_mod, name, value)
+    res = fit(problem, compute_stderr=False, bound_restart=False)
+    assert res.status is Status.RIDGE and res.n_iter <= 6
+    (flag,) = [f for f in res.flags if f["flag"] == "ridge"]
+    moved = flag["message"].split(" while ")[1]
+    assert any(f"{n} " in moved for n in res.free) and " -> " in moved
+
+
+def test_an_automatic_start_whose_fit_diverges_free_is_fitted_again_from_the_defaults(problem, monkeypatch):
+    """The control flow of the second start (the real case, s12's smoke record, runs in
+    tests/test_studies_control_smoke.py): a first fit from the automatic start reported as diverging when run
+    free is followed by a fit from the model's defaults, kept when usable and said in the message and settings;
+    a start the user gave is never replaced."""
+    from dataclasses import replace
+
+    from duffsym.identify import collocation
+    from duffsym.status import Status
+
+    real, calls = collocation._fit_from, []
+
+    def first_diverges(pb, x0, opts):
+        calls.append(x0)
+        res = real(pb, x0, opts)
+        if len(calls) == 1:
+            return replace(res, status=Status.FREE_RUN_FAILED, success=False, message="IPOPT converged but: blew up")
+        return res
+
+    monkeypatch.setattr(collocation, "_fit_from", first_diverges)
+    res = fit(problem, compute_stderr=False)
+    assert calls[0] is None and calls[1] == {n: MODEL.param(n).default for n in problem.free}
+    assert res.success and res.settings["second_start"]["kept"] == "defaults"
+    assert "from the model's defaults" in res.message and "blew up" in res.message
+    assert res.nrmse < 1e-3  # noise-free record: the second fit reaches the truth
+    calls.clear()
+    given = fit(problem, x0={n: MODEL.param(n).default for n in problem.free}, compute_stderr=False)
+    assert len(calls) == 1 and given.status is Status.FREE_RUN_FAILED

@@ -10,7 +10,13 @@ h5py or emcee, and no heap perturbation did. Rounding the start (10 or 13 signif
 flipped s06's joint 1 A fit from Solved_To_Acceptable_Level to Restoration_Failed at the same NRMSE (0.10114):
 that fit's verdict depends on the last bits of its start, so the rounding was not kept. In the project's CI run
 of 2026-11-26 the full suite reproduced those last-bit differences (relative 1e-15 to 2e-15 on c1, c2, c3, k1),
-so the test compares to 1e-12 relative: a start that differs beyond rounding still fails it."""
+so the test compares to 1e-12 relative: a start that differs beyond rounding still fails it.
+
+Found since: the stall of s12's fit in the full suite did not need process state. On s12's smoke record the fit from
+the command start converges to an unstable model (k1 + k2 < 0, c1 + c2 < 0) whose free run diverges, in a fresh
+process and from 15 starts differing from it in the last bit (each path a few iterations apart); its bound restart
+then ran long under load. fit now fits again from the model's defaults when the automatic start's fit diverges free
+(settings["second_start"]), and s12 uses the default start."""
 
 from __future__ import annotations
 

@@ -19,7 +19,7 @@ def test_simulation_statuses_are_members():
 def test_parse_and_flags():
     assert Status.parse("Restoration_Failed") is Status.RESTORATION_FAILED
     assert Status.parse("something IPOPT added later") is Status.UNKNOWN
-    assert [s for s in Status if s.success] == [Status.SOLVED, Status.ACCEPTABLE, Status.OK]
+    assert [s for s in Status if s.success] == [Status.SOLVED, Status.ACCEPTABLE, Status.RIDGE, Status.OK]
     assert Status.TIME_LIMIT.out_of_time and not Status.MAX_ITER.out_of_time
     assert "iteration limit" in Status.MAX_ITER.message
     assert Status.DIVERGING.message == "the run ended with status Diverging_Iterates"

@@ -28,6 +28,8 @@ class Status(str, Enum):
     SMALL_STEP = "Search_Direction_Becomes_Too_Small"
     DIVERGING = "Diverging_Iterates"
     USER_STOP = "User_Requested_Stop"
+    # duffsym's own stop: the cost no longer fell while parameters still moved (identify.nlp.RIDGE_WINDOW)
+    RIDGE = "Stalled_On_Ridge"
     RESTORATION_FAILED = "Restoration_Failed"
     STEP_ERROR = "Error_In_Step_Computation"
     FEW_DOF = "Not_Enough_Degrees_Of_Freedom"
@@ -77,11 +79,13 @@ class Status(str, Enum):
         return MESSAGES.get(self, f"the run ended with status {self.value}")
 
 
-_SUCCESS = frozenset({Status.SOLVED, Status.ACCEPTABLE, Status.OK})
+_SUCCESS = frozenset({Status.SOLVED, Status.ACCEPTABLE, Status.RIDGE, Status.OK})
 
 MESSAGES: dict[Status, str] = {
     Status.SOLVED: "IPOPT converged",
     Status.ACCEPTABLE: "IPOPT converged to its acceptable tolerance",
+    Status.RIDGE: "IPOPT was stopped on a ridge: the cost no longer fell while some parameters still moved; the "
+    "answer is usable, and the parameters that moved are poorly determined by the data",
     Status.MAX_ITER: "IPOPT reached its iteration limit before converging; raise max_iter or give a better start",
     Status.TIME_LIMIT: "the fit reached its time limit; the best point so far is reported, not converged",
     Status.CPU_TIME: "IPOPT reached its CPU-time limit before converging",
