@@ -9,6 +9,9 @@ checkout; its ``.venv/bin/python`` runs the worker with that checkout's ``src`` 
   (:func:`duffsym.identify.fitdata.prepare_fit_data`: sanity check, then the variance-rule decimation).
   Both report the free-run NRMSE on the full-rate record (``validate``), so the rate's cost in accuracy is
   visible beside its gain in time.
+- ``fold``: s11's hold-out fold "25 mm 0.1 Hz" (the other 25 tests fitted at s11's ~25 samples per period,
+  the five held-out tests run free): the fit that crawled to IPOPT's iteration limit before the ridge stop
+  (compare two checkouts with ``--prep branch``; in-sample and held-out NRMSE beside the times).
 - ``campaign``: the 30 UTFSM sinusoid tests fitted at once as s11 does it (``mr-damper-current``, eta held at
   100 /s, k1 + k2 >= 0 at 0 and 1 A). *main*: s11's hand decimation (about 25 samples per period, plain
   subsampling, velocity derived at the full rate). *branch*: each record prepared by ``prepare_fit_data``.
@@ -76,6 +79,22 @@ if case == "dyke":
     out.update(n_samples=rec.n_times, factor=info["factor"], prep_s=t_prep, fit_s=wall, cpu_s=cpu, status=res.status,
                success=bool(res.success), n_iter=int(res.n_iter), nrmse_fitted=res.nrmse,
                nrmse_full_rate=v.nrmse, rmse_full_rate=v.rmse, notes=info.get("notes", []))
+elif case == "fold":
+    sys.path.insert(0, sys.argv[1] + "/studies")
+    import s11_current_driven as s11
+    cfg = s11.Config()
+    recs = s11.campaign_records(cfg)
+    train = [r for r in recs if not r.name.startswith("25mm0x1Hz")]
+    held = [r for r in recs if r.name.startswith("25mm0x1Hz")]
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = s11.campaign_fit(model, train, cfg)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    ins = [s11.free_run(res, r, model)[1] for r in train]
+    ho = [s11.free_run(res, r, model)[1] for r in held]
+    out.update(n_samples=int(sum(r.n_times for r in train)), fit_s=wall, cpu_s=cpu, status=res.status,
+               success=bool(res.success), n_iter=int(res.n_iter), nrmse_median=float(np.median(ins)),
+               nrmse_worst=float(np.max(ins)), heldout_median=float(np.median(ho)), heldout_worst=float(np.max(ho)),
+               flags=[f["flag"] for f in res.flags])
 else:
     files = sorted(glob.glob(ext + "/mr_damper_utfsm_quiroz2022/sinusoidal_preprocessed/*.txt"))
     fulls = [load_mr_damper_utfsm(f, velocity="derive") for f in files]
@@ -131,14 +150,16 @@ def run_worker(checkout: Path, case: str, mode: str, timeout: float, cpu_limit: 
 
 def _line(r: dict) -> str:
     if r.get("timeout"):
-        return f"  {r['mode']:6s}: {r['message']} (no result)"
+        return f"  {r.get('code', r['mode']):6s}: {r['message']} (no result)"
     if r.get("error"):
-        return f"  {r['mode']:6s}: error: {r['error'][-300:]}"
+        return f"  {r.get('code', r['mode']):6s}: error: {r['error'][-300:]}"
     acc = (f"full-rate NRMSE {r['nrmse_full_rate']:.4f} (RMSE {r['rmse_full_rate']:.1f})" if r["case"] == "dyke"
            else f"in-sample NRMSE median {r['nrmse_median']:.4f}, worst {r['nrmse_worst']:.4f}")
-    return (f"  {r['mode']:6s}: {r['n_samples']} samples, fit {r['cpu_s']:.0f} CPU s, {r['fit_s']:.0f} s wall "
+    return (f"  {r.get('code', r['mode']):6s}: {r['n_samples']} samples, fit {r['cpu_s']:.0f} CPU s, {r['fit_s']:.0f} s wall "
             f"({r['n_iter']} iterations, "
-            f"{r['status']}), {acc}")
+            f"{r['status']}), {acc}"
+            + (f", held out median {r['heldout_median']:.4f}, worst {r['heldout_worst']:.4f}" if "heldout_median" in r
+               else ""))
 
 
 def _write(out: Path, results: list, args) -> None:
@@ -158,6 +179,9 @@ def main(argv=None) -> int:
     ap.add_argument("--modes", default="branch,main")
     ap.add_argument("--timeout", type=float, default=7200.0, help="wall seconds before a worker is stopped")
     ap.add_argument("--cpu-limit", type=float, default=900.0, help="CPU seconds before a worker is stopped")
+    ap.add_argument("--prep", choices=("by-mode", "branch"), default="by-mode",
+                    help="by-mode: main fits the records as read (or s11's hand decimation), branch prepares them; "
+                    "branch: both checkouts prepare them as the branch does (to compare code, not preparation)")
     ap.add_argument("--parallel", type=int, default=1, help="workers run at once (CPU times stay comparable)")
     ap.add_argument("--out", default=str(HERE / "results" / "bench_device_fit.json"))
     args = ap.parse_args(argv)
@@ -168,7 +192,8 @@ def main(argv=None) -> int:
 
     def one(job):
         case, mode = job
-        r = run_worker(checkouts[mode], case, mode, args.timeout, args.cpu_limit)
+        r = run_worker(checkouts[mode], case, "branch" if args.prep == "branch" else mode, args.timeout, args.cpu_limit)
+        r["code"] = mode
         r["load_average"] = os.getloadavg()[0]
         results.append(r)
         print(f"{case}:" + _line(r), flush=True)
