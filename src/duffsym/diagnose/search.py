@@ -321,6 +321,7 @@ def _fit(
     bound_restart: bool = False,
     flags: bool = True,
     max_wall_time: float | None = None,
+    compute_stderr: bool = True,
 ):
     from duffsym.identify import Problem, fit
 
@@ -342,7 +343,7 @@ def _fit(
         start,
         n_starts=n_starts,
         rng=rng,
-        compute_stderr=True,
+        compute_stderr=compute_stderr,
         max_iter=max_iter,
         ipopt_options=options,
         bound_restart=bound_restart,
@@ -932,6 +933,7 @@ def _reference(model, record, fixed, start, mask, fit_result, say, rec_plain, de
         mask=mask_p,
         bound_restart=True,
         max_wall_time=_time_share(deadline, REFERENCE_SHARE / (1 - BASE_SHARE)),
+        compute_stderr=False,  # only its free run and parameters are used: a Laplace covariance costs ~10 s on Dyke
     )
     return plain, "a plain fit of the record", ["plain-fit reference"] if plain.status in OUT_OF_TIME else []
 
