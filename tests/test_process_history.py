@@ -14,7 +14,7 @@ so the test compares to 1e-12 relative: a start that differs beyond rounding sti
 
 Found since: the stall of s12's fit in the full suite did not need process state. On s12's smoke record the fit from
 the command start converges to an unstable model (k1 + k2 < 0, c1 + c2 < 0) whose free run diverges, in a fresh
-process and from 15 starts differing from it in the last bit (each path a few iterations apart); its bound restart
+process and from 3 starts differing from it in the last bit (4 of 4; each path a few iterations apart); its restart
 then ran long under load. fit now fits again from the model's defaults when the automatic start's fit diverges free
 (settings["second_start"]), and s12 uses the default start."""
 

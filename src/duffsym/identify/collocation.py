@@ -230,8 +230,8 @@ def _second_start(problem: Problem, first: IdentificationResult, opts: FitOption
     Collocation fits the trajectory, so it can converge to an unstable model that follows the samples but diverges
     when run free. Measured on s12's smoke record (``mr-damper-current``, a switching current): the command start
     (c1 3.30, c3 302, k2 241, eta 100; the truth 4, 400, 300, 100) converged in 76 iterations to k1 + k2 = -25.5,
-    c1 + c2 = -8.7, whose free run blows up at 0.9 s, from this start and from 15 starts differing from it in the
-    last bit; from the defaults the fit reaches NRMSE 0.0100 and the truth."""
+    c1 + c2 = -8.7, whose free run blows up; so did 3 starts differing from it in the last bit (4 of 4, with and
+    without the bound restart); from the defaults the fit reaches NRMSE 0.0100 and the truth."""
     x0 = {n: min(max(problem.model.param(n).default, problem.bounds[n][0]), problem.bounds[n][1]) for n in problem.free}
     say = opts.progress or _silent
     say("the fit from the automatic start diverges when run free; fitting again from the model's defaults")
