@@ -80,3 +80,47 @@ def test_a_write_that_fails_names_the_file(capsys, record, tmp_path, monkeypatch
     assert code == 2 and line.startswith("duffsym fit: error:") and "No space left on device" in line
     assert not any(p.name.endswith(".tmp") for p in tmp_path.iterdir())
     assert line.count(str(out)) == 1
+
+
+@pytest.mark.parametrize("victim", ["rec.json", "summary.json"])
+def test_a_batch_write_that_fails_names_the_file_and_the_batch(capsys, record, tmp_path, monkeypatch, victim):
+    """Disk full under ``batch``: the one line names the file it could not write and the batch command (it read
+    ``duffsym fit: error: [Errno 28] No space left on device`` before), exit 2, no temporary file left."""
+    import duffsym._io as io
+
+    real = io.os.replace
+
+    def full(src, dst):
+        if str(dst).endswith(victim):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        return real(src, dst)
+
+    monkeypatch.setattr(io.os, "replace", full)
+    out = tmp_path / "out"
+    line = _one_line_exit_2(
+        capsys,
+        ["batch", str(record), "--command", "fit", "--out", str(out), "--workers", "0", "--quiet"],
+        "No space left on device",
+    )
+    assert line.startswith("duffsym batch: error:") and line.count(str(out / victim)) == 1
+    assert not any(".tmp" in p.name for p in out.iterdir())
+
+
+def test_a_batch_into_a_folder_it_cannot_write_stops_before_any_fit(capsys, record, tmp_path, monkeypatch):
+    """A read-only results folder is refused up front, as ``fit --out`` is (simulated through ``os.access``: the
+    tests may run as root, for whom a folder's mode does not stop a write)."""
+    import duffsym._io as io
+
+    out = tmp_path / "ro"
+    out.mkdir()
+    real = io.os.access
+    monkeypatch.setattr(io.os, "access", lambda p, m, *a, **k: False if os.fspath(p) == str(out) else real(p, m))
+    fitted = []
+    import duffsym.identify as identify
+
+    monkeypatch.setattr(identify, "fit", lambda *a, **k: fitted.append(1))
+    line = _one_line_exit_2(
+        capsys, ["batch", str(record), "--command", "fit", "--out", str(out), "--workers", "0"], "not writable"
+    )
+    assert line.startswith("duffsym batch: error: --out") and str(out) in line and not fitted
+    assert list(out.iterdir()) == []
