@@ -370,11 +370,25 @@ def simulate_record(
     return simulate(model, params, record.t, record.input_matrix(model), x0=x0, **options)
 
 
+def frozen_array(a) -> np.ndarray:
+    """``a`` as a read-only C-contiguous float64 array (a view; a copy only when the layout or type differs).
+
+    numba compiles a function once per argument type, and a read-only array is another type than a writeable
+    one: a record's cached input matrix is read-only, a freshly built one is not, so without this each model's
+    integrator was compiled twice (about 3 s each time, most of a cold test run)."""
+    a = np.ascontiguousarray(a, dtype=float)
+    if a.flags.writeable:
+        a = a.view()
+        a.flags.writeable = False
+    return a
+
+
 def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hold, blowup):
     """One compiled run, explicit (``"rk4"``) or implicit (``"rosenbrock"``): X, Y, status, index, steps."""
     from duffsym.codegen.compiled import compiled_module
 
     mod = compiled_module(model)
+    t, U, x0, p = (frozen_array(a) for a in (t, U, x0, p))
     X = np.empty((t.size, model.n_states))
     Y = np.empty(t.size)
     M = np.zeros(t.size - 1, dtype=np.int64)
@@ -518,10 +532,10 @@ def simulate_batch(
     total = np.zeros(P.shape[0], dtype=np.int64)
     fixed = _substep_setting(substeps)
     compiled_module(model).integrate_batch(
-        t,
-        U,
-        X0,
-        np.ascontiguousarray(P),
+        frozen_array(t),
+        frozen_array(U),
+        frozen_array(X0),
+        frozen_array(P),
         fixed,
         float(h_lambda),
         int(max_substeps),

@@ -17,6 +17,7 @@ from types import ModuleType
 import numpy as np
 
 from duffsym.errors import ModelError
+from duffsym.simulate import frozen_array
 
 _TEMPLATE = Path(__file__).with_name("_kernel_template.py")
 _VERSION = "1"
@@ -88,6 +89,14 @@ class ScheduleSimulator:
         fail = np.zeros(n, dtype=np.int64)
         worst = np.zeros(n)
         self._mod.integrate_schedule_batch(
-            self.t, self.U, X0, P, self.schedule, self.hold, self.blowup, self.hrho_max, Y, status, fail, worst
+            *map(frozen_array, (self.t, self.U, X0, P)),
+            self.schedule,
+            self.hold,
+            self.blowup,
+            self.hrho_max,
+            Y,
+            status,
+            fail,
+            worst,
         )
         return Y, status, fail, worst
