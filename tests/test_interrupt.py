@@ -158,3 +158,22 @@ def test_an_interrupt_is_redelivered_even_when_a_flag_only_handler_was_left_inst
     finally:
         signal.signal(signal.SIGINT, old)
     assert fired == [1] and slept < 3.0
+
+
+def _distributed_log_level(_):
+    import logging
+
+    return logging.getLogger("distributed.core").getEffectiveLevel()
+
+
+def test_the_local_cluster_workers_start_with_dask_logging_silenced():
+    """CI saw "interrupted" followed by a worker's "distributed.core - INFO - Received 'close-stream' ...": the
+    worker processes read Dask's logging settings when they import it (INFO), before LocalCluster's silence_logs
+    reaches them. They now start at the engine's level (errors only); before: 20 (INFO)."""
+    import logging
+
+    from duffsym.engine import Engine
+
+    with Engine(workers=2) as engine:
+        levels = engine.map(_distributed_log_level, [0, 1])
+    assert levels == [logging.ERROR, logging.ERROR]

@@ -127,6 +127,12 @@ class Engine:
                     else Client(spec, timeout="30s")
                 )
             else:
+                # the worker processes read Dask's logging settings when they import it, before LocalCluster's
+                # silence_logs reaches them: a worker still starting when the batch is interrupted logged its
+                # INFO lines ("Received 'close-stream' ...") under the CLI's one-line "interrupted"
+                name = logging.getLevelName(level)
+                if isinstance(name, str) and not name.startswith("Level"):
+                    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", name.lower())
                 # processes, one thread each; the scheduler and its status page on loopback, any free port
                 self._cluster = LocalCluster(
                     n_workers=self.workers,
