@@ -375,7 +375,7 @@ def frozen_array(a) -> np.ndarray:
 
     numba compiles a function once per argument type, and a read-only array is another type than a writeable
     one: a record's cached input matrix is read-only, a freshly built one is not, so without this each model's
-    integrator was compiled twice (about 3 s each time, most of a cold test run)."""
+    integrator was compiled two to four times (3-5 s each; 239 compiles for 125 models in a cold test run)."""
     a = np.ascontiguousarray(a, dtype=float)
     if a.flags.writeable:
         a = a.view()
