@@ -559,6 +559,30 @@ def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seco
     )
 
 
+#: when no windowed parameter changes monotonically, this many parameters (ranked by :func:`_drift_ranking`) are
+#: fitted drifting
+FALLBACK_DRIFTS = 2
+
+
+def _drift_ranking(names: list[str], record, model, dg) -> list[str]:
+    """``names`` ranked by how much of the base's residual on the fitting part the linearised drift of each
+    (its sensitivity times the dissipated energy) explains once the base's own linearised refit is projected
+    out (:func:`without_base`): the first-order form of ``p·(1 - a·E/E_ref)``. Unranked if a free run fails."""
+    k = dg.split["n_fit"]
+    J = base_sensitivities(model, dg.base_fit, record, k)
+    spec = {p.name for p in model.params}
+    free = [n for n in dg.base_fit.free if n in spec]
+    names = [n for n in names if n in free]
+    if J is None or not names:
+        return names
+    u = np.asarray(record.drift_signal("energy"), float)[:k]
+    cols = np.column_stack([J[:, free.index(n)] * u for n in names])
+    Tp, rp, _ = without_base(J, cols, np.asarray(record.y, float)[:k] - dg.y_base[:k])
+    norm2 = np.sum(Tp**2, axis=0)
+    gain = np.where(norm2 > 0, (Tp.T @ rp) ** 2 / np.where(norm2 > 0, norm2, 1.0), 0.0)
+    return [names[i] for i in np.argsort(-gain, kind="stable")]
+
+
 def discover_drift(
     record, model, dg, *, fixed=None, mask=None, max_iter: int = 300, rules: dict, progress=None
 ) -> Discovery | None:
@@ -578,16 +602,16 @@ def discover_drift(
     except (ModelError, DataError) as exc:
         return _nothing(f"drift: the windowed refits failed ({exc})", before, {}, 0.0)
     selection = {"windows": windows.to_dict()}
-    if not windows.drifting():
-        change = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
-        return _nothing(
-            f"drift: no parameter changes monotonically by more than {100 * D.MIN_CHANGE:.0f} % over "
-            f"{len(windows.bounds)} windows ({change})",
-            before,
-            selection,
-            0.0,
-        )
-    fits = _drift_fits(D.candidates(record, dg, windows), windows, record, model, dg, fixed, mask, max_iter, say)
+    names = windows.drifting()[: D.MAX_PARAMETERS]
+    if not names:  # the windows trade parameters off: the linearised drift of each parameter ranks them
+        names = _drift_ranking(D.any_change(windows), record, model, dg)[:FALLBACK_DRIFTS]
+        selection["no_monotone_change"] = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
+        selection["ranked_by_linearised_drift"] = names
+        say("  no parameter changes monotonically over the windows: trying " + ", ".join(names))
+    if not names:
+        return _nothing(f"drift: no parameter changes over {len(windows.bounds)} windows", before, selection, 0.0)
+    cands = D.candidates(record, dg, windows, "energy", names)
+    fits = _drift_fits(cands, windows, record, model, dg, fixed, mask, max_iter, say)
     if fits:  # the best parameter following time instead of the dissipated energy
         best = min(fits, key=lambda f: f[3])[0].parameter
         fits += _drift_fits(
@@ -595,7 +619,7 @@ def discover_drift(
         )
     if not fits:
         return _nothing(
-            "drift: the fits of " + ", ".join(windows.drifting()) + " drifting failed", before, selection, 0.0
+            "drift: the fits of " + ", ".join(names) + " drifting failed", before, selection, 0.0
         )
     eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
     selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}

@@ -132,6 +132,15 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
     return Windows(bounds=bounds, params=params, stderr=stderr, change=change, monotone=monotone, signals=mids)
 
 
+def any_change(windows: Windows) -> list[str]:
+    """Every parameter whose windowed refits changed at all, largest change first: the fallback when none
+    changes monotonically. Windowed refits trade parameters off (on a 4-cycle sine with c2 and c3 falling
+    by 25 %, three windows gave c3 -13 % but not monotone, k1 -78 %), so then each parameter is tried
+    drifting and the fits' evidence, not the windows, decides."""
+    moved = [n for n, c in windows.change.items() if math.isfinite(c) and c != 0.0]
+    return sorted(moved, key=lambda n: -abs(windows.change[n]))
+
+
 def candidates(record, dg, windows: Windows, signal: str = "energy", names=None) -> list[ParameterDrift]:
     """Drift effects to try: each drifting parameter (at most ``MAX_PARAMETERS``, or ``names``) following
     ``signal``; ``u_ref`` = the signal at the end of the fitting part."""
