@@ -601,7 +601,7 @@ def discover_drift(
         windows = D.windowed_refits(record, model, dg, fixed)
     except (ModelError, DataError) as exc:
         return _nothing(f"drift: the windowed refits failed ({exc})", before, {}, 0.0)
-    selection = {"windows": windows.to_dict()}
+    selection: dict[str, object] = {"windows": windows.to_dict()}
     names = windows.drifting()[: D.MAX_PARAMETERS]
     if not names:  # the windows trade parameters off: the linearised drift of each parameter ranks them
         names = _drift_ranking(D.any_change(windows), record, model, dg)[:FALLBACK_DRIFTS]
@@ -618,9 +618,7 @@ def discover_drift(
             D.candidates(record, dg, windows, "time", [best]), windows, record, model, dg, fixed, mask, max_iter, say
         )
     if not fits:
-        return _nothing(
-            "drift: the fits of " + ", ".join(names) + " drifting failed", before, selection, 0.0
-        )
+        return _nothing("drift: the fits of " + ", ".join(names) + " drifting failed", before, selection, 0.0)
     eff, fr, y_ext, bic = min(fits, key=lambda f: f[3])
     selection["tried"] = {f[0].name: round(f[3], 1) for f in fits}
     a = float(fr.params["drift_a"])
