@@ -264,16 +264,17 @@ def stability(
     resamples: int = RESAMPLES,
     max_terms: int = MAX_TERMS,
     seed: int = 0,
+    groups: list[str] | None = None,
 ) -> dict:
     """Stability selection over resampled cycles: ``resamples`` times, half the blocks (``parts``) train an
     OMP path (:func:`select_terms`, 1..``max_terms`` terms) and the other half choose its size; returns
-    the inclusion probability of every family of terms (:func:`family`; any member selected) and of every
-    term, and each family's most selected member (:func:`duffsym.sindy.sparse.stability_selection`)."""
+    the inclusion probability of every family of terms (:func:`family`, or ``groups``; any member selected)
+    and of every term, and each family's most selected member (:func:`duffsym.sindy.sparse.stability_selection`)."""
     return sparse.stability_selection(
         Theta,
         r,
         parts,
-        [family(t) for t in terms],
+        groups or [family(t) for t in terms],
         resamples=resamples,
         max_terms=max_terms,
         parsimony=PARSIMONY,
@@ -347,6 +348,7 @@ class StableTerms:
     stab: dict
     stable: list
     absorbed: int
+    aliases: dict = dataclasses.field(default_factory=dict)  # group -> the other forms of its column here
 
     def inclusion(self, top: int = 8) -> dict:
         """The ``top`` families' inclusion probabilities, each named by its most selected member in words."""
@@ -374,9 +376,63 @@ def select_stable(terms: list, Theta: np.ndarray, r: np.ndarray, J: np.ndarray |
     Tp, rp, absorbed = without_base(J, Theta, r)
     keep = [j for j in range(len(terms)) if j not in absorbed]
     terms, Tp = [terms[j] for j in keep], Tp[:, keep]
-    stab = stability(Tp, rp, parts, terms)
+    groups = alias_groups(terms, Tp)
+    stab = stability(Tp, rp, parts, terms, groups=groups)
+    aliases = {}
+    for g in stab["best"]:
+        members = [j for j in range(len(terms)) if groups[j] == g]
+        forms = {family(terms[j]): j for j in sorted(members, key=lambda j: -stab["term"][j])}
+        if len(forms) > 1:  # one column in several forms: the simplest form stands for it
+            first = min(
+                forms.values(), key=lambda j: (derivative_order(terms[j]), sp.count_ops(terms[j]), -stab["term"][j])
+            )
+            stab["best"][g] = first
+            aliases[g] = [terms[j] for j in forms.values() if j != first]
     stable = sorted((f for f, p in stab["family"].items() if p >= INCLUSION), key=lambda f: -stab["family"][f])
-    return StableTerms(terms, Tp, rp, stab, stable, len(absorbed))
+    return StableTerms(terms, Tp, rp, stab, stable, len(absorbed), aliases)
+
+
+#: library columns whose parts outside the base's sensitivities have a |cosine| above this are one column on
+#: the record: on a sine d² = A² - d'²/ω² (an offset in the model absorbs A²) and d'' = -ω²·d
+ALIAS = 0.999
+
+
+def alias_groups(terms: list, Tp: np.ndarray) -> list[str]:
+    """The stability selection's group of each term: its :func:`family`, merged with the families of the terms
+    whose projected column is the same up to scale (|cosine| >= ``ALIAS``), so that a selection split between
+    two forms of one column counts once."""
+    labels = [family(t) for t in terms]
+    norm = np.linalg.norm(Tp, axis=0)
+    U = Tp / np.where(norm > 0, norm, 1.0)
+    parent = {f: f for f in labels}
+
+    def root(f: str) -> str:
+        while parent[f] != f:
+            f = parent[f]
+        return f
+
+    for i, j in zip(*np.nonzero(np.triu(np.abs(U.T @ U) >= ALIAS, 1))):
+        a, b = root(labels[i]), root(labels[j])
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    members: dict[str, set[str]] = {}
+    for f in labels:
+        members.setdefault(root(f), set()).add(f)
+    return [" ≡ ".join(sorted(members[root(f)])) for f in labels]
+
+
+#: the derivative order each signal of the library carries
+_ORDER = {"d": 0, "x": 0, "d_dot": 1, "x_dot": 1, "d_ddot": 2}
+
+
+def derivative_order(term: sp.Expr) -> int:
+    """The derivatives ``term`` contains, counted with their powers (d'² -> 2, d·d'' -> 2, d² -> 0)."""
+    total = 0
+    for factor in sp.Mul.make_args(term):
+        base, power = factor.as_base_exp()
+        inside = max((_ORDER.get(str(s), 0) for s in base.free_symbols), default=0)
+        total += inside * (int(power) if power.is_Integer else 1)
+    return total
 
 
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict]:
@@ -399,6 +455,10 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
         f"on {RESAMPLES} resamples of half the cycles, inclusion >= {INCLUSION})",
         "library_builder": "pysindy GeneralizedLibrary (polynomials x switching functions)",
         "inclusion": sel.inclusion(),
+        "aliases": {
+            sp.sstr(sel.terms[sel.stab["best"][g]]): [term_words(t).lstrip("+") for t in others]
+            for g, others in sel.aliases.items()
+        },
         "n_terms": len(sel.stable),
         "duplicates_left_out": len(same),
         "base_refit": "none (the base free run's sensitivities could not be computed)"
@@ -528,8 +588,21 @@ def _discover(
         time.perf_counter() - t0,
         term=sp.sstr(expr, full_prec=False),
         latex=term_latex(expr),
-        words=f"{term_words(expr)} added to the output",
+        words=f"{term_words(expr)} added to the output" + "".join(_alias_clause(selection, t) for t in final.terms),
         resembles=[r for r in map(resembles, final.terms) if r],
+    )
+
+
+def _alias_clause(selection: dict, term: sp.Expr) -> str:
+    """ "" or, when ``term`` stands for a column that other forms share on this record (a sine: d², d'² and
+    d·d''), a clause that names them."""
+    others = selection.get("aliases", {}).get(sp.sstr(term), [])
+    if not others:
+        return ""
+    return (
+        f"; on this record {term_words(term).lstrip('+')} is the same column as {', '.join(others)}: the input "
+        "cannot tell them apart (the form with the fewest derivatives is named; a record with other amplitudes "
+        "or frequencies can)"
     )
 
 
