@@ -25,7 +25,7 @@ from duffsym.codegen._printing import check_numeric_structure, state_jacobian
 from duffsym.model.core import SymbolicModel
 
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
-GENERATOR_VERSION = "12"
+GENERATOR_VERSION = "13"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
 #: dependency chain of each stage (the simulator's speed: benchmarks/bench_simulate.py); no "nnan"/"ninf",
 #: so the blow-up test on non-finite states stays valid.
@@ -211,8 +211,39 @@ def generate_source(model: SymbolicModel) -> str:
         "    return _y",
         "",
         "",
+        *_pointer_functions(model, unpack, jac, printer),
     ]
     return "\n".join(lines) + _TEMPLATE.read_text()
+
+
+def _pointer_functions(model: SymbolicModel, unpack: list[str], jac, printer: _Printer) -> list[str]:
+    """``rhs_ptr``, ``jac_ptr`` and ``output_ptr``: the model's functions again, compiled on import with the
+    explicit signatures of :mod:`duffsym.codegen.generic`, whose one integrator calls them through pointers."""
+    n = model.n_states
+    return [
+        "from duffsym.codegen.generic import SIG_JAC, SIG_OUT, SIG_RHS  # noqa: E402",
+        "",
+        "",
+        "@njit(SIG_RHS, cache=True)",
+        "def rhs_ptr(x, u, p, out):",
+        *unpack,
+        *_assign_block([f"out[{i}]" for i in range(n)], list(model.rhs), printer),
+        "",
+        "",
+        "@njit(SIG_JAC, cache=True)",
+        "def jac_ptr(x, u, p, out):",
+        *unpack,
+        *_assign_block([f"out[{i}, {j}]" for i in range(n) for j in range(n)], list(jac), printer),
+        "",
+        "",
+        "@njit(SIG_OUT, cache=True)",
+        "def output_ptr(x, u, p):",
+        *unpack,
+        *_assign_block(["_y"], [model.output], printer),
+        "    return _y",
+        "",
+        "",
+    ]
 
 
 @lru_cache(maxsize=64)
