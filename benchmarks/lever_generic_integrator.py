@@ -5,9 +5,10 @@ with the right-hand side inlined four times per RK4 substep. In a ladder or a di
 model, and compiling dominates: py-spy over two benchmark workers running ladders (bench_discover_independent,
 2026-11-28) put 63-70 % of their samples in numba's compiler, all under ``simulate_record -> _compiled_run``.
 
-This script measures the alternative: one integrator compiled once, which takes the model's ``rhs``, ``jac`` and
-``output`` as first-class functions (numba ``FunctionType`` arguments, called through pointers), so that a new
-model compiles only its three small functions. For each model it reports, in fresh processes with an empty numba
+This script measures the alternative, used by ``simulate`` since 2894bf3 (``duffsym.codegen.generic``): one
+integrator compiled once, which takes the model's ``rhs_ptr``, ``jac_ptr`` and ``output_ptr`` as first-class
+functions (numba ``FunctionType`` arguments, called through pointers), so that a new model compiles only its three
+small functions (on import of its generated module, counted in the generic arm's time). For each model it reports, in fresh processes with an empty numba
 cache (one process per arm):
 
 - the compile time of the model's own integrator (first call of ``integrate``) against the compile time of its
@@ -46,135 +47,6 @@ MODELS = (
     ("seal-friction", "coulomb-friction", "asymmetry"),
 )
 
-GENERIC = '''
-import math
-import numpy as np
-from numba import njit, types
-
-A1 = types.float64[::1]
-A2 = types.float64[:, ::1]
-RO1 = types.Array(types.float64, 1, "C", readonly=True)
-RO2 = types.Array(types.float64, 2, "C", readonly=True)
-SIG_RHS = types.void(A1, A1, RO1, A1)
-SIG_JAC = types.void(A1, A1, RO1, A2)
-SIG_OUT = types.float64(A1, A1, RO1)
-FT_RHS, FT_JAC, FT_OUT = types.FunctionType(SIG_RHS), types.FunctionType(SIG_JAC), types.FunctionType(SIG_OUT)
-
-
-@njit(cache=False)
-def _rho(J):
-    n = J.shape[0]
-    if n == 1:
-        return abs(J[0, 0])
-    if n == 2:
-        tr = J[0, 0] + J[1, 1]
-        det = J[0, 0] * J[1, 1] - J[0, 1] * J[1, 0]
-        disc = 0.25 * tr * tr - det
-        if disc >= 0.0:
-            s = math.sqrt(disc)
-            return max(abs(0.5 * tr + s), abs(0.5 * tr - s))
-        return math.sqrt(det)
-    best = 0.0
-    for i in range(n):
-        s = 0.0
-        for j in range(n):
-            s += abs(J[i, j])
-        best = max(best, s)
-    return best
-
-
-@njit(types.UniTuple(types.int64, 2)(FT_RHS, FT_JAC, FT_OUT, RO1, RO2, RO1, RO1, types.int64, types.float64,
-                                     types.int64, types.boolean, types.float64, A2, A1, types.int64[::1]),
-      cache=False)
-def integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y, M):
-    n = x0.shape[0]
-    ni = U.shape[1]
-    x = np.empty(n); xo = np.empty(n); xs = np.empty(n)
-    k1 = np.empty(n); k2 = np.empty(n); k3 = np.empty(n); k4 = np.empty(n)
-    ua = np.empty(ni); ub = np.empty(ni); uc = np.empty(ni); u = np.empty(ni); g = np.empty(ni)
-    J = np.empty((n, n))
-    for i in range(n):
-        x[i] = x0[i]
-        X[0, i] = x0[i]
-    for j in range(ni):
-        u[j] = U[0, j]
-    Y[0] = output(x, u, p)
-    adaptive = substeps <= 0
-    rho = 0.0
-    rho_prev = -1.0
-    dt_prev = 1.0
-    if adaptive:
-        jac(x, u, p, J)
-        rho = _rho(J)
-    for k in range(t.shape[0] - 1):
-        dt = t[k + 1] - t[k]
-        if adaptive:
-            r = rho
-            if rho_prev >= 0.0 and rho > rho_prev:
-                r = rho + (rho - rho_prev) * (dt / dt_prev)
-            m = max(1, int(math.ceil(dt * r / h_lambda)))
-            rho_prev = rho
-            dt_prev = dt
-        else:
-            m = substeps
-        finite = True
-        while True:
-            if m > max_substeps:
-                for kk in range(k + 1, t.shape[0]):
-                    Y[kk] = np.nan
-                return 2, k
-            h = dt / m
-            for i in range(n):
-                xs[i] = x[i]
-            for j in range(ni):
-                g[j] = 0.0 if hold else (U[k + 1, j] - U[k, j]) / m
-            for s in range(m):
-                for j in range(ni):
-                    ua[j] = U[k, j] + s * g[j]
-                    ub[j] = ua[j] + 0.5 * g[j]
-                    uc[j] = ua[j] + g[j]
-                rhs(xs, ua, p, k1)
-                for i in range(n):
-                    xo[i] = xs[i] + 0.5 * h * k1[i]
-                rhs(xo, ub, p, k2)
-                for i in range(n):
-                    xo[i] = xs[i] + 0.5 * h * k2[i]
-                rhs(xo, ub, p, k3)
-                for i in range(n):
-                    xo[i] = xs[i] + h * k3[i]
-                rhs(xo, uc, p, k4)
-                for i in range(n):
-                    xs[i] = xs[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-            finite = True
-            for i in range(n):
-                if not (abs(xs[i]) <= blowup):
-                    finite = False
-            if not finite:
-                if adaptive and m < max_substeps:
-                    m = min(max_substeps, 4 * m)
-                    continue
-                break
-            if not adaptive:
-                break
-            for j in range(ni):
-                u[j] = U[k + 1, j]
-            jac(xs, u, p, J)
-            rho = _rho(J)
-            if dt * rho / m <= h_lambda:
-                break
-            m = max(m + 1, int(math.ceil(dt * rho / h_lambda)))
-        if not finite:
-            return 1, k + 1
-        M[k] = m
-        for i in range(n):
-            x[i] = xs[i]
-            X[k + 1, i] = xs[i]
-        for j in range(ni):
-            u[j] = U[k + 1, j]
-        Y[k + 1] = output(x, u, p)
-    return 0, -1
-'''
-
 ARM = '''
 import importlib, json, sys, time
 import numpy as np
@@ -186,20 +58,21 @@ t0 = time.perf_counter()
 import numba
 out["import_numba_s"] = time.perf_counter() - t0
 if arm == "generic":
-    from numba import njit
     t0 = time.perf_counter()
-    import generic_integrator as G
+    from duffsym.codegen import generic as G  # the shared integrator (compiled here: the cache is fresh)
     out["shared_integrator_compile_s"] = time.perf_counter() - t0
 for i in range(n_models):
-    mod = importlib.import_module(f"gen_{i}")
     U, t, x0, p = data[f"U{i}"], data["t"], data[f"x0{i}"], data[f"p{i}"]
     for a in (U, t, x0, p):
         a.setflags(write=False)
-    X = np.empty((t.size, mod.N_STATES)); Y = np.empty(t.size); M = np.zeros(t.size - 1, dtype=np.int64)
+    if arm != "generic":  # the import compiles rhs_ptr, jac_ptr, output_ptr: counted for the generic arm only
+        mod = importlib.import_module(f"gen_{i}")
     tic = time.perf_counter()
     if arm == "generic":
-        f = njit(G.SIG_RHS)(mod.rhs.py_func); j = njit(G.SIG_JAC)(mod.jac.py_func); o = njit(G.SIG_OUT)(mod.output.py_func)
-        run = lambda: G.integrate(f, j, o, t, U, x0, p, 0, 1.0, 2000, False, 1e12, X, Y, M)
+        mod = importlib.import_module(f"gen_{i}")
+    X = np.empty((t.size, mod.N_STATES)); Y = np.empty(t.size); M = np.zeros(t.size - 1, dtype=np.int64)
+    if arm == "generic":
+        run = lambda: G.integrate(mod, t, U, x0, p, G.Settings(0, 1.0, 2000, False, 1e12), X, Y, M)
     else:
         run = lambda: mod.integrate(t, U, x0, p, 0, 1.0, 2000, False, 1e12, X, Y, M)
     status = run()
@@ -235,7 +108,6 @@ def _prepare(folder: Path, n: int) -> list[dict]:
         rows.append({"model": " + ".join(("mr-damper",) + effects), "n_states": model.n_states,
                      "n_params": len(model.params)})
     np.savez(folder / "inputs.npz", **arrays)
-    (folder / "generic_integrator.py").write_text(GENERIC)
     (folder / "arm.py").write_text(ARM)
     return rows
 

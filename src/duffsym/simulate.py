@@ -400,9 +400,8 @@ def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hol
     M = np.zeros(t.size - 1, dtype=np.int64)
     if method == "rk4":  # the one explicit integrator compiled once, calling the model through pointers
         st, idx = generic.integrate(
-            mod.rhs_ptr, mod.jac_ptr, mod.output_ptr, t, U, x0, p, int(fixed), float(h_lambda), int(max_substeps),
-            bool(hold), float(blowup), X, Y, M,
-        )  # fmt: skip
+            mod, t, U, x0, p, generic.Settings(fixed, h_lambda, max_substeps, hold, blowup), X, Y, M
+        )
     else:
         st, idx = mod.integrate_implicit(
             t, U, x0, p, fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold, float(blowup), X, Y, M

@@ -16,6 +16,7 @@ time counts, keep the inlined integrator.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, types
@@ -138,8 +139,30 @@ _SIG = types.UniTuple(types.int64, 2)(
 )
 
 
+class Settings(NamedTuple):
+    """The integrator's settings, as :func:`duffsym.simulate.simulate` passes them: ``substeps`` (> 0 fixed,
+    <= 0 chosen from the stiffness), the stiffness target ``h_lambda``, ``max_substeps``, ``hold`` (the input
+    held over each interval instead of linear) and the ``blowup`` state magnitude."""
+
+    substeps: int
+    h_lambda: float
+    max_substeps: int
+    hold: bool
+    blowup: float
+
+
+def integrate(mod, t, U, x0, p, settings: Settings, X, Y, M) -> tuple[int, int]:
+    """Integrate the generated module ``mod``'s model from ``x0`` over the sample times ``t`` with inputs ``U``
+    (read-only C-contiguous float64, as :func:`duffsym.simulate.frozen_array` gives them), as the template's
+    ``integrate``: writes states ``X``, outputs ``Y`` and substeps ``M``; returns (status, index of the first
+    failed sample or -1)."""
+    s = settings
+    return _integrate(mod.rhs_ptr, mod.jac_ptr, mod.output_ptr, t, U, x0, p, int(s.substeps), float(s.h_lambda),
+                      int(s.max_substeps), bool(s.hold), float(s.blowup), X, Y, M)  # fmt: skip
+
+
 @njit(_SIG, cache=True)
-def integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y, M):
+def _integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, hold, blowup, X, Y, M):
     """The template's ``integrate`` (same arguments after the three functions, same outputs and statuses)."""
     n = x0.shape[0]
     x = np.empty(n)
