@@ -62,19 +62,20 @@ def _spectral_radius(J):
 @njit(cache=True)
 def _rk4(rhs, x, U, k, p, dt, m, hold, xo, work):
     """``m`` RK4 substeps over sample interval ``k`` from ``x`` into ``xo``, the input linear within it (held
-    if ``hold``), as the template's ``_advance``; ``work`` holds the stages and inputs (8 rows)."""
+    if ``hold``), as the template's ``_advance``; ``work`` holds the stages, the inputs and their step (9 rows)."""
     n, ni = x.shape[0], U.shape[1]
     k1, k2, k3, k4, xs = work[0, :n], work[1, :n], work[2, :n], work[3, :n], work[4, :n]
-    ua, ub, uc = work[5, :ni], work[6, :ni], work[7, :ni]
+    ua, ub, uc, g = work[5, :ni], work[6, :ni], work[7, :ni], work[8, :ni]
     h = dt / m
     for i in range(n):
         xo[i] = x[i]
+    for j in range(ni):  # the input's step per substep, once per interval (as the template's g0, g1, ...)
+        g[j] = 0.0 if hold else (U[k + 1, j] - U[k, j]) / m
     for s in range(m):
         for j in range(ni):
-            g = 0.0 if hold else (U[k + 1, j] - U[k, j]) / m
-            ua[j] = U[k, j] + s * g
-            ub[j] = ua[j] + 0.5 * g
-            uc[j] = ua[j] + g
+            ua[j] = U[k, j] + s * g[j]
+            ub[j] = ua[j] + 0.5 * g[j]
+            uc[j] = ua[j] + g[j]
         rhs(xo, ua, p, k1)
         for i in range(n):
             xs[i] = xo[i] + 0.5 * h * k1[i]
@@ -169,7 +170,7 @@ def _integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, 
     xo = np.empty(n)
     J = np.empty((n, n))
     u = np.empty(U.shape[1])
-    work = np.empty((8, max(n, U.shape[1])))
+    work = np.empty((9, max(n, U.shape[1])))
     for i in range(n):
         x[i] = x0[i]
         X[0, i] = x0[i]

@@ -134,9 +134,9 @@ def windowed_refits(record, model, dg, fixed=None, n_windows: int = N_WINDOWS) -
 
 def any_change(windows: Windows) -> list[str]:
     """Every parameter whose windowed refits changed at all, largest change first: the fallback when none
-    changes monotonically. Windowed refits trade parameters off (on a 4-cycle sine with c2 and c3 falling
-    by 25 %, three windows gave c3 -13 % but not monotone, k1 -78 %), so then each parameter is tried
-    drifting and the fits' evidence, not the windows, decides."""
+    changes monotonically. Windowed refits trade parameters off (on the independent heating sine record,
+    seed 9, three windows gave c3 -13 % but not monotone, k1 -78 %), so the caller ranks these by their
+    linearised drift (:func:`duffsym.diagnose.discover._drift_ranking`) and the fits' evidence decides."""
     moved = [n for n, c in windows.change.items() if math.isfinite(c) and c != 0.0]
     return sorted(moved, key=lambda n: -abs(windows.change[n]))
 
