@@ -12,7 +12,9 @@ interval; a step whose end state is stiffer than the count allows is redone with
 The explicit runs of :func:`simulate` go through one integrator compiled once
 (:mod:`duffsym.codegen.generic`), which calls the model's generated functions through pointers: a new
 model (every candidate of a diagnosis is one) compiles only those, 3-8x faster than its own inlined
-integrator, for a run 2-4x slower. :func:`simulate_batch` and the sampler keep the inlined integrators.
+integrator, for a run 2-4x slower. :func:`simulate_batch` runs the same integrator over parameter sets in
+parallel (a grid search of starts runs it for every new model; its own parallel kernel took 5-8 s to compile
+per model). The implicit runs and the sampler keep the inlined integrators.
 """
 
 from __future__ import annotations
@@ -398,14 +400,13 @@ def _compiled_run(model, method, t, U, x0, p, fixed, h_lambda, max_substeps, hol
     X = np.empty((t.size, model.n_states))
     Y = np.empty(t.size)
     M = np.zeros(t.size - 1, dtype=np.int64)
-    if method == "rk4":  # the one explicit integrator compiled once, calling the model through pointers
+    if method == "rk4":  # the integrators compiled once, calling the model through pointers
         st, idx = generic.integrate(
             mod, t, U, x0, p, generic.Settings(fixed, h_lambda, max_substeps, hold, blowup), X, Y, M
         )
     else:
-        st, idx = mod.integrate_implicit(
-            t, U, x0, p, fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold, float(blowup), X, Y, M
-        )
+        settings = generic.ImplicitSettings(fixed, IMPLICIT_RTOL, IMPLICIT_ATOL, IMPLICIT_MAX_STEPS, hold, blowup)
+        st, idx = generic.integrate_implicit(mod, t, U, x0, p, settings, X, Y, M)
     return X, Y, int(st), int(idx), M
 
 
@@ -504,7 +505,8 @@ def simulate_batch(
     blowup: float = BLOWUP,
     method: str = "rk4",
 ) -> BatchResult:
-    """Simulate many parameter sets (rows of ``params``, ordered as ``model.params``) in parallel.
+    """Simulate many parameter sets (rows of ``params``, ordered as ``model.params``) in parallel, with the
+    explicit integrator compiled once for every model (:func:`duffsym.codegen.generic.integrate_batch`).
 
     Failures do not raise: they are reported per set in ``status`` (0 ok, 1 blow-up, 2 too stiff). With
     ``method="auto"`` a set whose explicit RK4 run stops is rerun with the implicit ROS2 integrator (as
@@ -512,6 +514,7 @@ def simulate_batch(
     explicit run's verdict: a grid search (:func:`duffsym.identify.initial_guess`) drops a set too stiff
     for it rather than paying an implicit run for a start it does not need.
     """
+    from duffsym.codegen import generic
     from duffsym.codegen.compiled import compiled_module
 
     t = check_time(t)
@@ -522,6 +525,8 @@ def simulate_batch(
         raise ModelError(f"params must have shape (n_sets, {model.n_params}) for {model.param_names}; got {P.shape}")
     if not np.all(np.isfinite(P)):
         raise ModelError(f"params has non-finite entries in row(s) {np.flatnonzero(~np.isfinite(P).all(1))[:5]}")
+    if method not in ("rk4", "auto"):
+        raise ModelError(f"method must be 'rk4' or 'auto' for a batch; got {method!r}")
     U = input_matrix(model, t, inputs)
     _check_integrator_options(h_lambda, max_substeps, blowup)
     if x0 is None:
@@ -539,23 +544,9 @@ def simulate_batch(
     fail = np.zeros(P.shape[0], dtype=np.int64)
     total = np.zeros(P.shape[0], dtype=np.int64)
     fixed = _substep_setting(substeps)
-    compiled_module(model).integrate_batch(
-        frozen_array(t),
-        frozen_array(U),
-        frozen_array(X0),
-        frozen_array(P),
-        fixed,
-        float(h_lambda),
-        int(max_substeps),
-        reconstruction == "hold",
-        float(blowup),
-        Y,
-        status,
-        fail,
-        total,
-    )
-    if method not in ("rk4", "auto"):
-        raise ModelError(f"method must be 'rk4' or 'auto' for a batch; got {method!r}")
+    settings = generic.Settings(fixed, float(h_lambda), int(max_substeps), reconstruction == "hold", float(blowup))
+    U, X0, P = frozen_array(U), frozen_array(X0), frozen_array(P)
+    generic.integrate_batch(compiled_module(model), frozen_array(t), U, X0, P, settings, Y, status, fail, total)
     for s in np.flatnonzero(status != 0) if method == "auto" else ():  # the implicit integrator decides
         _, Y[s], status[s], fail[s], M = _compiled_run(
             model, "rosenbrock", t, U, X0[s], P[s], fixed, h_lambda, max_substeps, reconstruction == "hold", blowup

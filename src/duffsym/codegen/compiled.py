@@ -25,7 +25,7 @@ from duffsym.codegen._printing import check_numeric_structure, state_jacobian
 from duffsym.model.core import SymbolicModel
 
 _TEMPLATE = Path(__file__).with_name("_integrator_template.py")
-GENERATOR_VERSION = "13"
+GENERATOR_VERSION = "14"
 #: LLVM fast-math flags of the RK4 substep loop: reassociation and FMA contraction shorten the
 #: dependency chain of each stage (the simulator's speed: benchmarks/bench_simulate.py); no "nnan"/"ninf",
 #: so the blow-up test on non-finite states stays valid.

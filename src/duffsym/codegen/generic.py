@@ -9,8 +9,9 @@ explicit signatures below) as first-class functions, so a new model compiles onl
 (3-8x less, ``benchmarks/lever_generic_integrator.py``), for a free run 2-4x slower (about 1 ms for 3000
 samples) that agrees with the inlined integrator to rounding (below 1e-14 of max|y|).
 
-:func:`duffsym.simulate.simulate` uses it for its explicit runs; the batch and sampler kernels, where the run
-time counts, keep the inlined integrator.
+:func:`duffsym.simulate.simulate` uses it for its explicit runs and :func:`integrate_batch` (the same, over
+parameter sets in parallel) for :func:`duffsym.simulate.simulate_batch`; the implicit integrator and the
+sampler's kernel, where the run time counts, stay inlined.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit, types
+from numba import njit, prange, types
 
 _A1 = types.float64[::1]
 _A2 = types.float64[:, ::1]
@@ -211,5 +212,278 @@ def _integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, 
         for i in range(n):
             x[i] = xo[i]
             X[k + 1, i] = xo[i]
+        Y[k + 1] = _output(output, x, U, k + 1, p, u)
+    return STATUS_OK, -1
+
+
+_SIG_BATCH = types.void(
+    types.FunctionType(SIG_RHS),
+    types.FunctionType(SIG_JAC),
+    types.FunctionType(SIG_OUT),
+    _RO1,
+    _RO2,
+    _RO2,
+    _RO2,
+    types.int64,
+    types.float64,
+    types.int64,
+    types.boolean,
+    types.float64,
+    _A2,
+    types.int64[::1],
+    types.int64[::1],
+    types.int64[::1],
+)
+
+
+def integrate_batch(mod, t, U, X0, P, settings: Settings, Y, status, fail_index, total_substeps) -> None:
+    """:func:`integrate` for many parameter sets (rows of ``P``) and initial states (rows of ``X0``), in
+    parallel, as the template's ``integrate_batch``: writes each set's outputs (rows of ``Y``), status, first
+    failed sample and total substeps."""
+    s = settings
+    _integrate_batch(mod.rhs_ptr, mod.jac_ptr, mod.output_ptr, t, U, X0, P, int(s.substeps), float(s.h_lambda),
+                     int(s.max_substeps), bool(s.hold), float(s.blowup), Y, status, fail_index,
+                     total_substeps)  # fmt: skip
+
+
+@njit(_SIG_BATCH, cache=True, parallel=True)
+def _integrate_batch(rhs, jac, output, t, U, X0, P, substeps, h_lambda, max_substeps, hold, blowup, Y, status,
+                     fail_index, total_substeps):  # fmt: skip
+    n_times = t.shape[0]
+    for s in prange(P.shape[0]):
+        X = np.empty((n_times, X0.shape[1]))
+        M = np.zeros(max(n_times - 1, 1), dtype=np.int64)
+        st, idx = _integrate(rhs, jac, output, t, U, X0[s], P[s], substeps, h_lambda, max_substeps, hold, blowup,
+                             X, Y[s], M)  # fmt: skip
+        status[s] = st
+        fail_index[s] = idx
+        total_substeps[s] = M.sum()
+
+
+# ------------------------------------------------------------------------------------------------
+# Linearly implicit (Rosenbrock) integrator for stiff runs: ROS2 of Verwer, Spee, Blom & Hundsdorfer
+# (SIAM J. Sci. Comput. 20, 1999), gamma = 1 + 1/sqrt(2). Second order for any Jacobian (a W-method,
+# so the time dependence of the input needs no df/dt term), L-stable, one LU of (I - gamma h J) per
+# step and no Newton iteration. The embedded first-order solution x + h k1 gives the error estimate.
+
+ROS_GAMMA = 1.0 + 1.0 / math.sqrt(2.0)
+
+
+@njit(cache=True)
+def _lu(A, piv):
+    """In-place LU factorisation with partial pivoting; False if singular."""
+    n = A.shape[0]
+    for c in range(n):
+        r = c
+        big = abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                big = abs(A[i, c])
+                r = i
+        if not (big > 0.0):
+            return False
+        piv[c] = r
+        if r != c:
+            for j in range(n):
+                tmp = A[c, j]
+                A[c, j] = A[r, j]
+                A[r, j] = tmp
+        for i in range(c + 1, n):
+            f = A[i, c] / A[c, c]
+            A[i, c] = f
+            for j in range(c + 1, n):
+                A[i, j] -= f * A[c, j]
+    return True
+
+
+@njit(cache=True)
+def _lu_solve(A, piv, b):
+    """Solve A z = b in place (b becomes z) with the factors of _lu."""
+    n = A.shape[0]
+    for c in range(n):
+        r = piv[c]
+        if r != c:
+            tmp = b[c]
+            b[c] = b[r]
+            b[r] = tmp
+    for i in range(n):
+        for j in range(i):
+            b[i] -= A[i, j] * b[j]
+    for i in range(n - 1, -1, -1):
+        for j in range(i + 1, n):
+            b[i] -= A[i, j] * b[j]
+        b[i] /= A[i, i]
+
+
+@njit(cache=True)
+def _ros2_step(rhs, jac, x, ua, ub, p, h, J, A, piv, k1, k2, xs, f, xn, err):
+    """One ROS2 step of size h from x (input ua at the start, ub at the end). Writes xn and the
+    embedded error err; False if the step matrix is singular or the stage is not finite."""
+    n = x.shape[0]
+    jac(x, ua, p, J)
+    for i in range(n):
+        for j in range(n):
+            A[i, j] = -ROS_GAMMA * h * J[i, j]
+        A[i, i] += 1.0
+    if not _lu(A, piv):
+        return False
+    rhs(x, ua, p, k1)
+    _lu_solve(A, piv, k1)
+    for i in range(n):
+        xs[i] = x[i] + h * k1[i]
+    if not _within(xs, 1e300):
+        return False
+    rhs(xs, ub, p, f)
+    for i in range(n):
+        k2[i] = f[i] - 2.0 * k1[i]
+    _lu_solve(A, piv, k2)
+    for i in range(n):
+        xn[i] = x[i] + h * (1.5 * k1[i] + 0.5 * k2[i])
+        err[i] = 0.5 * h * (k1[i] + k2[i])
+    return True
+
+
+_SIG_IMPLICIT = types.UniTuple(types.int64, 2)(
+    types.FunctionType(SIG_RHS),
+    types.FunctionType(SIG_JAC),
+    types.FunctionType(SIG_OUT),
+    _RO1,
+    _RO2,
+    _RO1,
+    _RO1,
+    types.int64,
+    types.float64,
+    types.float64,
+    types.int64,
+    types.boolean,
+    types.float64,
+    _A2,
+    _A1,
+    types.int64[::1],
+)
+
+
+class ImplicitSettings(NamedTuple):
+    """The implicit integrator's settings: ``substeps`` (> 0 equal steps per interval, <= 0 steps chosen by the
+    embedded error estimate with ``rtol`` and ``atol``), ``max_steps`` per interval, ``hold`` and ``blowup``."""
+
+    substeps: int
+    rtol: float
+    atol: float
+    max_steps: int
+    hold: bool
+    blowup: float
+
+
+def integrate_implicit(mod, t, U, x0, p, settings: ImplicitSettings, X, Y, M) -> tuple[int, int]:
+    """:func:`integrate` with the linearly implicit ROS2 integrator, for stiff runs (same arrays, outputs and
+    statuses; ``M`` holds the accepted steps per interval)."""
+    s = settings
+    return _integrate_implicit(mod.rhs_ptr, mod.jac_ptr, mod.output_ptr, t, U, x0, p, int(s.substeps),
+                               float(s.rtol), float(s.atol), int(s.max_steps), bool(s.hold), float(s.blowup),
+                               X, Y, M)  # fmt: skip
+
+
+@njit(_SIG_IMPLICIT, cache=True)
+def _integrate_implicit(rhs, jac, output, t, U, x0, p, substeps, rtol, atol, max_steps, hold, blowup, X, Y,
+                        M):  # fmt: skip
+    """The template's ROS2 ``integrate_implicit``: over the sample times t (arguments and outputs as _integrate).
+
+    substeps > 0 takes that many equal steps per sample interval (a fixed discretisation, for
+    finite differences); substeps <= 0 controls the step size by the embedded error estimate
+    (scaled RMS norm with rtol, atol), carrying the step size from one interval to the next.
+    Blow-up (a state non-finite or beyond ``blowup``) and step-size collapse (more than max_steps
+    steps in one interval, or a step below 1e-12 of the interval) stop the run and are reported.
+    M holds the accepted steps per interval.
+
+    Long: a numba kernel; its step loop stays whole because every helper called per step costs a call
+    in the innermost loop, and the step-size control shares most of the loop's local state.
+    """
+    n = x0.shape[0]
+    ni = U.shape[1]
+    x = np.empty(n)
+    xn = np.empty(n)
+    J = np.empty((n, n))
+    A = np.empty((n, n))
+    piv = np.zeros(n, dtype=np.int64)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    xs = np.empty(n)
+    f = np.empty(n)
+    err = np.empty(n)
+    ua = np.empty(ni)
+    ub = np.empty(ni)
+    u = np.empty(ni)
+    for i in range(n):
+        x[i] = x0[i]
+        X[0, i] = x0[i]
+    Y[0] = _output(output, x, U, 0, p, u)
+    adaptive = substeps <= 0
+    h = -1.0
+    for k in range(t.shape[0] - 1):
+        dt = t[k + 1] - t[k]
+        if h <= 0.0 or h > dt:
+            h = dt
+        if not adaptive:
+            h = dt / substeps
+        tau = 0.0
+        steps = 0
+        tries = 0
+        start_norm = 1e-300
+        for i in range(n):
+            start_norm = max(start_norm, abs(x[i]))
+        status = STATUS_OK
+        while tau < dt * (1.0 - 1e-12):
+            last = tau + h >= dt * (1.0 - 1e-12)
+            hs = dt - tau if last else h
+            if tries >= max_steps or hs < 1e-12 * dt:
+                # a step size collapsing while the state grows tenfold within the interval is a
+                # finite-time escape (blow-up); otherwise the right-hand side is too stiff/rough
+                grown = 0.0
+                for i in range(n):
+                    grown = max(grown, abs(x[i]))
+                status = STATUS_BLOWUP if grown > 10.0 * start_norm else STATUS_TOO_STIFF
+                break
+            for j in range(ni):
+                g = 0.0 if hold else (U[k + 1, j] - U[k, j]) / dt
+                ua[j] = U[k, j] + tau * g
+                ub[j] = U[k, j] + (tau + hs) * g
+            ok = _ros2_step(rhs, jac, x, ua, ub, p, hs, J, A, piv, k1, k2, xs, f, xn, err)
+            tries += 1
+            if adaptive:
+                e = 0.0
+                if ok:
+                    for i in range(n):
+                        sc = atol + rtol * max(abs(x[i]), abs(xn[i]))
+                        e += (err[i] / sc) ** 2
+                    e = math.sqrt(e / n)
+                if not ok or not (e == e) or e > 1.0:
+                    fac = 0.2 if not ok or not (e == e) else max(0.2, 0.9 / math.sqrt(e))
+                    h = hs * fac
+                    continue
+                fac = 5.0 if e == 0.0 else min(5.0, 0.9 / math.sqrt(e))
+                if not last:
+                    h = hs * fac
+                else:
+                    h = max(h, hs * fac) if hs < h else hs * fac
+            elif not ok:
+                status = STATUS_BLOWUP
+                break
+            if not _within(xn, blowup):
+                status = STATUS_BLOWUP
+                break
+            for i in range(n):
+                x[i] = xn[i]
+            tau += hs
+            steps += 1
+        if status != STATUS_OK:
+            for kk in range(k + 1, t.shape[0]):
+                Y[kk] = np.nan
+                for i in range(n):
+                    X[kk, i] = np.nan
+            return status, (k + 1 if status == STATUS_BLOWUP else k)
+        M[k] = steps
+        for i in range(n):
+            X[k + 1, i] = x[i]
         Y[k + 1] = _output(output, x, U, k + 1, p, u)
     return STATUS_OK, -1
