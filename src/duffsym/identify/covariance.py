@@ -61,27 +61,35 @@ def _record_sensitivity(problem, i, rec, U, x0, params, n_cols):
     n_sub = int(min(max(int(ref.substeps.max()), 1) * 2, 200))
     # ... and the same integrator (the implicit one when the explicit run fell back to it)
     how = {"substeps": n_sub, "method": ref.method, "on_failure": "return"}
-    base = simulate(model, params, t, chans, x0=x0, **how)
-    Jb = np.zeros((rec.n_times, n_cols))
+    x0v = np.asarray(x0, dtype=float)
+    cols, sets = [], []  # (column, step) and the (params, x0) of each run: the +step run, then the -step run
     for j in sorted(set(problem.slot_index(i))):
         n = slots[j][0]
         step = 1e-6 * max(abs(params[n]), model.param(n).typical_scale)
-        ys = []
-        for sgn in (1, -1):
-            p = dict(params)
-            p[n] = params[n] + sgn * step
-            ys.append(simulate(model, p, t, chans, x0=x0, **how).y)
-        Jb[:, j] = (ys[0] - ys[1]) / (2 * step)
-    x0v = np.asarray(x0, dtype=float)
+        cols.append((j, step))
+        sets += [({**params, n: params[n] + sgn * step}, x0v) for sgn in (1, -1)]
     for s in range(nx):
         step = 1e-6 * max(abs(x0v[s]), 1e-3 * max(1.0, float(np.max(np.abs(x0v)))))
-        ys = []
-        for sgn in (1, -1):
-            xx = x0v.copy()
-            xx[s] += sgn * step
-            ys.append(simulate(model, params, t, chans, x0=xx, **how).y)
-        Jb[:, n_slots + nx * i + s] = (ys[0] - ys[1]) / (2 * step)
-    return Jb, base.y
+        cols.append((n_slots + nx * i + s, step))
+        sets += [(params, x0v + sgn * step * np.eye(nx)[s]) for sgn in (1, -1)]
+    ys = _runs(model, t, chans, [(params, x0v), *sets], how)
+    Jb = np.zeros((rec.n_times, n_cols))
+    for k, (col, step) in enumerate(cols):
+        Jb[:, col] = (ys[1 + 2 * k] - ys[2 + 2 * k]) / (2 * step)
+    return Jb, ys[0]
+
+
+def _runs(model, t, chans, sets, how) -> np.ndarray:
+    """Outputs of the runs ``sets`` (``(params by name, x0)`` each), one row each: one parallel batch of the
+    explicit integrator (:func:`~duffsym.simulate.simulate_batch`, the same arithmetic as :func:`simulate`
+    with the same settings), or one implicit run after another."""
+    from duffsym.simulate import simulate, simulate_batch
+
+    if how["method"] != "rk4":
+        return np.array([simulate(model, p, t, chans, x0=x, **how).y for p, x in sets])
+    P = np.array([model.param_vector(p) for p, _ in sets])
+    X0 = np.array([x for _, x in sets])
+    return simulate_batch(model, P, t, chans, x0=X0, substeps=how["substeps"], method="rk4").y
 
 
 def _gauss_newton(J: np.ndarray, r: np.ndarray, wv: np.ndarray, n_slots: int) -> np.ndarray:
