@@ -14,7 +14,8 @@ The explicit runs of :func:`simulate` go through one integrator compiled once
 model (every candidate of a diagnosis is one) compiles only those, 3-8x faster than its own inlined
 integrator, for a run 2-4x slower. :func:`simulate_batch` runs the same integrator over parameter sets in
 parallel (a grid search of starts runs it for every new model; its own parallel kernel took 5-8 s to compile
-per model). The implicit runs and the sampler keep the inlined integrators.
+per model), and the implicit ROS2 runs go through that module too; only the sampler keeps an inlined
+integrator.
 """
 
 from __future__ import annotations

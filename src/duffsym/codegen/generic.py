@@ -9,9 +9,9 @@ explicit signatures below) as first-class functions, so a new model compiles onl
 (3-8x less, ``benchmarks/lever_generic_integrator.py``), for a free run 2-4x slower (about 1 ms for 3000
 samples) that agrees with the inlined integrator to rounding (below 1e-14 of max|y|).
 
-:func:`duffsym.simulate.simulate` uses it for its explicit runs and :func:`integrate_batch` (the same, over
-parameter sets in parallel) for :func:`duffsym.simulate.simulate_batch`; the implicit integrator and the
-sampler's kernel, where the run time counts, stay inlined.
+:func:`duffsym.simulate.simulate` uses it for its explicit runs, :func:`integrate_implicit` (ROS2, the same
+pointers) for its stiff runs, and :func:`integrate_batch` (the RK4 over parameter sets in parallel) for
+:func:`duffsym.simulate.simulate_batch`; only the sampler's kernel, where the run time counts, stays inlined.
 """
 
 from __future__ import annotations
@@ -122,22 +122,12 @@ def _output(output, x, U, k, p, u):
     return output(x, u, p)
 
 
+#: the leading arguments of every kernel here (the model's three functions) and the trailing outputs of a run
+#: (states X, outputs Y, substeps M)
+_MODEL = (types.FunctionType(SIG_RHS), types.FunctionType(SIG_JAC), types.FunctionType(SIG_OUT))
+_RUN_OUT = (_A2, _A1, types.int64[::1])
 _SIG = types.UniTuple(types.int64, 2)(
-    types.FunctionType(SIG_RHS),
-    types.FunctionType(SIG_JAC),
-    types.FunctionType(SIG_OUT),
-    _RO1,
-    _RO2,
-    _RO1,
-    _RO1,
-    types.int64,
-    types.float64,
-    types.int64,
-    types.boolean,
-    types.float64,
-    _A2,
-    _A1,
-    types.int64[::1],
+    *_MODEL, _RO1, _RO2, _RO1, _RO1, types.int64, types.float64, types.int64, types.boolean, types.float64, *_RUN_OUT
 )
 
 
@@ -217,9 +207,7 @@ def _integrate(rhs, jac, output, t, U, x0, p, substeps, h_lambda, max_substeps, 
 
 
 _SIG_BATCH = types.void(
-    types.FunctionType(SIG_RHS),
-    types.FunctionType(SIG_JAC),
-    types.FunctionType(SIG_OUT),
+    *_MODEL,
     _RO1,
     _RO2,
     _RO2,
@@ -344,9 +332,7 @@ def _ros2_step(rhs, jac, x, ua, ub, p, h, J, A, piv, k1, k2, xs, f, xn, err):
 
 
 _SIG_IMPLICIT = types.UniTuple(types.int64, 2)(
-    types.FunctionType(SIG_RHS),
-    types.FunctionType(SIG_JAC),
-    types.FunctionType(SIG_OUT),
+    *_MODEL,
     _RO1,
     _RO2,
     _RO1,
@@ -357,9 +343,7 @@ _SIG_IMPLICIT = types.UniTuple(types.int64, 2)(
     types.int64,
     types.boolean,
     types.float64,
-    _A2,
-    _A1,
-    types.int64[::1],
+    *_RUN_OUT,
 )
 
 
@@ -477,10 +461,7 @@ def _integrate_implicit(rhs, jac, output, t, U, x0, p, substeps, rtol, atol, max
             tau += hs
             steps += 1
         if status != STATUS_OK:
-            for kk in range(k + 1, t.shape[0]):
-                Y[kk] = np.nan
-                for i in range(n):
-                    X[kk, i] = np.nan
+            _fail_from(k + 1, X, Y)
             return status, (k + 1 if status == STATUS_BLOWUP else k)
         M[k] = steps
         for i in range(n):
