@@ -199,3 +199,82 @@ def test_a_run_without_a_usable_fit_becomes_a_failed_candidate_with_its_reason()
         )
         is None
     )
+
+
+def test_on_an_engine_the_costliest_runs_are_submitted_first_and_results_come_back_in_task_order():
+    # LPT scheduling: the second starts of the Dyke diagnosis were submitted in catalogue order, so the
+    # 35-s backlash fit started last and one of the two workers sat idle for ~24 s at the end of the phase
+    from duffsym.diagnose.search import _second_starts
+    from duffsym.engine import Outcome
+
+    class Recording:
+        submitted: list = []
+
+        def as_completed(self, func, items):
+            self.submitted = [t.name for t in items]
+            for i in reversed(range(len(items))):  # any completion order
+                yield Outcome(i, value=func(items[i]))
+
+    runs = [
+        CandidateRun(
+            name=n,
+            effect=SimpleNamespace(parameters=list),
+            model=None,
+            ss=5.0,
+            fit=_fake_fit("Maximum_Iterations_Exceeded"),
+            seconds=s,
+        )
+        for n, s in [("cheap", 3.0), ("dear", 40.0), ("middle", 12.0)]
+    ]
+    ss_of = {"cheap": 1.0, "dear": 2.0, "middle": 3.0}
+
+    def job(task):
+        return FitOutcome(ss=ss_of[task.name], fit=_fake_fit("Solve_Succeeded", True), y=np.zeros(3), seconds=1.0)
+
+    engine = Recording()
+    _second_starts(runs, 4.0, SimpleNamespace(params={}), 30, job, engine, lambda *a, **k: None)
+    assert engine.submitted == ["dear", "middle", "cheap"]
+    assert [(r.name, r.ss, r.seconds, r.fit.settings["candidate_start"]) for r in runs] == [
+        ("cheap", 1.0, 4.0, 2),
+        ("dear", 2.0, 41.0, 2),
+        ("middle", 3.0, 13.0, 2),
+    ]
+
+
+def test_with_screening_an_unfinished_run_better_than_the_base_gets_no_second_start():
+    # on the Dyke record 7 of 11 second starts went to runs that were only unfinished at the screening budget
+    # and already better than the base: 62 s of CPU, none of their errors changed by more than 2 %
+    from duffsym.diagnose.search import _second_starts
+
+    def runs():
+        return [
+            CandidateRun(
+                name=n,
+                effect=SimpleNamespace(parameters=list),
+                model=None,
+                ss=ss,
+                fit=_fake_fit(st, st == "Solve_Succeeded"),
+                seconds=1.0,
+            )
+            for n, ss, st in [
+                ("open-better", 3.0, "Maximum_Iterations_Exceeded"),
+                ("timed-out-better", 3.5, "Maximum_CpuTime_Exceeded"),
+                ("open-worse", 5.0, "Maximum_Iterations_Exceeded"),
+                ("broke", 1.0, "Infeasible_Problem_Detected"),
+                ("done-worse", 6.0, "Solve_Succeeded"),
+                ("done-better", 2.0, "Solve_Succeeded"),
+            ]
+        ]
+
+    for screening, want in [
+        (True, ["open-worse", "broke", "done-worse"]),
+        (False, ["open-better", "timed-out-better", "open-worse", "broke", "done-worse"]),
+    ]:
+        started: list[str] = []
+
+        def job(task, started=started):
+            started.append(task.name)
+            return FitOutcome(ss=9.0, fit=_fake_fit("Maximum_Iterations_Exceeded"), y=np.zeros(3), seconds=1.0)
+
+        _second_starts(runs(), 4.0, SimpleNamespace(params={}), 30, job, None, lambda *a, **k: None, screening)
+        assert started == want
