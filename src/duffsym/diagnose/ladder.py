@@ -13,7 +13,9 @@ last step every added effect that has a *nested* simpler entry in the catalogue 
 subset, e.g. ``force-offset`` in ``gas-accumulator``) is tried in its place, and every added effect is
 tried without (an effect taken early can become idle once a later one is in: on the same record an input
 delay taken for part of the lag); the simpler model is kept when it predicts the held-out tail as well
-(within ``TIE``) and its BIC is lower, and the step says so (backward elimination after the forward steps).
+(within ``TIE``) and its BIC is lower or higher by less than ``PARSIMONY_BIC`` (2: a difference the evidence
+cannot tell from none, so the fewer parameters win), and the step says so (backward elimination after the
+forward steps).
 
 Several effects fitted together: after each accepted step the extended model is refitted jointly
 (:func:`joint_refit`) from several starts — the candidate's own solution, the first base fit with every added
@@ -42,7 +44,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.diagnose.options import DEFAULT_BUDGET, DiagnoseOptions, LadderOptions
+from duffsym.diagnose.options import DEFAULT_BUDGET, PARSIMONY_BIC, DiagnoseOptions, LadderOptions
 from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_effects, time_left, with_default_af
 from duffsym.errors import DataError, ModelError
 from duffsym.options import field_names, resolve
@@ -157,7 +159,8 @@ class Ladder:
             if s.discovered
         ]
         lines += [
-            f"  step {i}: {s.simplified} (as good on the held-out tail, lower BIC)"
+            f"  step {i}: {s.simplified} (as good on the held-out tail, "
+            + ("lower BIC)" if s.bic < self.steps[i - 1].bic else "BIC within 2: fewer parameters)")
             for i, s in enumerate(self.steps)
             if s.simplified
         ]
@@ -569,8 +572,9 @@ def _nested(name: str, present) -> list[str]:
 
 def _simplify(record, base_model, model, steps: list, say, kw) -> object:
     """After the last step, backward: each added effect is replaced by a nested simpler catalogue entry, or
-    dropped, when the simpler model predicts the held-out tail as well (within ``TIE``) and has the lower
-    BIC (see the module docstring); each change is appended as a step. Returns the model of the last step."""
+    dropped, when the simpler model predicts the held-out tail as well (within ``TIE``) and its BIC is not
+    higher by more than ``PARSIMONY_BIC`` (see the module docstring); each change is appended as a step.
+    Returns the model of the last step."""
     from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.identify.result import nrmse as _nrmse
 
@@ -594,7 +598,11 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
             except (ModelError, DataError) as exc:  # the simpler model cannot even be fitted: keep the richer one
                 say(f"  not simpler: {exc}")
                 continue
-            if dg.base_fit.success and dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE) and dg.bic_base < last.bic:
+            if (
+                dg.base_fit.success
+                and dg.nrmse_heldout <= last.nrmse_heldout * (1 + TIE)
+                and dg.bic_base < last.bic + PARSIMONY_BIC
+            ):
                 k = dg.split.n_fit
                 steps.append(
                     Step(

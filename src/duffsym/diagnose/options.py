@@ -17,6 +17,11 @@ CANDIDATE_CPU_TIME = 30.0
 SCREEN = 4
 #: two candidates whose held-out RMSE differ by less than this (relative) are reported as a tie
 TIE = 0.05
+#: the ladder's backward pass keeps a simpler model whose BIC is at most this much above the richer one's: a
+#: difference under 2 is "not worth more than a bare mention" (Kass & Raftery 1995), so the evidence cannot
+#: separate them and the fewer parameters win. Entering needs BIC_THRESHOLD (-10), leaving only this: the
+#: stepwise-regression rule of a stricter threshold to enter than to stay, so that no effect flips back and forth
+PARSIMONY_BIC = 2.0
 #: candidates (best first) whose fitted set is checked against the derived stability certificate
 STABILITY_CHECKED = 4
 #: base held-out NRMSE below which the model is said to fit the record exactly (noise-free data)
