@@ -86,17 +86,19 @@ def test_candidate_outside_the_stability_certificate_is_marked_and_not_needed():
 
 @pytest.mark.slow
 @pytest.mark.claim
-def test_second_start_recovers_a_true_effect_lost_to_a_diverged_fit():
-    # measured: from the base optimum + data guess, the gas-accumulator fit converged to a set whose free run
-    # diverged, so the true effect ranked below force-offset; the second start (base solution) finds it.
-    # Was a strict xfail: failed on main d580dd2 .. 224bfd2 with the installs of 2026-11-26 (force-offset ranked
-    # first); passes with the install of 2026-11-27 (casadi 3.8.2, numpy 2.4.6, scipy 1.17.1, numba 0.68.1) on
-    # 224bfd2 and on 758b130, which XPASSed it in the CI rehearsal: kept as a plain claim
+def test_the_gas_accumulator_is_named_over_the_offset_it_contains_and_its_stiffness_recovered():
+    # history: with the installs of 2026-11-26 the gas-accumulator fit from the base optimum + data guess converged
+    # to a set whose free run diverged and force-offset ranked first; a second start from the base solution found
+    # it (this test was then "the second start recovers ..." and asserted start == 2). With the install of
+    # 2026-11-27 the first start converges when given the full budget (screen=None: start 1, held-out 0.01066
+    # against the offset's 0.01155), and since a run merely unfinished at the screening budget is continued
+    # instead of restarted (0420eca), the default path reaches the same fit from the first start too. What the
+    # second start does is checked on constructed runs in test_diagnose_types.py.
     rec, g = record("gas-accumulator", 0)
     dg = diagnose(rec, candidates=["gas-accumulator", "force-offset"], sindy=False)
     c = dg.best
-    assert c.effect == "gas-accumulator" and c.start == 2
-    assert c.params["gas_k"] == pytest.approx(g.truth["physics"]["gas_stiffness"], rel=0.2)
+    assert c.effect == "gas-accumulator" and not c.diverged
+    assert c.params["gas_k"] == pytest.approx(g.truth["physics"]["gas_stiffness"], rel=0.2)  # measured 4 %
 
 
 def test_nested_simpler_effects_come_from_the_parameters():

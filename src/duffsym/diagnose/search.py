@@ -519,11 +519,13 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     progress : a callable taking a message string (e.g. ``print``), a
         :class:`duffsym._progress.Progress` (counts and time left), or None.
     engine : a started :class:`~duffsym.engine.Engine` to fit the candidates on its workers (the same
-        fits, in parallel), or None (default): one after the other in this process.
+        fits, in parallel, submitted costliest first), or None (default): one after the other in this process.
     second_start : a candidate whose fit failed, diverged, or ended worse on the fitting part than the
         base it extends (a local optimum: it contains the base model) is fitted again from the base
         solution itself with the effect's parameters at their neutral defaults; the better is kept
-        (``settings["candidate_start"] = 2`` when the second won). Measured in ``bench_diagnose.py``.
+        (``settings["candidate_start"] = 2`` when the second won). Measured in ``bench_diagnose.py``. With
+        screening, a fit merely unfinished on the screening budget is not failed: when it is already better
+        than the base, the screening decides whether it continues.
     deadline : a ``time.monotonic()`` instant by which the diagnosis should be done (None: no limit). The
         base fit may take ``BASE_SHARE`` of the time left, the plain-fit reference ``REFERENCE_SHARE``,
         and the candidates share the rest (IPOPT CPU seconds; a fit stopped by it is reported as not
