@@ -160,7 +160,7 @@ class Ladder:
         ]
         lines += [
             f"  step {i}: {s.simplified} (as good on the held-out tail, "
-            + ("lower BIC)" if s.bic < self.steps[i - 1].bic else "BIC within 2: fewer parameters)")
+            + ("lower BIC)" if s.bic < self.steps[i - 1].bic else f"BIC within {PARSIMONY_BIC:g}: fewer parameters)")
             for i, s in enumerate(self.steps)
             if s.simplified
         ]

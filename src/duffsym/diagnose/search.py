@@ -1025,7 +1025,12 @@ def _lost(run: CandidateRun, ss_base: float, screening: bool) -> bool:
         return True
     if run.converged:
         return False
-    return not (screening and run.fit_status in (Status.MAX_ITER,) + OUT_OF_TIME)
+    return not (screening and _still_open(run))
+
+
+def _still_open(run: CandidateRun) -> bool:
+    """Whether ``run`` stopped unfinished (on its iteration budget or its time share), not failed or converged."""
+    return not run.converged and run.fit_status in (Status.MAX_ITER,) + OUT_OF_TIME
 
 
 def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max_iter: int, job, engine, say) -> None:
@@ -1036,7 +1041,7 @@ def _screen_and_continue(runs: list[CandidateRun], screen: int, budget: int, max
     against converged ones (an output lag at 30 iterations ranked 10 of 11 behind them, and the ladder lost it
     on an offset + lag record; it converges to the true lag when continued)."""
     runs.sort(key=lambda r: r.ss)
-    open_runs = [r for r in runs if not r.converged and r.fit_status in (Status.MAX_ITER,) + OUT_OF_TIME]
+    open_runs = [r for r in runs if _still_open(r)]
     go_on = []
     for rank, run in enumerate(open_runs):
         if rank >= screen:
