@@ -151,6 +151,22 @@ def test_a_tiny_budget_stops_the_ladder_with_its_finished_steps_written(tmp_path
     assert doc["timings"]["total"] < 60
 
 
+def test_a_candidate_stopped_by_its_cpu_allowance_does_not_skip_the_backward_pass():
+    # the CI run of 2026-11-28: backlash ran out of its 30 s CPU allowance on a slower machine (here it stops at
+    # max_iter in 15 s), the ladder called that "the time budget ran out" although none was given, marked itself
+    # incomplete and skipped the backward pass, so gas-accumulator was kept where the offset it contains does
+    from duffsym.diagnose import ladder
+
+    rec, _ = record(("force-offset", "output-lag"), 1)
+    # the two converge in < 1 s of CPU each; backlash needs > 3 s on any machine
+    lad = ladder(rec, sindy=False, candidates=["gas-accumulator", "output-lag", "backlash"], candidate_cpu_time=3.0)
+    assert [s.effects for s in lad.steps[1:3]] == [("gas-accumulator",), ("gas-accumulator", "output-lag")]
+    assert lad.complete and lad.steps[-1].simplified == "gas-accumulator -> force-offset"
+    assert set(lad.effects) == {"force-offset", "output-lag"}
+    assert "backlash: not converged within candidate_cpu_time = 3.0 s" in lad.stopped
+    assert "time budget" not in lad.stopped
+
+
 def test_budget_argument_is_checked():
     from duffsym.cli import main
 

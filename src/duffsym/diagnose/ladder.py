@@ -44,7 +44,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.diagnose.options import DEFAULT_BUDGET, PARSIMONY_BIC, DiagnoseOptions, LadderOptions
+from duffsym.diagnose.options import (
+    CANDIDATE_CPU_TIME,
+    DEFAULT_BUDGET,
+    PARSIMONY_BIC,
+    DiagnoseOptions,
+    LadderOptions,
+)
 from duffsym.diagnose.search import TIE, Diagnosis, _fit, diagnose, inactive_effects, time_left, with_default_af
 from duffsym.errors import DataError, ModelError
 from duffsym.options import field_names, resolve
@@ -235,7 +241,7 @@ def ladder(record: Record, model=None, options: LadderOptions | None = None, **s
     rules = dict(o.rules)
     kw = dict(fixed=o.fixed, holdout=o.holdout, noise=o.noise, mask=o.mask, progress=o.progress, **rules)
     model = run.model
-    if run.complete:
+    if run.steps and tuple(model.effects) == run.steps[-1].effects:  # the last step's model is the result
         model = _simplify(record, run.base_model, model, run.steps, run.say, {**kw, "deadline": run.end})
     return _final(
         record, model, run.steps, run.stopped, run.complete, run.t0, o.budget, run.end, o.fixed, rules, run.say
@@ -398,11 +404,19 @@ def _take(run: _Run, dg: Diagnosis, chosen: str | None) -> bool:
     from duffsym.effects import CATALOGUE, apply_effects
 
     o, n = run.o, len(run.steps)
-    if chosen is None and _out_of_time(dg):
+    missed = _out_of_time(dg)
+    if chosen is None and missed and run.end is not None:
         run.stop(
             f"stopped at step {n - 1}: the time budget ran out before every candidate was fitted "
-            f"({_out_of_time(dg)}): {dg.verdict}",
+            f"({len(missed)} of {len(dg.candidates)} not tried or not converged: {', '.join(missed)}): {dg.verdict}",
             False,
+        )
+        return False
+    if chosen is None and missed:  # no budget: only the per-candidate CPU allowance stopped them
+        cpu = o.rules.get("candidate_cpu_time", CANDIDATE_CPU_TIME)
+        run.stop(
+            f"no further effect is supported by the evidence: {dg.verdict} ({', '.join(missed)}: not converged "
+            f"within candidate_cpu_time = {cpu} s; None fits each candidate to the end)"
         )
         return False
     if chosen is None:
@@ -440,16 +454,16 @@ def _step_deadline(steps_end, steps, max_steps: int):
     return steps_end if len(steps) >= max_steps else time.monotonic() + STEP_SHARE * left
 
 
-def _out_of_time(dg: Diagnosis) -> str:
-    """Which candidates of ``dg`` the time budget left unfitted or unconverged, in words ("" when none)."""
+def _out_of_time(dg: Diagnosis) -> list[str]:
+    """The candidates of ``dg`` that a time limit (the budget or the per-candidate CPU allowance) left unfitted
+    or unconverged."""
     from duffsym.diagnose.search import NOT_TRIED
 
-    missed = [
+    return [
         c.effect
         for c in dg.candidates
         if not c.success and (c.message.startswith(NOT_TRIED) or "Time_Exceeded" in c.message)
     ]
-    return f"{len(missed)} of {len(dg.candidates)} not tried or not converged: {', '.join(missed)}" if missed else ""
 
 
 def _left_text(end) -> str:
