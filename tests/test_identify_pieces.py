@@ -195,6 +195,12 @@ def test_a_crawl_at_the_final_barrier_is_a_ridge_naming_what_still_moves():
     assert _crawl_log(0.005, mu=1e-3).ridge(names, scale) == ""  # not yet at the final barrier
     assert _crawl_log(0.005, move=0.001).ridge(names, scale) == ""  # nothing moves: converging, not crawling
     assert _crawl_log(0.005, n=50).ridge(names, scale) == ""  # fewer iterations than the window
+    # a parameter far below its typical scale moves relative to its own size (the Dyke record's final ladder fit:
+    # k2, typical 500, moved -12.05 -> -9.56 over 50 iterations while the cost fell 0.007 %; it ran to max_iter)
+    small = _crawl_log(0.00007)
+    small.params[:] = [np.array([(-12.05 + 2.486 * (i - 9) / 50) / 500, 0.08]) for i in range(60)]
+    said = small.ridge(("k2", "k1"), np.array([500.0, 30.0]))
+    assert said.startswith("ridge:") and "k2 -12.05 -> -9.564" in said and "k1" not in said
 
 
 def test_a_run_stopped_on_a_ridge_is_usable_with_its_status_and_flag():
