@@ -90,7 +90,10 @@ class Engine:
         processes with one thread each, started on entry and closed on exit.
     scheduler : address of a running Dask scheduler (``tcp://host:8786``, or a scheduler file path
         ending in ``.json``); overrides ``workers``. The workers must have duffsym installed (see the README).
-    silence_logs : logging level below which Dask's own messages are hidden (default: warnings hidden).
+    silence_logs : logging level below which Dask's own messages are hidden (default: ``logging.CRITICAL``,
+        errors hidden too: a worker whose heartbeat met a scheduler closed by Ctrl-C logged a 30-line
+        traceback under the batch's one-line "interrupted"; an error of the work itself reaches the caller as
+        an exception, not as a log line).
 
     Use it as a context manager (or call :meth:`start` and :meth:`close`).
     """
@@ -117,7 +120,7 @@ class Engine:
             from dask.distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - a dependency of duffsym
             raise EngineError(f"dask.distributed is not installed ({exc}); pip install 'distributed'") from None
-        level = logging.ERROR if self.silence_logs is None else self.silence_logs
+        level = logging.CRITICAL if self.silence_logs is None else self.silence_logs
         try:
             if self.kind == "cluster":
                 spec = str(self.scheduler)
