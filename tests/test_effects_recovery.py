@@ -166,6 +166,30 @@ def test_fit_with_effects_recovers_where_the_base_fit_failed():
     assert ext.nrmse <= 1.3 * noise_nrmse(record)
 
 
+def test_the_second_start_of_fit_with_effects_is_bounded_by_the_converged_first(monkeypatch):
+    """After a converged first start, the second runs under bounded_guard: here every iteration counts as slow
+    (floor and factor 0), so it stops at once and the first is kept. On the Dyke record the unguarded second
+    start of a discovered term took 366 s (iterations of 20-93 s at Hessian regularisation 1e10) after a first
+    start of 7 s."""
+    import duffsym.identify.extended as ext_mod
+    from duffsym.identify import nlp as nlp_mod
+
+    monkeypatch.setattr(nlp_mod, "RESTART_SLOW_FLOOR", 0.0)
+    monkeypatch.setattr(nlp_mod, "RESTART_SLOW_FACTOR", 0.0)
+    runs = []
+    monkeypatch.setattr(ext_mod, "fit", lambda *a, **k: runs.append(fit(*a, **k)) or runs[-1])
+    truth = {**table2_params(0.6), "off_y0": 0.2}
+    fixed = {"A_f": truth["A_f"]}
+    model = apply_effects(M, [CATALOGUE["force-offset"]])
+    record = synthetic_record(model, truth, FAST, dt=0.005, duration=2.0, noise=NOISE, rng=4, settle=1.0)
+    base = fit(Problem(M, record, fixed=fixed))
+    got = fit_with_effects(Problem(model, record, fixed=fixed), [CATALOGUE["force-offset"]], base.params, base.y_sim[0])
+    first, second = runs
+    assert first.success and first.n_iter > 1
+    assert not second.success and second.n_iter <= 1 and "an iteration took" in second.message
+    assert got.settings["effect_start"] == 1 and got.params == first.params
+
+
 @pytest.mark.parametrize("order", [("output-lag", "force-offset"), ("force-offset", "output-lag")])
 def test_a_ladder_of_two_hidden_effects(order):
     """Offset and lag hidden together, added one at a time as a ladder does (each step started from the

@@ -216,6 +216,17 @@ def test_a_run_stopped_on_a_ridge_is_usable_with_its_status_and_flag():
     assert _on_ridge(plain) is plain and ridge_flag(plain) == []
 
 
+def test_a_fit_stopped_by_the_callers_guard_is_not_a_success_and_says_why(problem):
+    """``guard`` (FitOptions): asked after every iteration with the iteration log; the reason it returns stops
+    IPOPT there, the fit is not a success and its message gives the reason."""
+    res = fit(
+        problem, compute_stderr=False, bound_restart=False, guard=lambda log: "enough" if len(log.times) >= 3 else ""
+    )
+    assert not res.success and res.n_iter <= 4 and res.message == f"stopped after {res.n_iter} iterations: enough"
+    free = fit(problem, compute_stderr=False, bound_restart=False, guard=lambda log: "")
+    assert free.success and free.n_iter > 4
+
+
 def test_the_ridge_stop_reaches_ipopt_and_the_fit_reports_it(problem, monkeypatch):
     """The wiring, on a real solve: with the rule made to fire on the first 5 iterations (any gain, any mu), IPOPT
     is stopped there, and the fit carries the status, the message and the flag with the parameters that moved."""

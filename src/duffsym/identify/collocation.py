@@ -42,7 +42,7 @@ import numpy as np
 from duffsym.errors import ModelError
 from duffsym.identify.covariance import laplace_covariance
 from duffsym.identify.initial import initial_guess
-from duffsym.identify.nlp import CollocationNLP, Run, ipopt_settings, restart_guard
+from duffsym.identify.nlp import CollocationNLP, IterationLog, Run, ipopt_settings, restart_guard
 from duffsym.identify.problem import Problem, record_scaled_bounds
 from duffsym.identify.quality import fit_flags, usability
 from duffsym.identify.result import IdentificationResult
@@ -104,6 +104,10 @@ class FitOptions:
         (building, solving) and, every ``nlp.PROGRESS_EVERY`` seconds of a solve, its IPOPT iteration,
         elapsed time, the last iteration's time and, when it is ill-conditioned, IPOPT's Hessian
         regularisation (from IPOPT's intermediate callback).
+    guard : a stop rule asked after every IPOPT iteration of the run(s) from the start(s) with the run's
+        :class:`~duffsym.identify.nlp.IterationLog`; a reason it returns stops the run, which is then not a
+        success and says why. For optional runs that a converged fit already answers (the second start of
+        :func:`~duffsym.identify.fit_with_effects`: :func:`~duffsym.identify.nlp.bounded_guard`). None: none.
     max_wall_time : seconds the solves may take in all (None: no limit). When the budget runs out, IPOPT
         stops at its next iteration: during the first run(s) the result is not a success and its message
         names the phase and what to try; during a bound restart the converged run it started from is kept.
@@ -128,6 +132,7 @@ class FitOptions:
     progress: Callable[[str], None] | None = None
     flags: bool = True
     max_wall_time: float | None = None
+    guard: Callable[[IterationLog], str] | None = None
 
 
 def fit_options(options: FitOptions | None = None, **settings) -> FitOptions:
@@ -327,6 +332,7 @@ def _solve(problem: Problem, nlp: CollocationNLP, opts: FitOptions, n_starts: in
             progress=opts.progress,
             deadline=deadline,
             label=f"start {i + 1}/{n_starts}" if n_starts > 1 else "",
+            guard=opts.guard,
         )
         for i, th in enumerate(starts)
     ]
@@ -339,7 +345,7 @@ def _solve(problem: Problem, nlp: CollocationNLP, opts: FitOptions, n_starts: in
         )
         for i, r in enumerate(runs)
     ]
-    runs = [_on_ridge(r) for r in runs]
+    runs = [_on_guard(_on_ridge(r)) for r in runs]
     i_best = best_run(runs)
     best, bound_note = runs[i_best], None
     if opts.bound_restart and n_starts == 1 and best.success:
@@ -424,6 +430,13 @@ def _on_ridge(run: Run) -> Run:
         message=f"IPOPT stopped after {run.n_iter} iterations on a {run.stopped}: the parameters that moved are "
         "poorly determined by these records (see the ridge flag)",
     )
+
+
+def _on_guard(run: Run) -> Run:
+    """A run the caller's ``guard`` stopped (not the time limit, not a ridge): not a success, saying why."""
+    if not run.stopped or run.stopped == "time" or run.status == Status.RIDGE:
+        return run
+    return replace(run, success=False, message=f"stopped after {run.n_iter} iterations: {run.stopped}")
 
 
 def ridge_flag(run: Run) -> list[dict]:
