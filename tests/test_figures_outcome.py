@@ -22,6 +22,20 @@ def test_steady_window_skips_the_start_up_and_the_ramp_down():
     assert steady_window(np.sin(2 * np.pi * np.arange(0, 1.5, 0.01))) is None  # too short: whole record
 
 
+def test_loop_panels_call_a_window_of_a_random_record_a_window_not_a_steady_cycle():
+    # the Dyke ladder's figure titled its loops "one steady cycle (5.72-5.86 s)" on a random displacement
+    from duffsym.data.record import Record
+    from duffsym.diagnose.figures import _steady, _steady_label
+
+    t = np.arange(0, 10, 0.01)
+    sine = Record(t=t, d=np.sin(2 * np.pi * t), y=np.cos(2 * np.pi * t))
+    assert _steady_label(sine, _steady(sine)).startswith("one steady cycle (")
+    d = np.convolve(np.random.default_rng(0).standard_normal(t.size), np.ones(25) / 25, mode="same")
+    rand = Record(t=t, d=d, y=d)
+    assert _steady_label(rand, _steady(rand)).startswith("a window (")
+    assert _steady_label(rand, _steady(rand)).endswith("s; the input does not repeat)")
+
+
 def _cand(effect, nrmse, success=True, needed=False, supported=False, message="ok"):
     return SimpleNamespace(
         effect=effect,

@@ -33,8 +33,16 @@ def _steady(record: Record) -> slice:
 
 
 def _steady_label(record: Record, sl: slice) -> str:
+    """What the loop panels show: the whole record, one steady cycle of a repeating input, or a window of one
+    that does not repeat (a random or swept record has no steady cycle; :func:`duffsym.plot.windows.loop_windows`)."""
+    from duffsym.plot.windows import loop_windows
+
     t = np.asarray(record.t)[sl]
-    return "whole record" if t.size == record.n_times else f"one steady cycle ({t[0]:.3g}-{t[-1]:.3g} s)"
+    if t.size == record.n_times:
+        return "whole record"
+    if not loop_windows(record.d).whole_cycles:
+        return f"a window ({t[0]:.3g}-{t[-1]:.3g} s; the input does not repeat)"
+    return f"one steady cycle ({t[0]:.3g}-{t[-1]:.3g} s)"
 
 
 def plot_where(diag, record: Record, *, title: str | None = None):
