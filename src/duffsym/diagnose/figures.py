@@ -41,7 +41,7 @@ def _steady_label(record: Record, sl: slice) -> str:
     if t.size == record.n_times:
         return "whole record"
     if not loop_windows(record.d).whole_cycles:
-        return f"a window ({t[0]:.3g}-{t[-1]:.3g} s; the input does not repeat)"
+        return f"a window ({t[0]:.3g}-{t[-1]:.3g} s)"
     return f"one steady cycle ({t[0]:.3g}-{t[-1]:.3g} s)"
 
 
