@@ -161,5 +161,4 @@ def _second_start_guard(results: list, fit_kwargs: Mapping) -> dict:
         return {}
     first = results[0]
     info = (first.settings.get("iterations") or [None])[0] or {}
-    max_iter = int(fit_kwargs.get("max_iter", 500))
-    return {"guard": bounded_guard(info, first.n_iter, max_iter=max_iter, cap_iterations=False)}
+    return {"guard": bounded_guard(info, first.n_iter, max_iter=None)}

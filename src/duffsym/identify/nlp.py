@@ -853,20 +853,22 @@ def restart_guard(first: Run, *, max_iter: int) -> Callable[[IterationLog], str]
     return bounded_guard(first.iterations or {}, first.n_iter, max_iter=max_iter)
 
 
-def bounded_guard(
-    info: Mapping, n_iter: int, *, max_iter: int, cap_iterations: bool = True
-) -> Callable[[IterationLog], str]:
+def bounded_guard(info: Mapping, n_iter: int, *, max_iter: int | None) -> Callable[[IterationLog], str]:
     """The stop rule of an optional run (a bound restart, a second start) that a converged run already answers,
     given that run's iteration summary ``info`` (:meth:`IterationLog.summary`) and iterations ``n_iter``.
     Stops when an iteration takes ``RESTART_SLOW_FACTOR`` times that run's median iteration (and over
     ``RESTART_SLOW_FLOOR`` s), after ``RESTART_ALARM_ITERATIONS`` iterations with the Hessian regularisation
     at :data:`REGULARISATION_ALARM` or more, or after ``RESTART_ITER_FACTOR`` times its iterations (at least
-    ``RESTART_MIN_ITER``) without having converged (``cap_iterations``; without it only the other two rules:
-    a second start from elsewhere may need more iterations than a run that started at the optimum)."""
+    ``RESTART_MIN_ITER``, at most ``max_iter``) without having converged. ``max_iter=None``: no iteration cap,
+    only the other two rules (a second start from elsewhere may need more iterations than a run that started at
+    the optimum)."""
     info = info or {}
     slow = max(RESTART_SLOW_FLOOR, RESTART_SLOW_FACTOR * float(info.get("seconds_median", 0.0)))
-    cap: float = min(int(max_iter), max(RESTART_MIN_ITER, int(RESTART_ITER_FACTOR * max(n_iter, 1))))
-    cap = cap if cap_iterations else math.inf
+    cap = (
+        math.inf
+        if max_iter is None
+        else min(int(max_iter), max(RESTART_MIN_ITER, int(RESTART_ITER_FACTOR * max(n_iter, 1))))
+    )
 
     def guard(log: IterationLog) -> str:
         if log.times and log.times[-1] > slow:
