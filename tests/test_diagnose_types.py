@@ -232,7 +232,7 @@ def test_on_an_engine_the_costliest_runs_are_submitted_first_and_results_come_ba
         return FitOutcome(ss=ss_of[task.name], fit=_fake_fit("Solve_Succeeded", True), y=np.zeros(3), seconds=1.0)
 
     engine = Recording()
-    _second_starts(runs, 4.0, SimpleNamespace(params={}), 30, job, engine, lambda *a, **k: None)
+    _second_starts(runs, 4.0, SimpleNamespace(params={}, success=False), 30, job, engine, lambda *a, **k: None)
     assert engine.submitted == ["dear", "middle", "cheap"]
     assert [(r.name, r.ss, r.seconds, r.fit.settings["candidate_start"]) for r in runs] == [
         ("cheap", 1.0, 4.0, 2),
@@ -276,5 +276,65 @@ def test_with_screening_an_unfinished_run_better_than_the_base_gets_no_second_st
             started.append(task.name)
             return FitOutcome(ss=9.0, fit=_fake_fit("Maximum_Iterations_Exceeded"), y=np.zeros(3), seconds=1.0)
 
-        _second_starts(runs(), 4.0, SimpleNamespace(params={}), 30, job, None, lambda *a, **k: None, screening)
+        _second_starts(
+            runs(), 4.0, SimpleNamespace(params={}, success=False), 30, job, None, lambda *a, **k: None, screening
+        )
         assert started == want
+
+
+def test_a_second_start_is_bounded_by_the_base_fits_iterations():
+    """Each second start carries the base fit's iteration summary (its median iteration raised to the candidate's
+    own first run's when that was slower); none when the base fit failed. On the Dyke command record the
+    candidates' second starts took 31 s of a 2:30 diagnosis unbounded (backlash, input-delay)."""
+    from duffsym.diagnose.search import _second_starts
+
+    def first(median):
+        fit = _fake_fit("Maximum_Iterations_Exceeded")
+        fit.settings = {"iterations": [{"seconds_median": median}]} if median is not None else {}
+        return fit
+
+    def lost_runs():
+        return [
+            CandidateRun(name=n, effect=SimpleNamespace(parameters=list), model=None, ss=5.0, fit=first(m), seconds=1.0)
+            for n, m in [("slow-first", 0.3), ("fast-first", 0.01), ("no-log", None)]
+        ]
+
+    base = SimpleNamespace(params={}, success=True, n_iter=40, settings={"iterations": [{"seconds_median": 0.05}]})
+    for b, want in [
+        (base, {"slow-first": (0.3, 40), "fast-first": (0.05, 40), "no-log": (0.05, 40)}),
+        (SimpleNamespace(params={}, success=False), {"slow-first": None, "fast-first": None, "no-log": None}),
+    ]:
+        seen: dict = {}
+
+        def job(task, seen=seen):
+            bound = task.bounded_by
+            seen[task.name] = None if bound is None else (bound[0]["seconds_median"], bound[1])
+            return FitOutcome(error="not tried")
+
+        _second_starts(lost_runs(), 4.0, b, 30, job, None, lambda *a, **k: None)
+        assert seen == want
+
+
+def test_a_bounded_candidate_fit_stops_when_its_iterations_turn_slow(monkeypatch):
+    """The bound reaches IPOPT: with every iteration counted as slow (floor 0, a median of 1 ns) the candidate's
+    fit stops after its first iteration, not a success, and says why; unbounded, the same fit converges."""
+    from duffsym import Sine, mr_damper
+    from duffsym.data import synthetic_record
+    from duffsym.diagnose.search import CandidateTask, _CandidateFit
+    from duffsym.effects import CATALOGUE, apply_effects
+    from duffsym.identify import nlp as nlp_mod
+    from duffsym.model.presets import table2_params
+
+    monkeypatch.setattr(nlp_mod, "RESTART_SLOW_FLOOR", 0.0)
+    m = mr_damper()
+    truth = {**table2_params(0.4), "off_y0": 0.2}
+    ext = apply_effects(m, [CATALOGUE["force-offset"]])
+    record = synthetic_record(ext, truth, Sine(1.0, 2.0), dt=0.005, duration=2.0, noise=0.01, rng=1, settle=1.0)
+    n, fixed = len(record.t), {"A_f": truth["A_f"]}
+    job = _CandidateFit(record, n, record, table2_params(0.4), np.zeros(n), fixed, None, None)
+    start = {**table2_params(0.4), "off_y0": 0.0}
+    free = job(CandidateTask("force-offset", ext, 200, start))
+    bounded = job(CandidateTask("force-offset", ext, 200, start, ({"seconds_median": 1e-9}, 10)))
+    assert free.fit.success and free.fit.n_iter > 1
+    assert not bounded.fit.success and bounded.fit.n_iter <= 1
+    assert "an iteration took" in bounded.fit.message
