@@ -47,6 +47,8 @@ def test_multisine_test_set_is_in_periodic_steady_state():
 
 
 @needs_bw
+@pytest.mark.slow
+@pytest.mark.ci
 def test_bouc_wen_smoke_scores_recomputed():
     from duffsym.benchmark import BoucWenOptions, run_bouc_wen
     from duffsym.benchmark.bouc_wen import bouc_wen_model
@@ -66,6 +68,8 @@ def test_bouc_wen_smoke_scores_recomputed():
 
 
 @needs_bw
+@pytest.mark.slow
+@pytest.mark.ci
 def test_bouc_wen_cli_element_choice(capsys):
     """--element picks the element (default the path-time one); the smoke run scores it."""
     from duffsym.cli import main
@@ -102,6 +106,8 @@ def test_benchmark_cli_rejects_unknown_name(capsys):
 
 
 @pytest.mark.skipif(not (_have("bouc_wen_benchmark") and _have("silverbox")), reason="benchmark data absent")
+@pytest.mark.slow
+@pytest.mark.ci
 def test_study_s13_smoke(tmp_path):
     old = os.environ.get("DUFFSYM_OUTPUT_ROOT")
     os.environ["DUFFSYM_OUTPUT_ROOT"] = str(tmp_path)

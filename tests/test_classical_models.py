@@ -139,6 +139,8 @@ def test_recovers_known_parameters_slow(name):
         assert res.params["eta"] == pytest.approx(190.0, rel=0.15)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_spencer_holds_A_by_its_scaling_symmetry():
     rec = _record("spencer", duration=0.2)
     prob = Problem(get_model("spencer"), rec)

@@ -73,6 +73,8 @@ def friction_play_diagnosis():
     return rec, diagnose(rec, get_model("mr-damper-path"), candidates=["backlash", "contact-gap"], sindy=False)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_contact_gap_on_the_rate_independent_element_fits_an_independent_friction_damper_with_play(
     friction_play_diagnosis,
 ):
@@ -96,6 +98,8 @@ def test_contact_gap_on_the_rate_independent_element_fits_an_independent_frictio
     "with h = 0.136 +- 0.0003 against the true 0.1 (the gap: 0.104 +- 0.013); with the earlier install backlash "
     "stayed at the base's 0.144 and the gap was named. Left visible until the ranking weighs the zero-force plateau",
 )
+@pytest.mark.slow
+@pytest.mark.ci
 def test_the_diagnosis_names_the_gap_and_its_true_half_width_on_an_independent_friction_damper_with_play(
     friction_play_diagnosis,
 ):
@@ -134,6 +138,8 @@ def test_contact_gap_names_and_fits_the_play_of_the_real_friction_damper(name):
     assert c.nrmse_after < 0.8 * dg.nrmse_heldout
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_the_ladder_switches_to_the_rate_independent_element_when_a_contact_gap_is_found():
     from duffsym.diagnose import ladder
 

@@ -65,6 +65,8 @@ def test_field_forms_nest_the_linear_one():
     assert sp.expand(sp.limit(sat.output, us, sp.oo) - lin.output) == 0
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_recovers_the_parameters_from_a_record_with_a_time_varying_command():
     """Independent data (RK4 of the written-out equations, 1 % noise), a smoothly switching current
     0.1-0.9 A: every free parameter (incl. the field lag eta) within 3 standard errors of the truth, and
@@ -79,6 +81,8 @@ def test_recovers_the_parameters_from_a_record_with_a_time_varying_command():
     assert res.nrmse < 0.02
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_recovers_the_parameters_from_tests_at_three_constant_currents_fitted_together():
     """A campaign: three records at 0.2, 0.5, 0.8 A (different displacement phases), one parameter set.
     Without a command change inside a record the lag eta is not identifiable: it is held (fixed)."""

@@ -5,6 +5,7 @@ from records of an independent numpy simulator (tests/independent_path_current_s
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import sympy as sp
 
 import independent_path_current_sim as gen
@@ -85,6 +86,8 @@ def _record(command, *, seed=0, disp=None, duration=6.0, name="gen") -> Record:
     return Record(t=g["t"], d=g["d"], y=g["y"], d_dot=g["d_dot"], command=c, command_name="current", name=name)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_recovers_the_parameters_from_tests_at_three_constant_currents_at_different_rates():
     """A campaign from the independent simulator (1 % noise): three tests at 0.2, 0.5, 0.8 A whose drives differ in
     frequency (x1, x2.5, x0.4), one parameter set (eta held: a constant current does not show the lag). Every free

@@ -99,6 +99,8 @@ def test_library_words_and_resemblance():
     assert term_words(-2.0 * state_symbol("d")) == "-2.0·d"
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_seal_friction_is_discovered_when_the_catalogue_lacks_it(tmp_path, capsys):
     """Friction on d' withheld from the catalogue: ``duffsym ladder --discover`` adds a discovered
     tanh(d'/ε) term, names it in words, recovers F_c, and ends within 2x the noise on the held-out tail

@@ -82,6 +82,8 @@ TRUTH = dict(m=2e-3, c=0.01, k=50.0, c1=1.5, c2=0.5, c3=0.4, k1=2.0, k2=1.0, k3=
 EPS = 0.1
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_fit_recovers_the_directional_damping_from_an_independent_record():
     """Equation-error start from O(1) element values (c_dir from 0), then the collocation fit, on 1 % noise
     of the independent simulator (exact |w|, the model's |.| is smoothed at 0.01)."""

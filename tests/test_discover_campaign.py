@@ -68,6 +68,8 @@ def test_held_out_records_must_be_named_and_leave_some_to_train_on():
         discover_campaign(recs, mr_damper(), ["p1", "p3"])
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_the_command_line_reads_a_pressure_column_and_names_the_term(tmp_path):
     """``duffsym discover`` on CSV files with a measured ``pressure`` column (one line of JSON out): the held-out
     file is judged, the term follows the pressure; without --validate, one line and exit 2."""

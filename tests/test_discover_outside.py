@@ -94,6 +94,8 @@ def test_drift_effect_is_rebuilt_from_its_name_and_substitutes_the_parameter():
 
 
 # ---------------------------------------------------------------------------------------------- discovery
+@pytest.mark.slow
+@pytest.mark.ci
 def test_stribeck_friction_is_discovered_and_named():
     """Stribeck friction on the piston (static peak 2.5-4x the kinetic level, decaying with speed), from
     the base model: the sentence proposing discovery; a Stribeck-shaped term in d' is stable and needed,

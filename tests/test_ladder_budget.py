@@ -151,6 +151,8 @@ def test_a_tiny_budget_stops_the_ladder_with_its_finished_steps_written(tmp_path
     assert doc["timings"]["total"] < 60
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_a_candidate_stopped_by_its_cpu_allowance_does_not_skip_the_backward_pass():
     # the CI run of 2026-11-28: backlash ran out of its 30 s CPU allowance on a slower machine (here it stops at
     # max_iter in 15 s), the ladder called that "the time budget ran out" although none was given, marked itself

@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from _external import external_file
 
 #: what Python's default warning display looks like: ``/x/y.py:351: ConvergenceWarning: ...``
@@ -41,6 +43,8 @@ def test_raw_warning_pattern_catches_python_s_format():
     assert not RAW.search("note: the Gauss-Newton Hessian is singular (condition number 1e+17)")
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_commands_on_real_records_print_no_raw_warning(tmp_path):
     currents = {"2mm5Hz0A": 0.0, "2mm5Hz0x5A": 0.5, "2mm5Hz1A": 1.0, "2mm5Hz0x25A": 0.25}
     conv = "--columns time=1,displacement=2,velocity=3,force=4".split()

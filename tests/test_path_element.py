@@ -98,6 +98,8 @@ def _record(n, seed, noise=0.01):
     return Record(t=np.arange(n) / 750.0, d=u, y=q), S
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_fit_recovers_the_independent_path_structure():
     """Equation-error start from O(1) element values, then the collocation fit, on 1 % noise."""
     from duffsym.identify import Problem, fit

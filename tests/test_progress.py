@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from duffsym import _progress
 from duffsym._progress import Progress, reporter
 
@@ -45,6 +47,8 @@ def test_reporter_adapts_plain_callables_and_none():
     reporter(None)("nothing", done=0, total=1)  # silent
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_diagnose_json_stdout_stays_pure_with_progress_on(tmp_path):
     proc = _cli(
         "diagnose",

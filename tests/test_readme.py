@@ -110,6 +110,8 @@ def _run_readme(tmp_path: Path, include_slow: bool) -> list[str]:
     return skipped
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_readme_blocks_run_in_order(tmp_path):
     skipped = _run_readme(tmp_path, include_slow=False)
     # what the lines made exists and is what they claim (a record, a fit, a plot)

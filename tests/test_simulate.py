@@ -423,6 +423,8 @@ def test_repeated_excitation_inputs_are_fresh_and_equal(small):
     assert not np.allclose(c.u, b.u)
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_auto_substeps_retry_an_overshooting_step_instead_of_reporting_blowup():
     """Table 1's c3 = 1000 at 25 samples per period: the first trial step overshoots (the stiffness grows like
     x'^2 inside it) — auto mode must refine it, not call it a blow-up (found by studies/s02)."""

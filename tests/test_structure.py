@@ -170,6 +170,8 @@ def test_fit_recovers_the_independent_structure_from_the_defaults():
         assert r.params[name] == pytest.approx(TRUTH[name], rel=0.08), name
 
 
+@pytest.mark.slow
+@pytest.mark.ci
 def test_bouc_wen_mass_recovered_and_prediction_beats_linear():
     """A mass with a Bouc-Wen element (the benchmark's constants, independent simulator): the structure
     model recovers the mass and stiffness scale and predicts a new record better than the linear structure."""

@@ -11,6 +11,8 @@ import json
 import numpy as np
 import pytest
 
+pytestmark = [pytest.mark.slow, pytest.mark.ci]  # the s12 smoke run takes ~22 s: CI runs it
+
 
 @pytest.fixture(scope="module")
 def s12(tmp_path_factory):

@@ -9,7 +9,11 @@ from __future__ import annotations
 import importlib
 import json
 
+import pytest
 
+
+@pytest.mark.slow
+@pytest.mark.ci
 def test_s07_ladder_finds_both_hidden_effects_and_reaches_the_noise(tmp_path, monkeypatch):
     monkeypatch.setenv("DUFFSYM_OUTPUT_ROOT", str(tmp_path))
     s07 = importlib.import_module("s07_hidden_effect")
