@@ -1039,7 +1039,9 @@ def _bounded_by(base, first) -> tuple[dict, int] | None:
     after 11 iterations, 3 of them with IPOPT's Hessian regularisation >= 1e+08), with the same verdict."""
     if base is None or not base.success:
         return None
-    runs = [(r.settings.get("iterations") or [None])[0] or {} for r in (base, first) if r is not None]
+    from duffsym.identify.nlp import first_run_summary
+
+    runs = [first_run_summary(r) for r in (base, first) if r is not None]
     median = max(float(info.get("seconds_median", 0.0)) for info in runs)
     return {**runs[0], "seconds_median": median}, base.n_iter
 

@@ -18,7 +18,7 @@ from duffsym.effects.base import Effect, effect_chain
 from duffsym.errors import DuffsymError
 from duffsym.identify.collocation import fit
 from duffsym.identify.initial import initial_guess
-from duffsym.identify.nlp import bounded_guard
+from duffsym.identify.nlp import bounded_guard, first_run_summary
 from duffsym.identify.states import initial_states
 from duffsym.model.core import SymbolicModel
 from duffsym.simulate import simulate_record
@@ -160,5 +160,4 @@ def _second_start_guard(results: list, fit_kwargs: Mapping) -> dict:
     if not results or not results[0].success or "guard" in fit_kwargs:
         return {}
     first = results[0]
-    info = (first.settings.get("iterations") or [None])[0] or {}
-    return {"guard": bounded_guard(info, first.n_iter, max_iter=None)}
+    return {"guard": bounded_guard(first_run_summary(first), first.n_iter, max_iter=None)}

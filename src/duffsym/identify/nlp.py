@@ -847,6 +847,12 @@ class IterationLog:
         }
 
 
+def first_run_summary(result) -> dict:
+    """The iteration summary (:meth:`IterationLog.summary`) of a fit result's first IPOPT run, from its
+    ``settings["iterations"]``; {} when the fit logged none."""
+    return dict((result.settings.get("iterations") or [None])[0] or {})
+
+
 def restart_guard(first: Run, *, max_iter: int) -> Callable[[IterationLog], str]:
     """The stop rule of a bound restart: it may not cost more than the converged run it started from is
     worth keeping (:func:`bounded_guard` of that run)."""
