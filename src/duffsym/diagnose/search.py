@@ -16,11 +16,12 @@ The procedure (:func:`diagnose`):
    of the base model's *excess* held-out error (above the noise level) that the effect removes.
 5. **Decision.** A candidate is *supported* when ΔBIC < ``bic_threshold`` (default −10, "very
    strong" on Kass & Raftery's scale) and it lowers the held-out RMSE by at least
-   ``min_improvement`` (10 %). It is *needed* — a confident verdict — only when, in addition, it
-   removes at least ``min_explained`` (50 %) of the excess held-out error. A supported candidate
-   that explains less is reported as a partial explanation and the remaining structure is
-   described in words, so that an effect outside the catalogue is not forced onto a wrong one.
-   When the base residual is white at the noise level, no candidate is needed.
+   ``min_improvement`` (10 %; near the noise, half the fall the noise leaves possible when that is
+   less: :func:`~duffsym.diagnose.options.required_improvement`). It is *needed* — a confident
+   verdict — only when, in addition, it removes at least ``min_explained`` (50 %) of the excess
+   held-out error. A supported candidate that explains less is reported as a partial explanation
+   and the remaining structure is described in words, so that an effect outside the catalogue is
+   not forced onto a wrong one. When the base residual is white at the noise level, no candidate is needed.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ from duffsym.diagnose.options import (
     STABILITY_CHECKED,
     TIE,
     DiagnoseOptions,
+    required_improvement,
 )
 from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
@@ -828,7 +830,7 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     explained = (ev.mse_held - mse_h) / excess if excess > 0 else 0.0
     dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, run.model)) - ev.bic
     own = [p.name for p in run.model.params if p.name not in model.param_names]
-    supported = dbic < o.bic_threshold and improvement >= o.min_improvement
+    supported = dbic < o.bic_threshold and improvement >= required_improvement(o.min_improvement, ev.mse_held, sigma)
     # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
     enough = explained >= o.min_explained or (run.name == "force-offset" and shifted)
     return Candidate(
