@@ -169,3 +169,23 @@ def test_fit_rule_floors_and_cap():
     prep, out = prepare_for_fit(rec)
     assert prep.factor == 30 and out.n_times == 200  # 6000 samples / 200 = 30 < 40: the sample floor
     assert prepare_for_fit(rec, False)[0].factor == 1
+
+
+def test_diagnose_from_python_without_a_budget_fits_on_at_most_the_sample_cap():
+    """The command line always has a budget, which capped the fitting samples; ``diagnose()`` from Python had none
+    and fitted at the spectrum's rate however long the record (the 6 s Dyke slice at 500 Hz: a plain-fit
+    reference on 3005 samples ran for more than 12 CPU minutes). An independent record whose spectrum needs the
+    full rate, 2400 fitting samples: fitted on at most BUDGET_SAMPLES, the evidence still at the record's rate."""
+    import independent_sim as gen
+
+    from duffsym.diagnose import diagnose
+    from duffsym.diagnose.search import BUDGET_SAMPLES
+
+    g = gen.scenario("clean", 0, duration=16.0)
+    rec = Record(t=g.t, d=g.d, y=g.y, name="clean-16s", source="independent_sim")
+    dg = diagnose(rec, candidates=[], sindy=False)
+    assert dg.split["n_fit"] > BUDGET_SAMPLES and 2 <= dg.prepare.factor <= 3
+    assert dg.prepare.n_out <= BUDGET_SAMPLES and "at most 2000 fitting samples" in dg.prepare.summary()
+    assert dg.y_base.shape == (rec.n_times,)
+    floor = g.noise_std / float(np.std(np.asarray(rec.y)[dg.split["n_fit"] :]))
+    assert dg.nrmse_heldout <= 1.1 * floor  # the clean device's model, fitted on the capped data, is at the noise

@@ -783,9 +783,9 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     rec_fit = S._part(record, k)
     fixed = S.with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, bool)[:k]
-    # under a budget, decimated as a diagnosis under a budget fits its candidates; without one, at the record's rate
-    budget = deadline is not None
-    prep, rec_fit, mask_fit = S._prepare_fit(record, rec_fit, mask_fit, budget, S.BUDGET_SAMPLES if budget else None)
+    # at the rate the diagnosis fitted its base and candidates
+    factor = dg.prepare.factor if dg.prepare is not None else 1
+    prep, rec_fit, mask_fit = S._prepare_fit(record, rec_fit, mask_fit, factor, S.BUDGET_SAMPLES)
     ext = effect.apply(model)
     problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names}, mask=mask_fit)
     limit = {} if deadline is None else {"max_wall_time": left / 2}  # two starts (fit_with_effects)

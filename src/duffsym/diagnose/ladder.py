@@ -515,15 +515,11 @@ def _report(on_step, steps, t0, budget, record) -> None:
 def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say) -> Ladder:
     """The last step's model refitted on the whole record (on what is left of the budget); when that fit does
     not succeed, the last step's own fit (a converged fit on the fitting part) is kept and the note says so."""
-    from duffsym.diagnose.prepare import prepare_record
     from duffsym.diagnose.search import BUDGET_SAMPLES, _prepare_fit
 
     last = steps[-1]
     say("final fit on the whole record" + _left_text(end))
-    if end is None:
-        prep, rec_final = prepare_record(record, rules.get("decimate", True))
-    else:
-        prep, rec_final, _ = _prepare_fit(record, record, None, rules.get("decimate", True), BUDGET_SAMPLES)
+    prep, rec_final, _ = _prepare_fit(record, record, None, rules.get("decimate", True), BUDGET_SAMPLES)
     left = time_left(end)
     wall = None if not math.isfinite(left) else max(left, 5.0)
     final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params, max_wall_time=wall)
@@ -717,7 +713,7 @@ def joint_refit(
     k = split_record(record, holdout)
     rec_fit = _part(record, k)
     mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
-    _, rec_q, mask_q = _prepare_fit(record, rec_fit, mask_fit, decimate, BUDGET_SAMPLES if deadline else None)
+    _, rec_q, mask_q = _prepare_fit(record, rec_fit, mask_fit, decimate, BUDGET_SAMPLES)
     fixed_m = with_default_af(model, fixed, rec_fit)
 
     def score(m, params, x0):

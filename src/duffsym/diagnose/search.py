@@ -88,8 +88,10 @@ DIVERGED = 10.0
 BASE_SHARE, REFERENCE_SHARE = 0.3, 0.2
 #: IPOPT statuses of a fit stopped by a time limit
 OUT_OF_TIME = (Status.CPU_TIME, Status.IPOPT_WALL_TIME)
-#: with a time budget, the fitting data are decimated to at most this many samples (the evidence is still
-#: computed at the record's rate); a fit's cost grows with its samples (``benchmarks/bench_diagnose_speed.py``)
+#: the fitting data are decimated to at most this many samples, with or without a time budget, unless decimation is
+#: off (the evidence is still computed at the record's rate); a fit's cost grows with its samples
+#: (``benchmarks/bench_diagnose_speed.py``; without the cap, the 6 s Dyke slice at 500 Hz from Python, with no
+#: budget, fitted its plain-fit reference on 3005 samples for more than 12 CPU minutes)
 BUDGET_SAMPLES = 2000
 #: the message of a candidate that was not fitted because the time budget ran out
 NOT_TRIED = "not tried: the time budget ran out"
@@ -522,10 +524,10 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         with the base fit: an independent, data-driven view of which terms the data support. Its
         supported missing terms are quoted in the verdict as corroboration (or contradiction) of
         the ranking; they never decide it, and an inconclusive check is reported as such.
-    decimate : fit on the fitting part decimated where its spectrum allows (True, default; see
-        :mod:`duffsym.diagnose.prepare`), at most by this factor (an int), or not at all (False or 1). The
-        evidence (free runs, held-out errors, ΔBIC, residuals) is always computed at the record's rate;
-        the factor and why are in ``prepare``.
+    decimate : fit on the fitting part decimated where its spectrum allows, and to at most
+        ``BUDGET_SAMPLES`` samples (True, default; see :mod:`duffsym.diagnose.prepare`), at most by
+        this factor (an int), or not at all (False or 1). The evidence (free runs, held-out errors,
+        ΔBIC, residuals) is always computed at the record's rate; the factor and why are in ``prepare``.
     progress : a callable taking a message string (e.g. ``print``), a
         :class:`duffsym._progress.Progress` (counts and time left), or None.
     engine : a started :class:`~duffsym.engine.Engine` to fit the candidates on its workers (the same
@@ -540,8 +542,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         base fit may take ``BASE_SHARE`` of the time left, the plain-fit reference ``REFERENCE_SHARE``,
         and the candidates share the rest (IPOPT CPU seconds; a fit stopped by it is reported as not
         converged); candidates left when it has passed are reported as ``"not tried: the time budget ran
-        out"``; the fitting data are decimated to at most ``BUDGET_SAMPLES`` samples (the factor and why
-        are in ``prepare``); the SINDy cross-check is skipped when less than a tenth of the time is left.
+        out"``; the SINDy cross-check is skipped when less than a tenth of the time is left.
     """
     o = resolve(DiagnoseOptions, options, settings, "diagnose")
     t_start = time.perf_counter()
@@ -700,7 +701,7 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     rec_fit = _part(work, k)
     fixed = with_default_af(model, o.fixed, rec_fit)
     mask_fit = None if o.mask is None else np.asarray(o.mask, dtype=bool)[:k]
-    cap = BUDGET_SAMPLES if o.deadline is not None else None
+    cap = BUDGET_SAMPLES
     prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, o.decimate, cap)
     return _Setting(
         k=k,
@@ -1126,8 +1127,8 @@ def _mark_stability(cands: list[Candidate], exts: Mapping) -> list[Candidate]:
 def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate, max_samples: int | None = None):
     """(preparation, fitting data, their mask): ``rec_fit`` decimated on its own (no held-out sample
     enters its anti-aliasing filter) by the factor chosen from the whole record's spectrum; with
-    ``max_samples`` (a time budget) at least by the factor that leaves at most that many samples (unless
-    decimation is off)."""
+    ``max_samples`` at least by the factor that leaves at most that many samples (unless decimation is
+    off, or an int ``decimate`` caps the factor)."""
     import dataclasses
 
     from duffsym.diagnose.prepare import choose_decimation, decimate_mask, decimate_record
@@ -1142,7 +1143,7 @@ def _prepare_fit(record: Record, rec_fit: Record, mask_fit, decimate, max_sample
             factor=q,
             rate=prep.rate_in / q,
             n_out=-(-prep.n_in // q),
-            reason=f"the time budget: at most {max_samples} fitting samples (the spectrum alone "
+            reason=f"the fitting-sample cap: at most {max_samples} fitting samples (the spectrum alone "
             f"asked for a factor {prep.factor})",
         )
     rec = decimate_record(rec_fit, prep.factor)
