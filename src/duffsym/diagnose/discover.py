@@ -601,6 +601,11 @@ def _fit_sets(effects, record, model, dg, fixed, mask, max_iter, say, rules, sel
     simple = [f for f in fits if not any(t.has(sp.exp) for t in f[0].terms)]
     if simple and fitted[0].terms != simple[0][0].terms and min(f[3] for f in simple) <= fitted[3] + 2.0:
         fitted = min(simple, key=lambda f: f[3])  # as good without a Stribeck shape: the simpler form
+    measured = measured_form(fitted[0], record, dg)
+    if measured is not None:
+        again = _fit_effect(measured, record, model, dg, fixed, mask, max_iter, say)
+        if again is not None and again[3] < fitted[3] + MEASURED_PREFERENCE:
+            fitted = again
     pruned = _prune(fitted, record, model, dg, fixed, mask, max_iter, say)
     if pruned is not None and pruned[3] <= fitted[3] + 2.0:  # fewer terms, BIC no worse (within 2)
         fitted = pruned
@@ -629,6 +634,36 @@ def _fit_sets(effects, record, model, dg, fixed, mask, max_iter, say, rules, sel
         + below,
         resembles=[r for r in map(resembles, final.terms) if r],
     )
+
+
+#: a term written in the measured piston motion is kept unless its form in the model's states has a BIC lower by at
+#: least this much ("strong" on Kass & Raftery's scale): the measured form is the physics' own and carries over to
+#: another model; measured on the independent stroke-friction record, seed 6: d·x·tanh(d'/ε) against d²·tanh(d'/ε),
+#: ΔBIC 3.1 for the state form, held-out 0.01136 against 0.01111; a gas spring's d²·x against d³: ΔBIC 387)
+MEASURED_PREFERENCE = 6.0
+#: the model's states and the measured signals that stand for them in a term's polynomial factor
+_MEASURED = {state_symbol("x"): state_symbol("d"), state_symbol("x_dot"): state_symbol("d_dot")}
+
+
+def measured_form(effect: DiscoveredEffect, record, dg) -> DiscoveredEffect | None:
+    """``effect`` written in the measured piston motion: the model's states ``x, x'`` in the terms' polynomial
+    factors replaced by ``d, d'`` (a gas spring found as ``d²·x`` is ``d³`` in the physics' own variables), the
+    coefficients the least-squares share of the base's residual on the fitting part; None when no term has a
+    state in its polynomial factor, or one has it inside a switching function (its ε is on the state's scale)."""
+    if not any(t.free_symbols & set(_MEASURED) for t in effect.terms):
+        return None
+    if any(f.free_symbols & set(_MEASURED) for t in effect.terms for f in t.atoms(sp.tanh, sp.exp)):
+        return None
+    terms = list(dict.fromkeys(t.xreplace(_MEASURED) for t in effect.terms))
+    cols = {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float)}
+    cols["d_ddot"] = np.asarray(record.acceleration(), float)
+    k = dg.split["n_fit"]
+    names = sorted(cols)
+    fns = [sp.lambdify([state_symbol(n) for n in names], t, "numpy") for t in terms]
+    theta = np.column_stack([np.broadcast_to(f(*(cols[n][:k] for n in names)), (k,)) for f in fns])
+    r = np.asarray(record.y, float)[:k] - np.asarray(dg.y_base, float)[:k]
+    coefs, *_ = np.linalg.lstsq(theta, r, rcond=None)
+    return DiscoveredEffect(tuple(terms), tuple(float(c) for c in coefs), effect.index)
 
 
 def _alias_clause(selection: dict, term: sp.Expr) -> str:
