@@ -90,10 +90,12 @@ def _interrupt_swallowed_by_gc(sleep: float) -> tuple[list[int], float]:
             fired.append(1)
             raise KeyboardInterrupt
 
-    gc.callbacks.append(callback)
     t0 = [math.inf]
     try:
         with pytest.raises(KeyboardInterrupt), interrupts_reach_main():
+            # registered inside the guard: a collection in another thread (one an earlier test in this worker left
+            # running) would otherwise fire it before the guard's hook is in place, and Python would swallow it
+            gc.callbacks.append(callback)
             gc.collect()
             t0[0] = time.perf_counter()
             time.sleep(sleep)
@@ -113,8 +115,8 @@ def test_an_interrupt_swallowed_just_before_the_work_ends_is_not_lost():
         gc.callbacks.remove(callback)
         raise KeyboardInterrupt
 
-    gc.callbacks.append(callback)
     with pytest.raises(KeyboardInterrupt), interrupts_reach_main():
+        gc.callbacks.append(callback)  # inside the guard, as above
         gc.collect()
     time.sleep(0.2)  # a stray SIGINT from a timer would raise here
 
