@@ -177,7 +177,6 @@ def test_diagnose_from_python_without_a_budget_fits_on_at_most_the_sample_cap():
     reference on 3005 samples ran for more than 12 CPU minutes). An independent record whose spectrum needs the
     full rate, 2400 fitting samples: fitted on at most BUDGET_SAMPLES, the evidence still at the record's rate."""
     import independent_sim as gen
-
     from duffsym.diagnose import diagnose
     from duffsym.diagnose.search import BUDGET_SAMPLES
 
