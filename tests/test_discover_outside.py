@@ -310,6 +310,8 @@ def test_a_term_in_the_models_state_is_written_in_the_measured_motion():
     assert merged.terms == (d_**2,)  # d·x and d² are one term in the measured motion
     assert measured_form(DiscoveredEffect((xv_ * sp.tanh(xv_ / 0.08),), (1.0,)), rec, dg) is None
     assert measured_form(DiscoveredEffect((d_**2 * sp.tanh(v_ / 0.3),), (1.0,)), rec, dg) is None  # nothing to write
+    cmd = sp.Symbol("command", real=True)
+    assert measured_form(DiscoveredEffect((cmd * x_,), (1.0,)), rec, dg) is None  # a command has no form in d here
 
 
 @pytest.mark.slow

@@ -649,7 +649,8 @@ def measured_form(effect: DiscoveredEffect, record, dg) -> DiscoveredEffect | No
     """``effect`` written in the measured piston motion: the model's states ``x, x'`` in the terms' polynomial
     factors replaced by ``d, d'`` (a gas spring found as ``d²·x`` is ``d³`` in the physics' own variables), the
     coefficients the least-squares share of the base's residual on the fitting part; None when no term has a
-    state in its polynomial factor, or one has it inside a switching function (its ε is on the state's scale)."""
+    state in its polynomial factor, one has it inside a switching function (its ε is on the state's scale), or a
+    term has a measured command in it."""
     if not any(t.free_symbols & set(_MEASURED) for t in effect.terms):
         return None
     if any(f.free_symbols & set(_MEASURED) for t in effect.terms for f in t.atoms(sp.tanh, sp.exp)):
@@ -657,8 +658,10 @@ def measured_form(effect: DiscoveredEffect, record, dg) -> DiscoveredEffect | No
     terms = list(dict.fromkeys(t.xreplace(_MEASURED) for t in effect.terms))
     cols = {"d": np.asarray(record.d, float), "d_dot": np.asarray(record.velocity(), float)}
     cols["d_ddot"] = np.asarray(record.acceleration(), float)
-    k = dg.split["n_fit"]
     names = sorted(cols)
+    if not set().union(*(t.free_symbols for t in terms)) <= {state_symbol(n) for n in names}:
+        return None  # a measured command in the term: its form in the motion is not defined here
+    k = dg.split["n_fit"]
     fns = [sp.lambdify([state_symbol(n) for n in names], t, "numpy") for t in terms]
     theta = np.column_stack([np.broadcast_to(f(*(cols[n][:k] for n in names)), (k,)) for f in fns])
     r = np.asarray(record.y, float)[:k] - np.asarray(dg.y_base, float)[:k]
