@@ -675,7 +675,6 @@ class _Setting:
     fixed: dict
     mask_fit: np.ndarray | None
     prep: Preparation
-    cap: int | None
 
     @property
     def floor_noise(self) -> bool:
@@ -701,8 +700,7 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     rec_fit = _part(work, k)
     fixed = with_default_af(model, o.fixed, rec_fit)
     mask_fit = None if o.mask is None else np.asarray(o.mask, dtype=bool)[:k]
-    cap = BUDGET_SAMPLES
-    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, o.decimate, cap)
+    prep, rec_fit, mask_fit = _prepare_fit(work, rec_fit, mask_fit, o.decimate, BUDGET_SAMPLES)
     return _Setting(
         k=k,
         held=slice(k, record.n_times),
@@ -713,7 +711,6 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
         fixed=fixed,
         mask_fit=mask_fit,
         prep=prep,
-        cap=cap,
     )
 
 
@@ -723,7 +720,7 @@ def _plain_data(s: _Setting, o: DiagnoseOptions):
     q = s.prep.factor
     if q <= 1:
         return None
-    return _prepare_fit(s.work, s.work, o.mask, q if s.cap else o.decimate, s.cap and -(-s.work.n_times // q))[1:]
+    return _prepare_fit(s.work, s.work, o.mask, q, -(-s.work.n_times // q))[1:]
 
 
 def _base_evidence(s: _Setting, base, model, y_base: np.ndarray) -> BaseEvidence:
