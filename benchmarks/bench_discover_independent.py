@@ -66,12 +66,18 @@ def run(label: str, seed: int, screen=4) -> dict:
     last = lad.steps[-1]
     k = last.diagnosis.split["n_fit"]
     noise_held = g.noise_std / float(np.std(np.asarray(rec.y)[k:]))
+    band = getattr(last.diagnosis.noise_estimate, "band", None)
+    if band is not None:  # the ladder judged in a band (a low-pass filtered force): the noise in that band
+        from scipy.signal import butter, filtfilt
+
+        ba = butter(4, 2 * band)
+        noise_held = float(np.std(filtfilt(*ba, g.y - g.y_clean)[k:]) / np.std(filtfilt(*ba, g.y)[k:]))
     found = [s.discovered for s in lad.steps if s.discovered]
     return dict(case=label, seed=seed, record=rec.name, kind=g.truth["kind"], seconds=seconds,
                 effects=list(lad.effects), steps=[dict(effects=list(s.effects), nrmse_heldout=s.nrmse_heldout)
                                                   for s in lad.steps],
                 nrmse_heldout_start=lad.steps[0].nrmse_heldout, nrmse_heldout_end=last.nrmse_heldout,
-                noise_nrmse_heldout=noise_held, within_2x_noise=bool(last.nrmse_heldout <= 2 * noise_held),
+                noise_nrmse_heldout=noise_held, judging_band_hz=None if band is None else band / rec.dt, within_2x_noise=bool(last.nrmse_heldout <= 2 * noise_held),
                 discovered=[dict(effect=f["effect"], words=f["words"], resembles=f["resembles"],
                                  params=f["params"], stderr=f["stderr"]) for f in found],
                 named=bool(found and all(f["words"] for f in found)), stopped=lad.stopped,

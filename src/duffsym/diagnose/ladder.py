@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from duffsym.data.record import Record
+from duffsym.diagnose.noisefloor import in_band
 from duffsym.diagnose.options import (
     CANDIDATE_CPU_TIME,
     DEFAULT_BUDGET,
@@ -471,11 +472,21 @@ def _left_text(end) -> str:
     return "" if not math.isfinite(left) else f" (budget: {max(left, 0):.0f} s left)"
 
 
+def _band(dg: Diagnosis) -> float | None:
+    """The judging band (cycles per sample) of a diagnosis of a low-pass filtered force, or None."""
+    return None if dg.noise_estimate is None else dg.noise_estimate.band
+
+
+def _measured(record, dg: Diagnosis) -> np.ndarray:
+    """The measured force as ``dg`` judged its free runs (and its ``y_base``) against it."""
+    return in_band(record.y, _band(dg))
+
+
 def _step(record, model, dg: Diagnosis, found, jinfo, seconds, element: str = "") -> Step:
     """A :class:`Step` from a diagnosis, with its inactive effects flagged."""
     from duffsym.identify.result import nrmse as _nrmse
 
-    y = np.asarray(record.y, dtype=float)
+    y = _measured(record, dg)
     k = dg.split.n_fit
     params = dict(dg.base_fit.params)
     return Step(
@@ -588,7 +599,6 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
     from duffsym.effects import CATALOGUE, apply_effects
     from duffsym.identify.result import nrmse as _nrmse
 
-    y = np.asarray(record.y, dtype=float)
     if any(e not in CATALOGUE for e in model.effects):  # a discovered term: left as the ladder built it
         return model
     for name in [e for e in model.effects if e not in base_model.effects]:  # only what the ladder added
@@ -614,6 +624,7 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
                 and dg.bic_base < last.bic + PARSIMONY_BIC
             ):
                 k = dg.split.n_fit
+                y = _measured(record, dg)
                 steps.append(
                     Step(
                         effects=tuple(trial.effects),
@@ -709,7 +720,8 @@ def joint_refit(
     added = [e for e in model.effects if e not in base_model.effects]
     if any(e not in CATALOGUE for e in added):
         return dict(start), None
-    y = np.asarray(record.y, dtype=float)
+    band = _band(steps[-1].diagnosis)
+    y = in_band(record.y, band)  # judged as the diagnosis judged it (a low-pass filtered force: in its band)
     k = split_record(record, holdout)
     rec_fit = _part(record, k)
     mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
@@ -717,7 +729,7 @@ def joint_refit(
     fixed_m = with_default_af(model, fixed, rec_fit)
 
     def score(m, params, x0):
-        yy = free_run(m, params, record, x0)
+        yy = in_band(free_run(m, params, record, x0), band)
         return math.inf if not _within_range(yy, y) else float(np.sqrt(np.mean((y[:k] - yy[:k]) ** 2)) / np.std(y[:k]))
 
     def run(m, p0, label):

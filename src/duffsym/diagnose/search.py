@@ -26,6 +26,7 @@ The procedure (:func:`diagnose`):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -36,7 +37,15 @@ import numpy as np
 
 from duffsym._progress import reporter
 from duffsym.data.record import Record
-from duffsym.diagnose.noisefloor import NoiseEstimate, estimate_noise, moving_average, restore, smoothed_noise_level
+from duffsym.diagnose.noisefloor import (
+    BAND_SHARE,
+    STEPPED,
+    NoiseEstimate,
+    estimate_noise,
+    judging_band,
+    restore,
+    smoothed_noise_level,
+)
 from duffsym.diagnose.options import (
     BIC_THRESHOLD,
     CANDIDATE_CPU_TIME,
@@ -51,7 +60,7 @@ from duffsym.diagnose.options import (
 )
 from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
-from duffsym.diagnose.verdict import full_verdict, play_sentence, why_not
+from duffsym.diagnose.verdict import band_sentence, full_verdict, play_sentence, why_not
 from duffsym.errors import DataError, ModelError
 from duffsym.identify.quality import inactive_effects
 from duffsym.model.library import path_epsilon
@@ -258,7 +267,13 @@ def with_default_af(model, fixed: Mapping[str, float] | None, record: Record) ->
     return out
 
 
-def _bic(ssr: float, n: int, k: int) -> float:
+def _bic(ssr: float, n: int, k: int, band: float | None = None) -> float:
+    """BIC of a residual sum of squares ``ssr`` on ``n`` samples with ``k`` estimated numbers. Judged in a band
+    (``band`` cycles per sample, a low-pass filtered force) the residual's samples are not independent: only
+    ``n·2·band`` of them carry information (the band's share of the Nyquist range), and the BIC counts those."""
+    if band is not None:
+        m = max(k + 2, int(round(n * min(1.0, 2.0 * band))))
+        ssr, n = ssr * m / n, m
     return n * math.log(max(ssr, 1e-300) / n) + k * math.log(n)
 
 
@@ -570,6 +585,8 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         rec_plain=_plain_data(s, o),
         deadline=o.deadline,
     )
+    s = _with_band(s, y_work, record.dt)
+    base, y_work = _in_band_fit(s, model, base, y_work, o.mask)
     ev = _base_evidence(s, base, model, s.through(y_work))
     base_check = _with_certificate(base_check, model, base.params)
     failed, runs = _candidate_runs(
@@ -577,10 +594,12 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     )
     for r in runs:
         if r.fit is not None:
+            r.fit, r.y = _in_band_fit(s, r.model, r.fit, r.y, o.mask, _own_guess(s, r, base, y_work))
             r.y = s.through(r.y)
     sigma, noise_method = _noise_reference(s, ev, runs)
+    judged = record if s.est.band is None else record.replace(y=s.y)
     res = analyse_residuals(
-        record, ev.y_base, noise=sigma, noise_kind="floor" if s.floor_noise else "measured", smoothing=s.est.smoothing
+        judged, ev.y_base, noise=sigma, noise_kind="floor" if s.floor_noise else "measured", smoothing=s.est.smoothing
     )
     shifted = abs(res.mean_z) > 5 and abs(res.mean) > 0.2 * res.rmse
     out, exts = _judged(failed, runs, s, ev, model, res, shifted, sigma, o)
@@ -591,7 +610,9 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     inactive = inactive_effects(model, record, base.params, base.stderr)
     verdict = full_verdict(res, out, base_held, noise_method, shifted, s.est.smoothing, evidence, base_check, inactive)
     y_cands = {r.name: r.y for r in runs if r.name in exts}
-    verdict += play_sentence(out, record, y_cands, path_epsilon(model) is not None)
+    verdict += play_sentence(out, judged, y_cands, path_epsilon(model) is not None) + band_sentence(
+        s.est.band, record.dt
+    )
     return Diagnosis(
         model=model.name,
         effects=tuple(model.effects),
@@ -681,9 +702,9 @@ class _Setting:
         return not self.est.measurable
 
     def through(self, yy):
-        """A free run of the fitted (restored) force judged through the moving average that smoothed the data."""
-        w = self.est.smoothing
-        return yy if w <= 1 or yy is None else moving_average(yy, w)
+        """A free run of the fitted (restored) force as it is judged against ``y``: through the moving average
+        that smoothed the data and in the judging band of a low-pass filtered force (:class:`NoiseEstimate`)."""
+        return None if yy is None else self.est.judged(yy)
 
 
 #: the method of a noise level the user gave (never re-estimated)
@@ -714,6 +735,139 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     )
 
 
+def _with_band(s: _Setting, y_work: np.ndarray, dt: float) -> _Setting:
+    """``s`` judged in a band when its force has no noise floor because it was low-pass filtered: the cutoff
+    found from the base model's free run on the fitting part (:func:`lowpass_cutoff`), every free run and the
+    measured force judged below ``BAND_SHARE`` of it (see :mod:`duffsym.diagnose.noisefloor`)."""
+    if s.est.measurable or s.est.smoothing > 1 or s.est.stepped >= STEPPED or s.est.method == GIVEN:
+        return s
+    band, _ = judging_band(s.y[: s.k], y_work[: s.k])
+    if band is None:
+        return s
+    method = (
+        f"{s.est.method}; the force is low-pass filtered (cutoff about {band / BAND_SHARE / dt:.3g} Hz, where it "
+        f"keeps less than half of what the fitted model carries), so every free run and the measured force are "
+        f"judged below {band / dt:.3g} Hz, where the filter left the force intact (the fits still follow the "
+        "filtered force, whose corners it rounded: an effect that imitates that rounding can still look needed)"
+    )
+    est = dataclasses.replace(s.est, band=band, method=method)
+    return dataclasses.replace(s, est=est, y=est.measured(s.y))
+
+
+#: least-squares evaluations of a fit's refinement in the judging band, per free parameter (plus one)
+BAND_EVALS = 20
+
+
+def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, starts=()):
+    """(fit, True) with its free parameters refined in the judging band ``band`` (cycles per sample) of a
+    low-pass filtered force, or (fit, False) when that does not lower the in-band error.
+
+    The collocation fit follows the filtered force sample by sample, whose corners the filter rounded, so it
+    ends away from the parameters whose free run matches the force where the filter left it intact. Here the
+    free parameters (within their bounds, those of the effects scaled to the record) and the initial states
+    minimise the in-band error of the free run on the fitting part (``record``'s first ``k`` samples only;
+    ``mask`` True: left out) by scipy's ``least_squares``, from the collocation optimum and from each of
+    ``starts`` (pairs: parameter values replacing the fit's, and the names refined alone first with the others
+    held), at most ``BAND_EVALS`` free runs per number fitted; the lowest in-band error wins, unless its set is
+    outside the model's stability certificate (where the collocation optimum was not). Measured on independent
+    clean records through a 15 Hz filter (200 Hz sampling), the held-out in-band error of the base model:
+    4.3-10.5x the in-band noise after collocation, 0.93-1.54x after this (a fit of the same records before
+    filtering: 0.94-1.23x)."""
+    from scipy.optimize import least_squares
+
+    from duffsym.diagnose.noisefloor import in_band
+    from duffsym.identify.problem import record_scaled_bounds
+
+    part = _part(record, k)
+    target = in_band(part.y, band)
+    keep = np.ones(k, dtype=bool) if mask is None else ~np.asarray(mask, dtype=bool)[:k]
+    bounds = {p.name: (p.lower, p.upper) for p in model.params} | record_scaled_bounds(model, [part])
+    free = [n for n in fit.free if n in bounds and n in fit.params]
+    if not free or not fit.x0:
+        return fit, False
+    x0 = np.asarray(fit.x0[0], dtype=float)
+    lo = np.array([bounds[n][0] for n in free] + [-np.inf] * x0.size, dtype=float)
+    hi = np.array([bounds[n][1] for n in free] + [np.inf] * x0.size, dtype=float)
+    nf, big = len(free), 10.0 * float(np.max(np.abs(target)))
+
+    def residual(v):
+        yy = free_run(model, {**fit.params, **dict(zip(free, v[:nf]))}, part, v[nf:])
+        return np.full(int(keep.sum()), big) if yy is None else (in_band(yy, band) - target)[keep]
+
+    def vector(params):
+        p = np.array([float(params.get(n, fit.params[n])) for n in free])
+        return np.concatenate([np.clip(p, lo[:nf] + 1e-9 * (hi - lo)[:nf], hi[:nf] - 1e-9 * (hi - lo)[:nf]), x0])
+
+    def checked(v) -> float:
+        """The in-band error of ``v`` on the fitting part from a free run over the whole record: a stiff set whose
+        run over the part alone happens to fit (c3 ~ 1e4, c2 < 0 on one record) does not reproduce it."""
+        yy = free_run(model, {**fit.params, **dict(zip(free, v[:nf]))}, record, v[nf:])
+        return math.inf if yy is None else float(np.sum((in_band(yy[:k], band) - target)[keep] ** 2))
+
+    def keeps_certificate(v) -> bool:
+        return _certificate(model, {**fit.params, **dict(zip(free, v[:nf]))})[0] is not False
+
+    # a set outside the model's stability certificate fits the part in the band and runs off in the tail (c2 -97,
+    # c3 1.1e4 from a seal friction's guess on one record): refused unless the collocation optimum was outside too
+    certified = _certificate(model, fit.params)[0]
+
+    def solve(v0, only=None):
+        """least squares from ``v0`` over every number, or over those where ``only`` is True (the rest held)."""
+        on = np.ones(v0.size, dtype=bool) if only is None else only
+        full = v0.copy()
+
+        def part_residual(u):
+            full[on] = u
+            return residual(full)
+
+        scale = np.where(np.abs(v0[on]) > 0, np.abs(v0[on]), 1e-3)
+        sol = least_squares(
+            part_residual, v0[on], bounds=(lo[on], hi[on]), x_scale=scale, max_nfev=BAND_EVALS * (on.sum() + 1)
+        )
+        out = v0.copy()
+        out[on] = sol.x
+        return out, float(np.sum(sol.fun**2))
+
+    best, cost = None, checked(vector(fit.params))
+    for params, first in [(fit.params, ()), *starts]:
+        v0 = vector(params)
+        if first:  # the effect's own numbers first, the base held at its refined values
+            v0, _ = solve(v0, np.array([n in first for n in free] + [False] * x0.size))
+        v, fun = solve(v0)
+        c = checked(v)
+        if c < cost and c <= 1.1 * fun and (certified is False or keeps_certificate(v)):
+            best, cost = v, c
+    if best is None:
+        return fit, False
+    params = {**fit.params, **dict(zip(free, map(float, best[:nf])))}
+    x0s = (tuple(float(v) for v in best[nf:]),) + tuple(fit.x0[1:])
+    return dataclasses.replace(fit, params=params, x0=x0s), True
+
+
+def _in_band_fit(s: _Setting, model, fit, y_run, mask, starts=()):
+    """(fit, free run over the record) refined in ``s``'s judging band (:func:`refine_in_band`); as given when
+    there is no band, the refinement does not help, or the refined free run fails."""
+    if s.est.band is None or fit is None or y_run is None:
+        return fit, y_run
+    refined, better = refine_in_band(model, fit, s.work, s.k, s.est.band, mask, starts)
+    if not better:
+        return fit, y_run
+    yy = free_run(model, refined.params, s.work, refined.x0[0])
+    return (refined, yy) if _within_range(yy, s.work.y) else (fit, y_run)
+
+
+def _own_guess(s: _Setting, run: CandidateRun, base, y_base) -> list[tuple[dict, tuple]]:
+    """The start of a candidate's refinement in the band from its effect's own guess on the base (empty when
+    there is no band or the guess fails)."""
+    if s.est.band is None or run.fit is None:
+        return []
+    try:
+        guess = run.effect.initial_guess(_part(s.work, s.k), np.asarray(y_base)[: s.k])
+    except (ModelError, DataError, ValueError, np.linalg.LinAlgError):
+        return []
+    return [({**base.params, **guess}, tuple(guess))]
+
+
 def _plain_data(s: _Setting, o: DiagnoseOptions):
     """(record, mask) of the plain-fit reference: the whole record decimated as the fitting part is (None: not
     decimated)."""
@@ -731,7 +885,7 @@ def _base_evidence(s: _Setting, base, model, y_base: np.ndarray) -> BaseEvidence
         k=s.k,
         mse_held=float(np.mean(r_base[s.held] ** 2)),
         ss_fit=ss_fit,
-        bic=_bic(ss_fit, s.k, _n_estimated(base, model)),
+        bic=_bic(ss_fit, s.k, _n_estimated(base, model), s.est.band),
     )
 
 
@@ -826,9 +980,12 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     improvement = 1 - math.sqrt(mse_h / ev.mse_held) if ev.mse_held > 0 else 0.0
     excess = ev.mse_held - sigma**2
     explained = (ev.mse_held - mse_h) / excess if excess > 0 else 0.0
-    dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, run.model)) - ev.bic
+    dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, run.model), s.est.band) - ev.bic
     own = [p.name for p in run.model.params if p.name not in model.param_names]
-    supported = dbic < o.bic_threshold and improvement >= required_improvement(o.min_improvement, ev.mse_held, sigma)
+    # a floor reference (the noise not measurable) is the best model's own held-out error: the fall it leaves
+    # possible would be measured by the candidate itself, so the fixed rule applies
+    need = o.min_improvement if s.floor_noise else required_improvement(o.min_improvement, ev.mse_held, sigma)
+    supported = dbic < o.bic_threshold and improvement >= need
     # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
     enough = explained >= o.min_explained or (run.name == "force-offset" and shifted)
     return Candidate(

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from duffsym.diagnose.noisefloor import BAND_SHARE
 from duffsym.diagnose.options import EXACT_FIT, GROWTH, STABILITY_CHECKED, TIE
 from duffsym.diagnose.parts import BaseCheck, Candidate, SindyCheck
 from duffsym.diagnose.residuals import ResidualAnalysis
@@ -110,6 +111,17 @@ def _not_needed_why(c: Candidate) -> str:
     if c.stable is False:
         return "its fitted set is outside the derived stability certificate (energy-producing)"
     return f"removes only {100 * c.explained:.0f} % of the excess error"
+
+
+def band_sentence(band: float | None, dt: float) -> str:
+    """The sentence saying that a low-pass filtered force was judged in a band ('' without one)."""
+    if band is None:
+        return ""
+    return (
+        f" The force is low-pass filtered (cutoff about {band / BAND_SHARE / dt:.3g} Hz, found from the fitted "
+        f"model's spectrum): every fit was refined, and every free run judged against the measured force, below "
+        f"{band / dt:.3g} Hz, where the filter left the force intact."
+    )
 
 
 def _smoothing_sentence(w: int) -> str:
