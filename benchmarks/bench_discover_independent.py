@@ -4,7 +4,8 @@ Records come from the independent generator ``tests/independent_sim.py`` (numpy 
 with effects that have no catalogue form, each where it acts: seal friction whose level grows toward the
 stroke ends, Stribeck friction (a static peak decaying with the piston speed), heating (the dissipated
 energy warms the fluid: c2, c3 fall), a turbulent orifice force ``C p'|p'|`` and a polytropic gas spring
-(1 % noise; ``-lowpass``/``-movavg``: the force pre-filtered as in published data sets). Also clean
+(1 % noise; ``-lowpass``/``-movavg``: the force pre-filtered as in published data sets; a ladder that judged a
+low-pass filtered force in a band is scored against the generator's noise in that band). Also clean
 records (false positives) and ``seal-friction@removed``: a catalogued effect (seal friction) hidden
 while ``seal-friction`` and ``coulomb-friction`` are taken out of the catalogue — does discovery find
 its form, ``tanh(d'/ε)``?
@@ -33,7 +34,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 OUTSIDE = ("stroke-friction", "stribeck-friction", "heating", "orifice", "gas-spring")
-LABELS = OUTSIDE + ("clean", "seal-friction@removed", "stribeck-friction-lowpass", "heating-movavg")
+LABELS = OUTSIDE + ("clean", "seal-friction@removed", "stribeck-friction-lowpass", "heating-movavg", "clean-lowpass")
 REMOVED = ("seal-friction", "coulomb-friction")
 
 
@@ -96,7 +97,7 @@ def outcome(r: dict) -> str:
 
 
 def success(r: dict) -> bool:
-    if r["case"] == "clean":
+    if r["case"] in ("clean", "clean-lowpass"):
         return not r["effects"]
     if r["case"].endswith("@removed"):
         return r["within_2x_noise"] and any("tanh(d'/" in d["effect"] for d in r["discovered"])
@@ -122,6 +123,9 @@ def summarise(rows: list[dict]) -> dict:
     clean = [r for r in rows if r["case"] == "clean"]
     if clean:
         out["clean_false_positive_rate"] = sum(not success(r) for r in clean) / len(clean)
+    clean_lp = [r for r in rows if r["case"] == "clean-lowpass"]
+    if clean_lp:
+        out["clean_lowpass_false_positive_rate"] = sum(not success(r) for r in clean_lp) / len(clean_lp)
     return out
 
 

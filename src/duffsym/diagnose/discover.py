@@ -862,7 +862,7 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     if fr.success and band is not None:  # a low-pass filtered force: refined in the band it is judged in
         own = tuple(p.name for p in effect.parameters())
         start = {**dg.base_fit.params, **{n: fr.params[n] for n in own if n in fr.params}}
-        fr, _ = S.refine_in_band(ext, fr, record, k, band, mask, [(start, own)])
+        fr, _ = S.refine_in_band(ext, fr, record, k, band, mask, [(start, own)], deadline)
     run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None

@@ -586,7 +586,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
         deadline=o.deadline,
     )
     s = _with_band(s, y_work, record.dt)
-    base, y_work = _in_band_fit(s, model, base, y_work, o.mask)
+    base, y_work = _in_band_fit(s, model, base, y_work, o.mask, deadline=o.deadline)
     ev = _base_evidence(s, base, model, s.through(y_work))
     base_check = _with_certificate(base_check, model, base.params)
     failed, runs = _candidate_runs(
@@ -594,7 +594,7 @@ def diagnose(record: Record, model=None, options: DiagnoseOptions | None = None,
     )
     for r in runs:
         if r.fit is not None:
-            r.fit, r.y = _in_band_fit(s, r.model, r.fit, r.y, o.mask, _own_guess(s, r, base, y_work))
+            r.fit, r.y = _in_band_fit(s, r.model, r.fit, r.y, o.mask, _own_guess(s, r, base, y_work), o.deadline)
             r.y = s.through(r.y)
     sigma, noise_method = _noise_reference(s, ev, runs)
     judged = record if s.est.band is None else record.replace(y=s.y)
@@ -758,7 +758,15 @@ def _with_band(s: _Setting, y_work: np.ndarray, dt: float) -> _Setting:
 BAND_EVALS = 20
 
 
-def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, starts=()):
+class _BandTimeUp(Exception):
+    """The refinement in the judging band ran out of its time (``BAND_SECONDS`` or the diagnosis's budget)."""
+
+
+#: wall seconds a fit's refinement in the judging band may take (all its starts)
+BAND_SECONDS = 20.0
+
+
+def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, starts=(), deadline=None):
     """(fit, True) with its free parameters refined in the judging band ``band`` (cycles per sample) of a
     low-pass filtered force, or (fit, False) when that does not lower the in-band error.
 
@@ -768,8 +776,9 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
     minimise the in-band error of the free run on the fitting part (``record``'s first ``k`` samples only;
     ``mask`` True: left out) by scipy's ``least_squares``, from the collocation optimum and from each of
     ``starts`` (pairs: parameter values replacing the fit's, and the names refined alone first with the others
-    held), at most ``BAND_EVALS`` free runs per number fitted; the lowest in-band error wins, unless its set is
-    outside the model's stability certificate (where the collocation optimum was not). Measured on independent
+    held), at most ``BAND_EVALS`` free runs per number fitted and ``BAND_SECONDS`` in all (within ``deadline``;
+    out of time, the lowest error met so far); the lowest in-band error wins, unless its set is outside the
+    model's stability certificate (where the collocation optimum was not). Measured on independent
     clean records through a 15 Hz filter (200 Hz sampling), the held-out in-band error of the base model:
     4.3-10.5x the in-band noise after collocation, 0.93-1.54x after this (a fit of the same records before
     filtering: 0.94-1.23x)."""
@@ -790,9 +799,17 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
     hi = np.array([bounds[n][1] for n in free] + [np.inf] * x0.size, dtype=float)
     nf, big = len(free), 10.0 * float(np.max(np.abs(target)))
 
+    t_end = time.monotonic() + min(BAND_SECONDS, max(time_left(deadline), 0.0))
+    seen: list = [math.inf, None]  # the lowest cost met and its vector: the answer when the time runs out
+
     def residual(v):
+        if time.monotonic() > t_end:
+            raise _BandTimeUp
         yy = free_run(model, {**fit.params, **dict(zip(free, v[:nf]))}, part, v[nf:])
-        return np.full(int(keep.sum()), big) if yy is None else (in_band(yy, band) - target)[keep]
+        r = np.full(int(keep.sum()), big) if yy is None else (in_band(yy, band) - target)[keep]
+        if float(np.sum(r**2)) < seen[0]:
+            seen[:] = [float(np.sum(r**2)), np.array(v, dtype=float)]
+        return r
 
     def vector(params):
         p = np.array([float(params.get(n, fit.params[n])) for n in free])
@@ -821,15 +838,20 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
             return residual(full)
 
         scale = np.where(np.abs(v0[on]) > 0, np.abs(v0[on]), 1e-3)
-        sol = least_squares(
-            part_residual, v0[on], bounds=(lo[on], hi[on]), x_scale=scale, max_nfev=BAND_EVALS * (on.sum() + 1)
-        )
+        try:
+            sol = least_squares(
+                part_residual, v0[on], bounds=(lo[on], hi[on]), x_scale=scale, max_nfev=BAND_EVALS * (on.sum() + 1)
+            )
+        except _BandTimeUp:  # the lowest cost met so far (stiff sets can make each free run slow)
+            return (v0, math.inf) if seen[1] is None else (seen[1].copy(), seen[0])
         out = v0.copy()
         out[on] = sol.x
         return out, float(np.sum(sol.fun**2))
 
     best, cost = None, checked(vector(fit.params))
     for params, first in [(fit.params, ()), *starts]:
+        if time.monotonic() > t_end:
+            break
         v0 = vector(params)
         if first:  # the effect's own numbers first, the base held at its refined values
             v0, _ = solve(v0, np.array([n in first for n in free] + [False] * x0.size))
@@ -844,12 +866,17 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
     return dataclasses.replace(fit, params=params, x0=x0s), True
 
 
-def _in_band_fit(s: _Setting, model, fit, y_run, mask, starts=()):
+#: seconds of the time budget below which a fit is no longer refined in the judging band
+BAND_TIME = 5.0
+
+
+def _in_band_fit(s: _Setting, model, fit, y_run, mask, starts=(), deadline=None):
     """(fit, free run over the record) refined in ``s``'s judging band (:func:`refine_in_band`); as given when
-    there is no band, the refinement does not help, or the refined free run fails."""
-    if s.est.band is None or fit is None or y_run is None:
+    there is no band, less than ``BAND_TIME`` seconds of the budget are left, the refinement does not help, or
+    the refined free run fails."""
+    if s.est.band is None or fit is None or y_run is None or time_left(deadline) < BAND_TIME:
         return fit, y_run
-    refined, better = refine_in_band(model, fit, s.work, s.k, s.est.band, mask, starts)
+    refined, better = refine_in_band(model, fit, s.work, s.k, s.est.band, mask, starts, deadline)
     if not better:
         return fit, y_run
     yy = free_run(model, refined.params, s.work, refined.x0[0])
