@@ -192,3 +192,37 @@ def test_clean_lowpass_record_is_judged_in_band_and_given_no_effect():
     assert dg.needed == ()
     assert dg.nrmse_heldout < 1.3 * _inband_noise(g, band, dg.split["n_fit"], rec.y)  # measured 1.09x
     assert "low-pass filtered" in dg.verdict and "8.05 Hz" in dg.verdict
+
+
+def test_refinement_in_band_stops_on_its_time_and_keeps_the_best_it_met(monkeypatch):
+    import time
+
+    import duffsym.diagnose.search as S
+    from duffsym.identify import Problem, fit
+    from duffsym.model.library import mr_damper
+    from duffsym.simulate import simulate_record
+
+    rec, _ = record("clean", 1, filter_kind="lowpass", filter_width=15.0)
+    k = S.split_record(rec, 0.3)
+    model = mr_damper()
+    fr = fit(Problem(model, rec.replace(t=rec.t[:k], d=rec.d[:k], y=rec.y[:k], d_dot=None)))
+    band = BAND_SHARE * lowpass_cutoff(rec.y, fr.predict(rec))
+    monkeypatch.setattr(S, "BAND_SECONDS", 0.5)
+    run = S.free_run
+
+    def slow_run(*args):  # a free run of a stiff set can take seconds; here every run takes 50 ms
+        time.sleep(0.05)
+        return run(*args)
+
+    monkeypatch.setattr(S, "free_run", slow_run)
+    t0 = time.monotonic()
+    refined, better = S.refine_in_band(model, fr, rec, k, band)
+    # a seed-7 clean record's ladder sat 20 minutes in these refinements before the limit (49 s after)
+    assert time.monotonic() - t0 < 3.0  # without the limit (BAND_SECONDS 1e9): more, the test fails
+    part = rec.replace(t=rec.t[:k], d=rec.d[:k], y=rec.y[:k], d_dot=None)
+
+    def cost(f):
+        yy = np.asarray(simulate_record(model, f.params, part, x0=f.x0[0]).y)
+        return float(np.sum((in_band(yy, band) - in_band(part.y, band)) ** 2))
+
+    assert not better or cost(refined) < cost(fr)
