@@ -454,18 +454,6 @@ def derivative_order(term: sp.Expr) -> int:
     return total
 
 
-def _band(dg) -> float | None:
-    """The diagnosis's judging band (cycles per sample) of a low-pass filtered force, or None."""
-    est = getattr(dg, "noise_estimate", None)
-    return None if est is None else est.band
-
-
-def _measured(record, dg) -> np.ndarray:
-    """The measured force as ``dg`` judged its free runs against it: in its judging band, if any (its
-    ``y_base`` is already judged so)."""
-    return in_band(record.y, _band(dg))
-
-
 def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffect], dict, list[DiscoveredEffect]]:
     """The term sets for ``dg``'s base fit (fitting part only), as effects: the families stable over
     resampled cycles (inclusion probability >= ``INCLUSION``, :func:`stability`), each by its most
@@ -478,11 +466,11 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     same = [j for j in ok if duplicates(terms[j], model.effects)]  # terms the added effects already have
     ok = [j for j in ok if j not in same]
     terms, Theta = [terms[j] for j in ok], Theta[:, ok]
-    r = _measured(record, dg) - np.asarray(dg.y_base, float)
+    r = dg.measured(record) - np.asarray(dg.y_base, float)
     J = base_sensitivities(model, dg.base_fit, record, k)
     if J is not None:
-        J = in_band(J, _band(dg))
-    sel = select_stable(terms, in_band(Theta, _band(dg))[:k], r[:k], J, blocks(record, k))
+        J = in_band(J, dg.band)
+    sel = select_stable(terms, in_band(Theta, dg.band)[:k], r[:k], J, blocks(record, k))
     selection = {
         "library": len(sel.terms),
         "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
@@ -559,7 +547,7 @@ def _discover(
     say = progress or (lambda msg: None)
     k = dg.split["n_fit"]
     held = slice(k, None)
-    before = _nrmse(_measured(record, dg)[held], dg.y_base[held])
+    before = _nrmse(dg.measured(record)[held], dg.y_base[held])
     rules = dict(
         bic_threshold=S.BIC_THRESHOLD if bic_threshold is None else bic_threshold,
         min_improvement=S.MIN_IMPROVEMENT if min_improvement is None else min_improvement,
@@ -683,8 +671,8 @@ def measured_form(effect: DiscoveredEffect, record, dg) -> DiscoveredEffect | No
     k = dg.split["n_fit"]
     fns = [sp.lambdify([state_symbol(n) for n in names], t, "numpy") for t in terms]
     theta = np.column_stack([np.broadcast_to(f(*(cols[n] for n in names)), (cols["d"].size,)) for f in fns])
-    theta = in_band(theta, _band(dg))[:k]
-    r = _measured(record, dg)[:k] - np.asarray(dg.y_base, float)[:k]
+    theta = in_band(theta, dg.band)[:k]
+    r = dg.measured(record)[:k] - np.asarray(dg.y_base, float)[:k]
     coefs, *_ = np.linalg.lstsq(theta, r, rcond=None)
     return DiscoveredEffect(tuple(terms), tuple(float(c) for c in coefs), effect.index)
 
@@ -707,7 +695,7 @@ def _found(effect, fr, y_ext, bic_ext, record, model, dg, rules, selection, seco
     from duffsym.identify.result import nrmse as _nrmse
 
     k = dg.split["n_fit"]
-    y = _measured(record, dg)
+    y = dg.measured(record)
     own = [p.name for p in effect.parameters()]
     return Discovery(
         found=True,
@@ -746,8 +734,8 @@ def _drift_ranking(names: list[str], record, model, dg) -> list[str]:
         return names
     u = np.asarray(record.drift_signal("energy"), float)[:k]
     cols = np.column_stack([J[:, free.index(n)] * u for n in names])
-    band = _band(dg)
-    Tp, rp, _ = without_base(in_band(J, band), in_band(cols, band), _measured(record, dg)[:k] - dg.y_base[:k])
+    band = dg.band
+    Tp, rp, _ = without_base(in_band(J, band), in_band(cols, band), dg.measured(record)[:k] - dg.y_base[:k])
     norm2 = np.sum(Tp**2, axis=0)
     gain = np.where(norm2 > 0, (Tp.T @ rp) ** 2 / np.where(norm2 > 0, norm2, 1.0), 0.0)
     return [names[i] for i in np.argsort(-gain, kind="stable")]
@@ -858,7 +846,7 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
         bound_restart=False,
         **limit,
     )
-    band = _band(dg)
+    band = dg.band
     if fr.success and band is not None:  # a low-pass filtered force: refined in the band it is judged in
         own = tuple(p.name for p in effect.parameters())
         start = {**dg.base_fit.params, **{n: fr.params[n] for n in own if n in fr.params}}
@@ -866,9 +854,9 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
-    y_ext = in_band(run.y, _band(dg))
-    y = _measured(record, dg)
-    bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext), _band(dg))
+    y_ext = in_band(run.y, dg.band)
+    y = dg.measured(record)
+    bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext), dg.band)
     return fr, y_ext, bic
 
 

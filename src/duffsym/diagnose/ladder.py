@@ -472,21 +472,11 @@ def _left_text(end) -> str:
     return "" if not math.isfinite(left) else f" (budget: {max(left, 0):.0f} s left)"
 
 
-def _band(dg: Diagnosis) -> float | None:
-    """The judging band (cycles per sample) of a diagnosis of a low-pass filtered force, or None."""
-    return None if dg.noise_estimate is None else dg.noise_estimate.band
-
-
-def _measured(record, dg: Diagnosis) -> np.ndarray:
-    """The measured force as ``dg`` judged its free runs (and its ``y_base``) against it."""
-    return in_band(record.y, _band(dg))
-
-
 def _step(record, model, dg: Diagnosis, found, jinfo, seconds, element: str = "") -> Step:
     """A :class:`Step` from a diagnosis, with its inactive effects flagged."""
     from duffsym.identify.result import nrmse as _nrmse
 
-    y = _measured(record, dg)
+    y = dg.measured(record)
     k = dg.split.n_fit
     params = dict(dg.base_fit.params)
     return Step(
@@ -624,7 +614,7 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
                 and dg.bic_base < last.bic + PARSIMONY_BIC
             ):
                 k = dg.split.n_fit
-                y = _measured(record, dg)
+                y = dg.measured(record)
                 steps.append(
                     Step(
                         effects=tuple(trial.effects),
@@ -720,7 +710,7 @@ def joint_refit(
     added = [e for e in model.effects if e not in base_model.effects]
     if any(e not in CATALOGUE for e in added):
         return dict(start), None
-    band = _band(steps[-1].diagnosis)
+    band = steps[-1].diagnosis.band
     y = in_band(record.y, band)  # judged as the diagnosis judged it (a low-pass filtered force: in its band)
     k = split_record(record, holdout)
     rec_fit = _part(record, k)

@@ -163,6 +163,18 @@ class Diagnosis:
     inactive: dict = field(default_factory=dict)  # effects of the model that do nothing at its fitted values
 
     @property
+    def band(self) -> float | None:
+        """The judging band (cycles per sample) of a low-pass filtered force, or None (see ``noise_estimate``)."""
+        return None if self.noise_estimate is None else self.noise_estimate.band
+
+    def measured(self, record: Record) -> np.ndarray:
+        """``record``'s measured force as this diagnosis judged its free runs (and ``y_base``) against it: in
+        its judging band, if any."""
+        from duffsym.diagnose.noisefloor import in_band
+
+        return in_band(record.y, self.band)
+
+    @property
     def best(self) -> Candidate | None:
         """The lowest held-out error among converged candidates whose free run did not diverge."""
         return next((c for c in self.candidates if c.success and not c.diverged), None)
