@@ -875,7 +875,12 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
         return fit, False
     params = {**fit.params, **dict(zip(free, map(float, best[:nf])))}
     x0s = (tuple(float(v) for v in best[nf:]),) + tuple(fit.x0[1:])
-    return dataclasses.replace(fit, params=params, x0=x0s), True
+    note = {
+        "flag": "refined-in-band",
+        "message": f"parameters and initial state refined in the judging band (below {band:.3g} cycles per sample) "
+        "after the collocation fit; cost, nrmse, y_sim and the standard errors are the collocation fit's",
+    }
+    return dataclasses.replace(fit, params=params, x0=x0s, flags=(*fit.flags, note)), True
 
 
 #: seconds of the time budget below which a fit is no longer refined in the judging band
