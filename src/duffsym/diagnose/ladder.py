@@ -710,8 +710,7 @@ def joint_refit(
     added = [e for e in model.effects if e not in base_model.effects]
     if any(e not in CATALOGUE for e in added):
         return dict(start), None
-    band = steps[-1].diagnosis.band
-    y = in_band(record.y, band)  # judged as the diagnosis judged it (a low-pass filtered force: in its band)
+    y = steps[-1].diagnosis.measured(record)  # as the diagnosis judged it (a low-pass filtered force: in its band)
     k = split_record(record, holdout)
     rec_fit = _part(record, k)
     mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
@@ -719,7 +718,7 @@ def joint_refit(
     fixed_m = with_default_af(model, fixed, rec_fit)
 
     def score(m, params, x0):
-        yy = in_band(free_run(m, params, record, x0), band)
+        yy = in_band(free_run(m, params, record, x0), steps[-1].diagnosis.band)
         return math.inf if not _within_range(yy, y) else float(np.sqrt(np.mean((y[:k] - yy[:k]) ** 2)) / np.std(y[:k]))
 
     def run(m, p0, label):

@@ -797,18 +797,14 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
     from scipy.optimize import least_squares
 
     from duffsym.diagnose.noisefloor import in_band
-    from duffsym.identify.problem import record_scaled_bounds
 
     part = _part(record, k)
     target = in_band(part.y, band)
     keep = np.ones(k, dtype=bool) if mask is None else ~np.asarray(mask, dtype=bool)[:k]
-    bounds = {p.name: (p.lower, p.upper) for p in model.params} | record_scaled_bounds(model, [part])
-    free = [n for n in fit.free if n in bounds and n in fit.params]
-    if not free or not fit.x0:
+    free, lo, hi = _refinable(model, fit, part)
+    if not free:
         return fit, False
     x0 = np.asarray(fit.x0[0], dtype=float)
-    lo = np.array([bounds[n][0] for n in free] + [-np.inf] * x0.size, dtype=float)
-    hi = np.array([bounds[n][1] for n in free] + [np.inf] * x0.size, dtype=float)
     nf, big = len(free), 10.0 * float(np.max(np.abs(target)))
 
     t_end = time.monotonic() + min(BAND_SECONDS, max(time_left(deadline), 0.0))
@@ -871,20 +867,40 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
         c = checked(v)
         if c < cost and c <= 1.1 * fun and (certified is False or keeps_certificate(v)):
             best, cost = v, c
-    if best is None:
-        return fit, False
-    params = {**fit.params, **dict(zip(free, map(float, best[:nf])))}
-    x0s = (tuple(float(v) for v in best[nf:]),) + tuple(fit.x0[1:])
+    return (fit, False) if best is None else (_refined(fit, free, best, band), True)
+
+
+#: seconds of the time budget below which a fit is no longer refined in the judging band
+BAND_TIME = 5.0
+
+
+def _refinable(model, fit, part: Record) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """(the free parameters a refinement in the band fits, lower and upper bounds of them and of the initial states):
+    the model's bounds, those of its effects scaled to ``part``; no names when the fit has no initial state."""
+    from duffsym.identify.problem import record_scaled_bounds
+
+    bounds = {p.name: (p.lower, p.upper) for p in model.params} | record_scaled_bounds(model, [part])
+    free = [n for n in fit.free if n in bounds and n in fit.params] if fit.x0 else []
+    n_x = len(fit.x0[0]) if fit.x0 else 0
+    lo = np.array([bounds[n][0] for n in free] + [-np.inf] * n_x, dtype=float)
+    hi = np.array([bounds[n][1] for n in free] + [np.inf] * n_x, dtype=float)
+    return free, lo, hi
+
+
+def _refined(fit, free: list[str], v: np.ndarray, band: float):
+    """``fit`` with the refined parameters and initial state ``v`` (ordered as ``free``, then the state), flagged."""
+    nf = len(free)
     note = {
         "flag": "refined-in-band",
         "message": f"parameters and initial state refined in the judging band (below {band:.3g} cycles per sample) "
         "after the collocation fit; cost, nrmse, y_sim and the standard errors are the collocation fit's",
     }
-    return dataclasses.replace(fit, params=params, x0=x0s, flags=(*fit.flags, note)), True
-
-
-#: seconds of the time budget below which a fit is no longer refined in the judging band
-BAND_TIME = 5.0
+    return dataclasses.replace(
+        fit,
+        params={**fit.params, **dict(zip(free, map(float, v[:nf])))},
+        x0=(tuple(float(x) for x in v[nf:]),) + tuple(fit.x0[1:]),
+        flags=(*fit.flags, note),
+    )
 
 
 def _in_band_fit(s: _Setting, model, fit, y_run, mask, starts=(), deadline=None):
