@@ -261,6 +261,7 @@ def test_the_held_out_fall_required_near_the_noise_is_half_of_what_the_noise_lea
 
     assert required_improvement(0.10, 1.1**2, 1.0) == pytest.approx(0.5 * (1 - 1 / 1.1))
     assert required_improvement(0.10, 1.5**2, 1.0) == 0.10  # half of 1/3
+    assert required_improvement(0.10, 1.1**2, 1.0, measurable=False) == 0.10  # a floor: the fixed rule
     assert required_improvement(0.10, 0.9**2, 1.0) == 0.0  # below the noise: nothing to fall
     assert required_improvement(0.10, 4.0, 0.0) == 0.10  # no noise measured: the fixed rule
 

@@ -854,9 +854,9 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
-    y_ext = in_band(run.y, dg.band)
+    y_ext = in_band(run.y, band)
     y = dg.measured(record)
-    bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext), dg.band)
+    bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext), band)
     return fr, y_ext, bic
 
 
@@ -902,9 +902,8 @@ def _evidence(y, dg, y_ext, bic_ext: float, rules: dict) -> dict:
     excess = mse_held - dg.noise**2
     explained = float(min((mse_held - mse_h) / excess, 1.0)) if excess > 0 else 0.0
     dbic = bic_ext - dg.bic_base
-    est = getattr(dg, "noise_estimate", None)
-    floor = est is not None and not est.measurable  # the reference is a model's own error (see search._judge)
-    need = rules["min_improvement"] if floor else required_improvement(rules["min_improvement"], mse_held, dg.noise)
+    measurable = dg.noise_estimate is None or dg.noise_estimate.measurable
+    need = required_improvement(rules["min_improvement"], mse_held, dg.noise, measurable)
     supported = bool(dbic < rules["bic_threshold"] and improvement >= need)
     needed = bool(supported and explained >= rules["min_explained"] and dg.residuals.worth_a_search)
     return dict(delta_bic=dbic, improvement=improvement, explained=explained, supported=supported, needed=needed)

@@ -194,22 +194,18 @@ def lowpass_cutoff(y, y_model) -> float | None:
     return None
 
 
-def judging_band(y, y_model) -> tuple[float | None, str]:
-    """(band edge in cycles per sample, or None; why) for a force without a white-noise floor: ``BAND_SHARE`` of
-    the :func:`lowpass_cutoff` found from the free run ``y_model``, when that band keeps at least ``BAND_KEEPS``
-    of the force's variance (measured 0.95-0.99 on independent records through a 15 Hz filter at 200 Hz)."""
+def judging_band(y, y_model) -> float | None:
+    """The band edge (cycles per sample) for a force without a white-noise floor: ``BAND_SHARE`` of the
+    :func:`lowpass_cutoff` found from the free run ``y_model``, when that band keeps at least ``BAND_KEEPS`` of the
+    force's variance (measured 0.95-0.99 on independent records through a 15 Hz filter at 200 Hz); None without a
+    cutoff or when the band would cut into the signal itself."""
     fc = lowpass_cutoff(y, y_model)
     if fc is None:
-        return None, "no low-pass cutoff found"
+        return None
     band = BAND_SHARE * fc
     y = np.asarray(y, dtype=float)
     kept = float(np.var(in_band(y, band)) / np.var(y)) if np.var(y) > 0 else 0.0
-    if kept < BAND_KEEPS:
-        return None, (
-            f"a low-pass cutoff at {fc:.3g} cycles per sample, but the band below half of it keeps only "
-            f"{100 * kept:.0f} % of the force's variance (the filter cut into the signal itself)"
-        )
-    return band, f"low-pass cutoff at {fc:.3g} cycles per sample"
+    return band if kept >= BAND_KEEPS else None
 
 
 def in_band(y, band: float | None) -> np.ndarray:

@@ -15,13 +15,15 @@ MIN_EXPLAINED = 0.50
 POSSIBLE_SHARE = 0.5
 
 
-def required_improvement(min_improvement: float, mse_held: float, noise: float) -> float:
+def required_improvement(min_improvement: float, mse_held: float, noise: float, measurable: bool = True) -> float:
     """The held-out RMSE fall a candidate must reach: ``min_improvement``, or ``POSSIBLE_SHARE`` of the fall the
     noise leaves possible when that is less. A base whose held-out error is 1.1x the noise can fall at most 9 %:
     a fixed 10 % would refuse an effect that removes all of its excess error (measured on independent records: a
     stroke-dependent friction term removing 79 % of the excess, ΔBIC -71, a held-out fall of 8.8 %); at 1.5x the
-    noise and above the rule is ``min_improvement`` itself."""
-    if not (mse_held > 0 and noise > 0):
+    noise and above the rule is ``min_improvement`` itself. A ``noise`` that is not ``measurable`` (a floor: the
+    best fitted model's own held-out error) leaves the fixed rule: the fall it leaves possible would be measured by
+    the candidate itself."""
+    if not (measurable and mse_held > 0 and noise > 0):
         return min_improvement
     possible = 1.0 - min(1.0, noise / mse_held**0.5)
     return min(min_improvement, POSSIBLE_SHARE * possible)

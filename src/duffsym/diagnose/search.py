@@ -42,6 +42,7 @@ from duffsym.diagnose.noisefloor import (
     STEPPED,
     NoiseEstimate,
     estimate_noise,
+    in_band,
     judging_band,
     restore,
     smoothed_noise_level,
@@ -170,8 +171,6 @@ class Diagnosis:
     def measured(self, record: Record) -> np.ndarray:
         """``record``'s measured force as this diagnosis judged its free runs (and ``y_base``) against it: in
         its judging band, if any."""
-        from duffsym.diagnose.noisefloor import in_band
-
         return in_band(record.y, self.band)
 
     @property
@@ -751,9 +750,9 @@ def _with_band(s: _Setting, y_work: np.ndarray, dt: float) -> _Setting:
     """``s`` judged in a band when its force has no noise floor because it was low-pass filtered: the cutoff
     found from the base model's free run on the fitting part (:func:`lowpass_cutoff`), every free run and the
     measured force judged below ``BAND_SHARE`` of it (see :mod:`duffsym.diagnose.noisefloor`)."""
-    if s.est.measurable or s.est.smoothing > 1 or s.est.stepped >= STEPPED or s.est.method == GIVEN:
+    if s.est.measurable or s.est.stepped >= STEPPED or s.est.method == GIVEN:
         return s
-    band, _ = judging_band(s.y[: s.k], y_work[: s.k])
+    band = judging_band(s.y[: s.k], y_work[: s.k])
     if band is None:
         return s
     method = (
@@ -768,14 +767,14 @@ def _with_band(s: _Setting, y_work: np.ndarray, dt: float) -> _Setting:
 
 #: least-squares evaluations of a fit's refinement in the judging band, per free parameter (plus one)
 BAND_EVALS = 20
+#: wall seconds a fit's refinement in the judging band may take (all its starts)
+BAND_SECONDS = 20.0
+#: seconds of the time budget below which a fit is no longer refined in the judging band
+BAND_TIME = 5.0
 
 
 class _BandTimeUp(Exception):
     """The refinement in the judging band ran out of its time (``BAND_SECONDS`` or the diagnosis's budget)."""
-
-
-#: wall seconds a fit's refinement in the judging band may take (all its starts)
-BAND_SECONDS = 20.0
 
 
 def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, starts=(), deadline=None):
@@ -795,8 +794,6 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
     4.3-10.5x the in-band noise after collocation, 0.93-1.54x after this (a fit of the same records before
     filtering: 0.94-1.23x)."""
     from scipy.optimize import least_squares
-
-    from duffsym.diagnose.noisefloor import in_band
 
     part = _part(record, k)
     target = in_band(part.y, band)
@@ -868,10 +865,6 @@ def refine_in_band(model, fit, record: Record, k: int, band: float, mask=None, s
         if c < cost and c <= 1.1 * fun and (certified is False or keeps_certificate(v)):
             best, cost = v, c
     return (fit, False) if best is None else (_refined(fit, free, best, band), True)
-
-
-#: seconds of the time budget below which a fit is no longer refined in the judging band
-BAND_TIME = 5.0
 
 
 def _refinable(model, fit, part: Record) -> tuple[list[str], np.ndarray, np.ndarray]:
@@ -1042,9 +1035,7 @@ def _judge(run: CandidateRun, s: _Setting, ev: BaseEvidence, model, res, shifted
     explained = (ev.mse_held - mse_h) / excess if excess > 0 else 0.0
     dbic = _bic(float(np.sum(r[:k] ** 2)), k, _n_estimated(fr, run.model), s.est.band) - ev.bic
     own = [p.name for p in run.model.params if p.name not in model.param_names]
-    # a floor reference (the noise not measurable) is the best model's own held-out error: the fall it leaves
-    # possible would be measured by the candidate itself, so the fixed rule applies
-    need = o.min_improvement if s.floor_noise else required_improvement(o.min_improvement, ev.mse_held, sigma)
+    need = required_improvement(o.min_improvement, ev.mse_held, sigma, measurable=not s.floor_noise)
     supported = dbic < o.bic_threshold and improvement >= need
     # a shifted loop (residual mean a large share of its RMS) is evidence for the offset on its own
     enough = explained >= o.min_explained or (run.name == "force-offset" and shifted)
