@@ -44,7 +44,6 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from duffsym.diagnose.noisefloor import in_band
 from duffsym.diagnose.options import required_improvement
 from duffsym.effects.discovered import DiscoveredEffect, duplicates, resembles, term_latex, term_words
 from duffsym.errors import DataError, ModelError
@@ -469,8 +468,8 @@ def propose(record, model, dg, tries: int = TRIES) -> tuple[list[DiscoveredEffec
     r = dg.measured(record) - np.asarray(dg.y_base, float)
     J = base_sensitivities(model, dg.base_fit, record, k)
     if J is not None:
-        J = in_band(J, dg.band)
-    sel = select_stable(terms, in_band(Theta, dg.band)[:k], r[:k], J, blocks(record, k))
+        J = dg.judged(J)
+    sel = select_stable(terms, dg.judged(Theta)[:k], r[:k], J, blocks(record, k))
     selection = {
         "library": len(sel.terms),
         "selector": "stability selection (sklearn OrthogonalMatchingPursuit "
@@ -671,7 +670,7 @@ def measured_form(effect: DiscoveredEffect, record, dg) -> DiscoveredEffect | No
     k = dg.split["n_fit"]
     fns = [sp.lambdify([state_symbol(n) for n in names], t, "numpy") for t in terms]
     theta = np.column_stack([np.broadcast_to(f(*(cols[n] for n in names)), (cols["d"].size,)) for f in fns])
-    theta = in_band(theta, dg.band)[:k]
+    theta = dg.judged(theta)[:k]
     r = dg.measured(record)[:k] - np.asarray(dg.y_base, float)[:k]
     coefs, *_ = np.linalg.lstsq(theta, r, rcond=None)
     return DiscoveredEffect(tuple(terms), tuple(float(c) for c in coefs), effect.index)
@@ -734,8 +733,7 @@ def _drift_ranking(names: list[str], record, model, dg) -> list[str]:
         return names
     u = np.asarray(record.drift_signal("energy"), float)[:k]
     cols = np.column_stack([J[:, free.index(n)] * u for n in names])
-    band = dg.band
-    Tp, rp, _ = without_base(in_band(J, band), in_band(cols, band), dg.measured(record)[:k] - dg.y_base[:k])
+    Tp, rp, _ = without_base(dg.judged(J), dg.judged(cols), dg.measured(record)[:k] - dg.y_base[:k])
     norm2 = np.sum(Tp**2, axis=0)
     gain = np.where(norm2 > 0, (Tp.T @ rp) ** 2 / np.where(norm2 > 0, norm2, 1.0), 0.0)
     return [names[i] for i in np.argsort(-gain, kind="stable")]
@@ -756,12 +754,16 @@ def discover_drift(
     say("  the error grows over the record: windowed refits")
     before = float(dg.nrmse_heldout)
     try:
-        windows = D.windowed_refits(record, model, dg, fixed)
+        windows = D.windowed_refits(dg.work(record), model, dg, fixed)
     except (ModelError, DataError) as exc:
         return _nothing(f"drift: the windowed refits failed ({exc})", before, {}, 0.0)
     selection: dict[str, object] = {"windows": windows.to_dict()}
     names = windows.drifting()[: D.MAX_PARAMETERS]
-    if not names:  # the windows trade parameters off: the linearised drift of each parameter ranks them
+    if names:  # and the first by the linearised drift, when the windows did not name it (they trade parameters off)
+        first = _drift_ranking(D.any_change(windows), record, model, dg)[:1]
+        names += [n for n in first if n not in names]
+        selection["ranked_by_linearised_drift"] = first
+    else:  # the windows trade parameters off: the linearised drift of each parameter ranks them
         names = _drift_ranking(D.any_change(windows), record, model, dg)[:FALLBACK_DRIFTS]
         selection["no_monotone_change"] = ", ".join(f"{n} {100 * c:+.0f} %" for n, c in windows.change.items())
         selection["ranked_by_linearised_drift"] = names
@@ -815,8 +817,9 @@ def _fit_effect(effect, record, model, dg, fixed, mask, max_iter, say):
 
 
 def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mapping[str, float] | None = None):
-    """(fit, free run over the record, BIC on the fitting part) of ``model`` + ``effect`` on the fitting
-    part, from the base fit (updated by ``start``); None on failure."""
+    """(fit, free run over the record as judged, BIC on the fitting part) of ``model`` + ``effect`` on the
+    fitting part, from the base fit (updated by ``start``); None on failure. Fitted to the record as the
+    diagnosis fitted its models (a force smoothed by a moving average: restored, :meth:`Diagnosis.work`)."""
     from duffsym.diagnose import search as S
     from duffsym.identify import Problem, fit_with_effects
 
@@ -827,12 +830,13 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
         return None
     say(f"  fitting {effect.name}")
     k = dg.split["n_fit"]
-    rec_fit = S._part(record, k)
+    work = dg.work(record)
+    rec_fit = S._part(work, k)
     fixed = S.with_default_af(model, fixed, rec_fit)
     mask_fit = None if mask is None else np.asarray(mask, bool)[:k]
     # at the rate the diagnosis fitted its base and candidates
     factor = dg.prepare.factor if dg.prepare is not None else 1
-    prep, rec_fit, mask_fit = S._prepare_fit(record, rec_fit, mask_fit, factor, S.BUDGET_SAMPLES)
+    prep, rec_fit, mask_fit = S._prepare_fit(work, rec_fit, mask_fit, factor, S.BUDGET_SAMPLES)
     ext = effect.apply(model)
     problem = Problem(ext, rec_fit, fixed={n: v for n, v in fixed.items() if n in ext.param_names}, mask=mask_fit)
     limit = {} if deadline is None else {"max_wall_time": left / 2}  # two starts (fit_with_effects)
@@ -850,11 +854,11 @@ def _fit_any(effect, record, model, dg, fixed, mask, max_iter, say, start: Mappi
     if fr.success and band is not None:  # a low-pass filtered force: refined in the band it is judged in
         own = tuple(p.name for p in effect.parameters())
         start = {**dg.base_fit.params, **{n: fr.params[n] for n in own if n in fr.params}}
-        fr, _ = S.refine_in_band(ext, fr, record, k, band, mask, [(start, own)], deadline)
-    run = simulate_record(ext, fr.params, record, x0=fr.x0[0], on_failure="return") if fr.success else None
+        fr, _ = S.refine_in_band(ext, fr, work, k, band, mask, [(start, own)], deadline)
+    run = simulate_record(ext, fr.params, work, x0=fr.x0[0], on_failure="return") if fr.success else None
     if run is None or not (run.success and np.all(np.isfinite(run.y))):
         return None
-    y_ext = in_band(run.y, band)
+    y_ext = dg.judged(run.y)
     y = dg.measured(record)
     bic = S._bic(float(np.sum((y[:k] - y_ext[:k]) ** 2)), k, S._n_estimated(fr, ext), band)
     return fr, y_ext, bic

@@ -4,7 +4,7 @@ When the residual of a base fit grows (or shrinks) over the record — the diagn
 last quarter's RMS against the first quarter's, and the rank correlation of the window RMS with time
 — :func:`windowed_refits` refits the base model on consecutive windows of the *fitting part* (whole
 input cycles) from the base fit and reports how each parameter changes from window to window.
-:func:`discover_drift` then lets the parameters that change most (monotone, by more than 10 %)
+:func:`discover_drift` then lets the parameters whose change is most significant (monotone, by more than 5 %)
 follow the record's time or the energy dissipated since its start
 (:class:`duffsym.effects.drift.ParameterDrift`, ``p·(1 - a·u/u_ref)``), fits each such model on the
 fitting part through the normal path and keeps the one with the lowest BIC there; the held-out tail
@@ -51,9 +51,23 @@ class Windows:
     signals: dict = field(default_factory=dict)  # "time"/"energy" -> value at each window's middle
 
     def drifting(self) -> list[str]:
-        """The parameters that change monotonically by more than ``MIN_CHANGE``, largest change first."""
+        """The parameters that change monotonically by more than ``MIN_CHANGE``, the most significant change
+        first (:meth:`significance`; ties by the relative change)."""
         names = [n for n in self.change if self.monotone[n] and abs(self.change[n]) > MIN_CHANGE]
-        return sorted(names, key=lambda n: -abs(self.change[n]))
+        return sorted(names, key=lambda n: (-self.significance(n), -abs(self.change[n])))
+
+    def significance(self, name: str) -> float:
+        """The change of ``name`` from the first window to the last in standard errors of that difference (0 when
+        a window's standard error is not finite). A change of 11 % with a standard error of 14 % (c2 on a short
+        sine record whose force a moving average smoothed) ranks behind one of 7 % with 3 % (c3, the parameter
+        that drifted): the relative change alone put c2 first and c3 fourth."""
+        x, se = self.params[name], self.stderr[name]
+        ok = [i for i in range(len(x)) if math.isfinite(x[i])]
+        if len(ok) < 2:
+            return 0.0
+        a, b = ok[0], ok[-1]
+        spread = math.hypot(se[a], se[b])
+        return abs(x[b] - x[a]) / spread if math.isfinite(spread) and spread > 0 else 0.0
 
     def to_dict(self) -> dict:
         return dict(

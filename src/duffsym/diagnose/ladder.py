@@ -44,7 +44,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from duffsym.data.record import Record
-from duffsym.diagnose.noisefloor import in_band
 from duffsym.diagnose.options import (
     CANDIDATE_CPU_TIME,
     DEFAULT_BUDGET,
@@ -516,14 +515,18 @@ def _report(on_step, steps, t0, budget, record) -> None:
 def _final(record, model, steps, stopped, complete, t0, budget, end, fixed, rules, say) -> Ladder:
     """The last step's model refitted on the whole record (on what is left of the budget); when that fit does
     not succeed, the last step's own fit (a converged fit on the fitting part) is kept and the note says so."""
-    from duffsym.diagnose.search import BUDGET_SAMPLES, _prepare_fit
+    from duffsym.diagnose.search import BAND_TIME, BUDGET_SAMPLES, _prepare_fit, refine_in_band
 
     last = steps[-1]
+    dg = last.diagnosis
+    work = dg.work(record)  # as the steps fitted it (a force smoothed by a moving average: restored)
     say("final fit on the whole record" + _left_text(end))
-    prep, rec_final, _ = _prepare_fit(record, record, None, rules.get("decimate", True), BUDGET_SAMPLES)
+    prep, rec_final, _ = _prepare_fit(work, work, None, rules.get("decimate", True), BUDGET_SAMPLES)
     left = time_left(end)
     wall = None if not math.isfinite(left) else max(left, 5.0)
-    final = _fit(model, rec_final, with_default_af(model, fixed, record), last.params, max_wall_time=wall)
+    final = _fit(model, rec_final, with_default_af(model, fixed, work), last.params, max_wall_time=wall)
+    if final.success and dg.band is not None and time_left(end) >= BAND_TIME:  # as every step's fit: in the band
+        final, _ = refine_in_band(model, final, work, work.n_times, dg.band, None, [(dict(last.params), ())], end)
     note = ""
     if not final.success:
         note = (
@@ -710,15 +713,17 @@ def joint_refit(
     added = [e for e in model.effects if e not in base_model.effects]
     if any(e not in CATALOGUE for e in added):
         return dict(start), None
-    y = steps[-1].diagnosis.measured(record)  # as the diagnosis judged it (a low-pass filtered force: in its band)
+    dg = steps[-1].diagnosis
+    y = dg.measured(record)  # as the diagnosis judged it (a low-pass filtered force: in its band)
+    work = dg.work(record)  # as it fitted its models (a force smoothed by a moving average: restored)
     k = split_record(record, holdout)
-    rec_fit = _part(record, k)
+    rec_fit = _part(work, k)
     mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
-    _, rec_q, mask_q = _prepare_fit(record, rec_fit, mask_fit, decimate, BUDGET_SAMPLES)
+    _, rec_q, mask_q = _prepare_fit(work, rec_fit, mask_fit, decimate, BUDGET_SAMPLES)
     fixed_m = with_default_af(model, fixed, rec_fit)
 
     def score(m, params, x0):
-        yy = in_band(free_run(m, params, record, x0), steps[-1].diagnosis.band)
+        yy = dg.judged(free_run(m, params, work, x0))
         return math.inf if not _within_range(yy, y) else float(np.sqrt(np.mean((y[:k] - yy[:k]) ** 2)) / np.std(y[:k]))
 
     def run(m, p0, label):
@@ -738,7 +743,7 @@ def joint_refit(
         )
         return fr
 
-    y_cand = steps[-1].diagnosis.y_candidates.get(added[-1])
+    y_cand = dg.y_candidates.get(added[-1])
     e_cand = math.inf if y_cand is None else float(np.sqrt(np.mean((y[:k] - y_cand[:k]) ** 2)) / np.std(y[:k]))
     tried = {"candidate": (e_cand, dict(start))}
     y0 = np.asarray(steps[0].diagnosis.y_base, dtype=float)[:k]

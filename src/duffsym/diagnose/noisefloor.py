@@ -100,10 +100,12 @@ def detect_moving_average(y) -> int:
 
 
 def moving_average(y, w: int) -> np.ndarray:
-    """The centred w-sample moving average, the ends padded with the end values."""
+    """The centred w-sample moving average (along the first axis), the ends padded with the end values."""
     y = np.asarray(y, dtype=float)
     if w <= 1:
         return y.copy()
+    if y.ndim > 1:
+        return np.apply_along_axis(moving_average, 0, y, w)
     pad = np.pad(y, (w // 2, w - 1 - w // 2), mode="edge")
     return np.convolve(pad, np.ones(w) / w, mode="valid")
 
@@ -248,7 +250,8 @@ class NoiseEstimate:
 
     def judged(self, y_model) -> np.ndarray:
         """A free run of the fitted force as it is judged: through the detected moving average (the models
-        were fitted to the restored force) and in the judging band, if any."""
+        were fitted to the restored force) and in the judging band, if any. Along the first axis: the columns
+        of a regression's matrix go through the same."""
         return in_band(moving_average(y_model, self.smoothing), self.band)
 
     def to_dict(self) -> dict:

@@ -173,6 +173,19 @@ class Diagnosis:
         its judging band, if any."""
         return in_band(record.y, self.band)
 
+    def judged(self, y_model) -> np.ndarray:
+        """A free run of a model (or the columns of a matrix, along its first axis) as this diagnosis judged
+        ``y_base`` against the measured force: through the moving average that smoothed the force, if one was
+        detected, and in the judging band, if any."""
+        est = self.noise_estimate
+        return in_band(y_model, self.band) if est is None else est.judged(y_model)
+
+    def work(self, record: Record) -> Record:
+        """``record`` as this diagnosis fitted its models to it: the force restored by the regularised inverse
+        of a detected moving average (:func:`~duffsym.diagnose.noisefloor.restore`), else unchanged."""
+        w = 1 if self.noise_estimate is None else self.noise_estimate.smoothing
+        return record if w <= 1 else record.replace(y=restore(np.asarray(record.y, dtype=float), w))
+
     @property
     def best(self) -> Candidate | None:
         """The lowest held-out error among converged candidates whose free run did not diverge."""
