@@ -337,7 +337,8 @@ def test_a_term_in_the_models_state_is_written_in_the_measured_motion():
     d_, x_, v_, xv_ = (sp.Symbol(n, real=True) for n in ("d", "x", "d_dot", "x_dot"))
     t = np.linspace(0, 2, 401)
     rec = Record(t=t, d=np.sin(2 * np.pi * t), y=0.3 * np.sin(2 * np.pi * t) ** 3, name="sine", source="test")
-    dg = SimpleNamespace(split={"n_fit": 300}, y_base=np.zeros(t.size), band=None, measured=lambda r: np.asarray(r.y))
+    dg = SimpleNamespace(split={"n_fit": 300}, y_base=np.zeros(t.size), measured=lambda r: np.asarray(r.y))
+    dg.judged = lambda y: np.asarray(y, dtype=float)  # no moving average, no band
     got = measured_form(DiscoveredEffect((d_**2 * x_,), (1.0,)), rec, dg)
     assert got.terms == (d_**3,) and got.coefs[0] == pytest.approx(0.3, rel=1e-9)
     merged = measured_form(DiscoveredEffect((d_ * x_, d_**2), (1.0, 1.0)), rec, dg)

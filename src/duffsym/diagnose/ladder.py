@@ -670,6 +670,12 @@ def error_fell(lad: Ladder) -> float:
 JOINT_CPU_TIME = 60.0
 
 
+def _as_judged(dg: Diagnosis, record: Record) -> tuple[Diagnosis, np.ndarray, Record]:
+    """(``dg``, the measured force as it judged its free runs: a low-pass filtered force in its band, ``record`` as it
+    fitted its models: a force smoothed by a moving average restored)."""
+    return dg, dg.measured(record), dg.work(record)
+
+
 def joint_refit(
     record: Record,
     base_model,
@@ -713,9 +719,7 @@ def joint_refit(
     added = [e for e in model.effects if e not in base_model.effects]
     if any(e not in CATALOGUE for e in added):
         return dict(start), None
-    dg = steps[-1].diagnosis
-    y = dg.measured(record)  # as the diagnosis judged it (a low-pass filtered force: in its band)
-    work = dg.work(record)  # as it fitted its models (a force smoothed by a moving average: restored)
+    dg, y, work = _as_judged(steps[-1].diagnosis, record)
     k = split_record(record, holdout)
     rec_fit = _part(work, k)
     mask_fit = None if mask is None or "backlash" in model.effects else np.asarray(mask, dtype=bool)[:k]
