@@ -34,7 +34,9 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 OUTSIDE = ("stroke-friction", "stribeck-friction", "heating", "orifice", "gas-spring")
-LABELS = OUTSIDE + ("clean", "seal-friction@removed", "stribeck-friction-lowpass", "heating-movavg", "clean-lowpass")
+LABELS = OUTSIDE + ("clean", "seal-friction@removed", "stribeck-friction-lowpass", "heating-movavg", "clean-lowpass",
+                    "clean-movavg")
+CLEAN = ("clean", "clean-lowpass", "clean-movavg")
 REMOVED = ("seal-friction", "coulomb-friction")
 
 
@@ -97,7 +99,7 @@ def outcome(r: dict) -> str:
 
 
 def success(r: dict) -> bool:
-    if r["case"] in ("clean", "clean-lowpass"):
+    if r["case"] in CLEAN:
         return not r["effects"]
     if r["case"].endswith("@removed"):
         return r["within_2x_noise"] and any("tanh(d'/" in d["effect"] for d in r["discovered"])
@@ -123,9 +125,10 @@ def summarise(rows: list[dict]) -> dict:
     clean = [r for r in rows if r["case"] == "clean"]
     if clean:
         out["clean_false_positive_rate"] = sum(not success(r) for r in clean) / len(clean)
-    clean_lp = [r for r in rows if r["case"] == "clean-lowpass"]
-    if clean_lp:
-        out["clean_lowpass_false_positive_rate"] = sum(not success(r) for r in clean_lp) / len(clean_lp)
+    for case, key in (("clean-lowpass", "clean_lowpass"), ("clean-movavg", "clean_movavg")):
+        filtered = [r for r in rows if r["case"] == case]
+        if filtered:
+            out[f"{key}_false_positive_rate"] = sum(not success(r) for r in filtered) / len(filtered)
     return out
 
 
