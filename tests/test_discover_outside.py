@@ -361,3 +361,27 @@ def test_stroke_dependent_friction_is_named_in_the_measured_motion():
     assert disc.needed and "x" not in disc.effect.replace("on the output", ""), disc.effect
     assert "d^2·tanh(d'/" in disc.effect, disc.effect
     assert disc.nrmse_after <= 1.15 * _floor(rec, g, dg)
+
+
+def test_a_term_in_the_records_input_applies_to_a_force_driven_model():
+    """The library's d, d', d'' are the record's input column and its derivatives. A force-driven model calls it F
+    (duffing-gain on Silverbox): `duffsym reproduce` stopped in s10 with "model duffing-gain has no signal(s) ['d']"
+    when discovery proposed -0.038·d + 2.5e-7·x'² there. The term now reads F (and F'' through a new input channel),
+    and its free run adds exactly c·u to the base's."""
+    from duffsym.effects.discovered import DiscoveredEffect, driving_signal
+    from duffsym.model.library import get_model
+    from duffsym.simulate import simulate_record
+
+    d, dd = sp.Symbol("d", real=True), sp.Symbol("d_ddot", real=True)
+    base = get_model("duffing-gain")
+    assert driving_signal(base) == "F" and driving_signal(mr_damper()) == "d"
+    ext = DiscoveredEffect((d, dd), (0.0, 0.0)).apply(base)
+    assert [c.name for c in ext.inputs] == ["F", "F_ddot"]
+    t = np.arange(2001) * 1e-3
+    u = 0.1 * np.sin(2 * np.pi * 5 * t)
+    rec = Record(t=t, d=u, y=u, name="u", source="test")
+    y0 = simulate_record(base, base.defaults(), rec).y
+    p = {**ext.defaults(), "disc1_c1": 2.0, "disc1_c2": 0.0}
+    np.testing.assert_allclose(simulate_record(ext, p, rec).y - y0, 2.0 * u, atol=1e-12)
+    p = {**ext.defaults(), "disc1_c1": 0.0, "disc1_c2": 1e-3}
+    np.testing.assert_allclose(simulate_record(ext, p, rec).y - y0, 1e-3 * rec.acceleration(), atol=1e-12)

@@ -32,6 +32,16 @@ _TEX = {"d": "d", "d_dot": r"\dot{d}", "d_ddot": r"\ddot{d}", "x": "x", "x_dot":
 
 
 # ---------------------------------------------------------------------------------------------- the effect
+#: input signals a record provides that are not its input column (a measured command, a drift signal)
+_NOT_DRIVING = ("command", "time", "energy")
+
+
+def driving_signal(model: SymbolicModel) -> str:
+    """The name the model gives the record's input column: its first input signal that is not a command or a
+    drift signal (``d`` for a damper, ``F`` for duffing-gain); ``d`` when it has none."""
+    return next((ch.signal for ch in model.inputs if ch.signal not in _NOT_DRIVING), "d")
+
+
 @dataclass(frozen=True)
 class DiscoveredEffect(Effect):
     """``y += Σ c_i·term_i``: terms found by :func:`duffsym.diagnose.discover.discover_term`, coefficients
@@ -81,17 +91,21 @@ class DiscoveredEffect(Effect):
         return sp.Add(*[c * t for c, t in zip(cs, self.terms)])
 
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
-        # the library's x, x' are the model's mechanical states (position, velocity)
+        # the library's x, x' are the model's mechanical states (position, velocity); its d, d', d'' are the record's
+        # input column and its derivatives, which the model calls by its driving signal's name (F for a force-driven
+        # oscillator such as duffing-gain on Silverbox)
         subs = {state_symbol(k): s for k, s in (("x", model.position), ("x_dot", model.velocity)) if s is not None}
+        drive = driving_signal(model)
+        channels = [InputChannel(drive, order) for order in range(3)]
+        subs |= {lib: ch.symbol for lib, ch in zip((D, DD, DDD), channels)}
         expr = self.expression().xreplace(subs)
         known = {c.symbol for c in model.inputs} | set(model.states) | {p.symbol for p in self.parameters()}
-        extra: tuple[InputChannel, ...] = (
-            (InputChannel("d", 2),) if DDD in expr.free_symbols and DDD not in known else ()
-        )
+        extra = tuple(ch for ch in channels if ch.symbol in expr.free_symbols and ch.symbol not in known)
+        known |= {ch.symbol for ch in extra}
         if COMMAND in expr.free_symbols and COMMAND not in known:  # a measured command (current, pressure)
             extra += (InputChannel("command", 0),)
             known |= {COMMAND}
-        missing = expr.free_symbols - known - {DDD}
+        missing = expr.free_symbols - known
         if missing:
             raise ModelError(f"{self.name}: model {model.name} has no signal(s) {sorted(map(str, missing))}")
         return model.extend(effect=self.name, params=self.parameters(), inputs=extra, output_add=expr)
