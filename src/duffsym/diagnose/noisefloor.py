@@ -248,6 +248,13 @@ class NoiseEstimate:
         """The measured force as every free run is judged against it: in the judging band, if any."""
         return in_band(y, self.band)
 
+    def restored(self, record):
+        """``record`` (a :class:`~duffsym.data.record.Record`) as the models are fitted to it: its force restored by
+        :func:`restore` when a moving average was detected, else ``record`` itself."""
+        if self.smoothing <= 1:
+            return record
+        return record.replace(y=restore(np.asarray(record.y, dtype=float), self.smoothing))
+
     def judged(self, y_model) -> np.ndarray:
         """A free run of the fitted force as it is judged: through the detected moving average (the models
         were fitted to the restored force) and in the judging band, if any. Along the first axis: the columns

@@ -44,7 +44,6 @@ from duffsym.diagnose.noisefloor import (
     estimate_noise,
     in_band,
     judging_band,
-    restore,
     smoothed_noise_level,
 )
 from duffsym.diagnose.options import (
@@ -178,13 +177,12 @@ class Diagnosis:
         ``y_base`` against the measured force: through the moving average that smoothed the force, if one was
         detected, and in the judging band, if any."""
         est = self.noise_estimate
-        return in_band(y_model, self.band) if est is None else est.judged(y_model)
+        return np.array(y_model, dtype=float) if est is None else est.judged(y_model)
 
     def work(self, record: Record) -> Record:
         """``record`` as this diagnosis fitted its models to it: the force restored by the regularised inverse
-        of a detected moving average (:func:`~duffsym.diagnose.noisefloor.restore`), else unchanged."""
-        w = 1 if self.noise_estimate is None else self.noise_estimate.smoothing
-        return record if w <= 1 else record.replace(y=restore(np.asarray(record.y, dtype=float), w))
+        of a detected moving average (:meth:`~duffsym.diagnose.noisefloor.NoiseEstimate.restored`), else unchanged."""
+        return record if self.noise_estimate is None else self.noise_estimate.restored(record)
 
     @property
     def best(self) -> Candidate | None:
@@ -741,7 +739,7 @@ def _setting(record: Record, model, o: DiagnoseOptions) -> _Setting:
     est = NoiseEstimate(float(o.noise), GIVEN) if o.noise is not None else estimate_noise(y, record.dt)
     # a detected moving average: the models are fitted to the force restored by its regularised inverse
     # (``work``) and every free run is judged through the same average against the measured force
-    work = record if est.smoothing <= 1 else record.replace(y=restore(y, est.smoothing))
+    work = est.restored(record)
     rec_fit = _part(work, k)
     fixed = with_default_af(model, o.fixed, rec_fit)
     mask_fit = None if o.mask is None else np.asarray(o.mask, dtype=bool)[:k]
