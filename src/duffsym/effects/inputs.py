@@ -251,6 +251,8 @@ class InputShift(Effect):
 PLAY_RANGE = (1e-4, 0.3)
 #: the low-force band of :func:`plateau_half_width`, a fraction of max|y|
 PLATEAU_BAND = 0.2
+#: the backlash's state: the gap ``z = (d - b) / h'`` in units of the operator's half-width (``Backlash``)
+GAP_STATE = "z_backlash"
 
 
 def plateau_half_width(record, band: float = PLATEAU_BAND) -> float:
@@ -339,7 +341,19 @@ class Backlash(Effect):
     of the flat low-force plateaus (:func:`plateau_half_width`: on a real friction damper the force
     drops to zero at each reversal and a quarter of its range is crossed before the plateau, so the
     first rule alone finds almost no play there).
-    Initial state trajectory: the exact play operator applied to the record's ``d``.
+    Initial state trajectory: the exact play operator applied to the record's ``d``, as the gap ``z``.
+
+    The state is the gap in units of the half-width, :math:`z = (d - b)/h'` with :math:`h' = 0.87\,h`
+    (``width_scale``), not the piston position :math:`b` itself: the same dynamics, written
+    :math:`b = d - h' z`, :math:`\dot b = \dot d\,S(z, \dot d)`, :math:`\dot z = \dot d\,(1 - S)/h'`
+    with :math:`S` the bracket above and its switches :math:`\sigma(\kappa(\pm z - 1) + c)`. Written in
+    ``b``, the switch's argument :math:`(d - b - h')/\varepsilon` is a difference of two positions of the
+    stroke's size divided by a fraction of the play, so the collocation NLP's Jacobian carried entries
+    :math:`\kappa/h'` times larger than those of the element's states and its Hessian needed
+    regularisation at nearly every IPOPT iteration (the play's candidate fit was the slowest of the
+    catalogue on the Dyke record, 75-157 s). In ``z`` every entry of the switch is of order
+    :math:`\kappa`, the state is of order one whatever the stroke or its offset, and its zero is the
+    centred gap (``b = d``) rather than ``b = 0``.
     """
 
     name: str = "backlash"
@@ -373,23 +387,32 @@ class Backlash(Effect):
             ),
         )
 
+    def width(self, model: SymbolicModel) -> sp.Expr:
+        """The operator's half-width :math:`h' = w\\,h` (``width_scale * bl_h``) as a symbol expression."""
+        h = model.param(f"{self.prefix}h").symbol
+        return h * sp.Float(self.width_scale) if self.width_scale != 1.0 else h
+
+    def path(self, d: sp.Expr, dd: sp.Expr, z: sp.Expr, h: sp.Expr) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
+        """``(b, b', z')``: the piston position and velocity, and the rate of the gap state ``z``, for the
+        actuator ``d, d'`` and the operator half-width ``h`` (:meth:`width`)."""
+        dirn = sp.Float(self.direction_time) * dd / h
+        k, c = sp.Float(self.kappa), sp.Float(self.offset)
+        drag = sigmoid(k * (z - 1) + c) * sigmoid(dirn) + sigmoid(k * (-z - 1) + c) * sigmoid(-dirn)
+        return d - h * z, dd * drag, dd * (1 - drag) / h
+
     def _extend(self, model: SymbolicModel) -> SymbolicModel:
         ch = _input_channels(self, model, "d")
         if 1 not in ch:
             raise ModelError(f"effect {self.name} needs the piston velocity d_dot among the inputs of {model.name}")
         (hp,) = self.parameters()
         h = hp.symbol * sp.Float(self.width_scale) if self.width_scale != 1.0 else hp.symbol
-        b = sp.Symbol("b_backlash", real=True)
+        z = sp.Symbol(GAP_STATE, real=True)  # the gap in units of h (the class's docstring says why)
         d, dd = ch[0], ch[1]
-        g = d - b
-        eps = h / sp.Float(self.kappa)
-        c = sp.Float(self.offset)
-        dirn = sp.Float(self.direction_time) * dd / h
-        b_dot = dd * (sigmoid((g - h) / eps + c) * sigmoid(dirn) + sigmoid((-g - h) / eps + c) * sigmoid(-dirn))
+        b, b_dot, z_dot = self.path(d, dd, z, h)
         subs = {d: b, dd: b_dot}
         if 2 in ch:
-            subs[ch[2]] = _total_derivative(b_dot, {d: dd, dd: ch[2], b: b_dot})
-        return model.extend(effect=self.name, params=(hp,), states=((b, b_dot),), substitute=subs)
+            subs[ch[2]] = _total_derivative(b_dot, {dd: ch[2], z: z_dot})
+        return model.extend(effect=self.name, params=(hp,), states=((z, z_dot),), substitute=subs)
 
     def initial_guess(self, record, y_model) -> dict[str, float]:
         residual(record, y_model)
@@ -436,5 +459,7 @@ class Backlash(Effect):
     def initial_states(self, X_base, record, params) -> np.ndarray:
         from duffsym.data.synthetic import apply_backlash
 
-        u, _ = apply_backlash(np.asarray(record.d), np.asarray(record.velocity()), params[f"{self.prefix}h"])
-        return u[:, None]
+        d = np.asarray(record.d, dtype=float)
+        h = float(params[f"{self.prefix}h"])
+        u, _ = apply_backlash(d, np.asarray(record.velocity()), h)
+        return ((d - u) / (self.width_scale * h))[:, None]

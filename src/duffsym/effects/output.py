@@ -532,15 +532,17 @@ def _piston(effect: Effect, model: SymbolicModel, order: int) -> InputChannel:
 
 def piston_path(model: SymbolicModel) -> tuple[sp.Expr, sp.Expr]:
     """The piston displacement and velocity as the model sees them: ``d, d'``; or, when a joint
-    backlash is already applied, its piston state ``b`` and rate ``b'`` (the play sits between the
+    backlash is already applied, the piston's ``b`` and ``b'`` from its gap state (the play sits between the
     measured actuator displacement and the piston)."""
-    names = [str(s) for s in model.states]
-    if "b_backlash" in names:
-        i = names.index("b_backlash")
-        return model.states[i], model.rhs[i]
+    from duffsym.effects.inputs import GAP_STATE, Backlash
+
     chans = {c.order: c.symbol for c in model.inputs if c.signal == "d"}
     if 0 not in chans or 1 not in chans:
         raise ModelError(f"model {model.name} has no piston displacement and velocity inputs (d, d_dot)")
+    names = [str(s) for s in model.states]
+    if GAP_STATE in names:  # b = d - h' z, b' = d' - h' z' (whatever the form of the play's switch)
+        i, h = names.index(GAP_STATE), Backlash().width(model)
+        return chans[0] - h * model.states[i], chans[1] - h * model.rhs[i]
     return chans[0], chans[1]
 
 
