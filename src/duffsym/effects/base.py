@@ -123,6 +123,12 @@ class Effect:
         record's velocity range), tighter than the static ``ParamSpec`` bounds; {} when none."""
         return {}
 
+    def record_scales(self, record) -> dict[str, float]:
+        """Magnitudes of the effect's parameters on ``record``, where they follow the record's units (a friction
+        force the force's spread, a switching velocity the record's speeds): the fit scales those parameters by
+        the larger of this and ``ParamSpec.scale``; {} when none."""
+        return {}
+
     def relevance(self, record) -> str:
         """Why a diagnosis need not try this effect on ``record`` by default, in words ("" when it should: the
         default). An effect whose evidence is a feature the record plainly lacks says so here (the contact gap on a

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from duffsym.errors import ModelError
+from duffsym.identify.problem import parameter_scales
 from duffsym.identify.states import driven_states, initial_states
 from duffsym.status import Status
 
@@ -239,8 +240,9 @@ class CollocationNLP:
             raise ModelError(f"param_stride must be a positive integer; got {param_stride}")
         self.degree = int(degree)
         self.rhs_fn, self.out_fn = casadi_functions(model)
-        self.p_scale_free = np.array([model.param(n).typical_scale for n in self.free])
-        self.p_scale = np.array([model.param(n).typical_scale for n, _ in problem.slots])
+        scales = parameter_scales(model, problem.records)
+        self.p_scale_free = np.array([scales[n] for n in self.free])
+        self.p_scale = np.array([scales[n] for n, _ in problem.slots])
         self.tau, C, D = collocation_coefficients(degree, "legendre")
         self.interval, self.out_scaled = self._interval_functions(ca, C, D)
         self.lo = np.array([problem.bounds[n][0] for n, _ in problem.slots]) / self.p_scale

@@ -75,6 +75,23 @@ def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
     return {k: v for k, v in out.items() if k in model.param_names}
 
 
+def parameter_scales(model, records) -> dict[str, float]:
+    """The magnitude by which the fit scales each parameter: ``ParamSpec.scale``, or for a catalogued effect's
+    parameter that follows the records' units (``Effect.record_scales``) the larger of the two (over several
+    records the largest)."""
+    from duffsym.effects import CATALOGUE
+
+    out = {p.name: p.typical_scale for p in model.params}
+    for name in getattr(model, "effects", ()):
+        if name not in CATALOGUE:
+            continue
+        for rec in records:
+            for k, v in CATALOGUE[name].record_scales(rec).items():
+                if k in out and math.isfinite(v):
+                    out[k] = max(out[k], v)
+    return out
+
+
 #: A first-order state's own rate times the sampling step is at most this (its time constant at least a twelfth of
 #: a step): the record does not resolve a much faster state, and the collocation of such a stiff state is
 #: ill-conditioned. Measured on 6 s of the Dyke record (``mr-damper-current``, the field rate ``eta`` free up to its
