@@ -8,11 +8,12 @@ linearly between samples, as in :func:`duffsym.simulate.simulate`. The objective
 of squared output residuals at the samples; masked samples leave the objective but their states
 still obey the dynamics. Every record shares the parameters; each has its own free initial state.
 
-Parameters enter scaled by ``ParamSpec.scale`` and states by the magnitude of their data-based
-initial guess, so the decision variables are O(1). The states start from the data
-(:mod:`duffsym.identify.states`): for the models with output :math:`y = A_f x_2`, :math:`x_2 = y / A_f`
-and :math:`x_1` its cumulative integral with its linear drift removed. Starting the states at the data,
-not at a simulation from a guess, is what makes the fit insensitive to the parameter guess.
+Parameters enter scaled by ``ParamSpec.scale`` (or, for an effect's parameter that follows the record's units,
+the larger of that and its magnitude on the record: :func:`~duffsym.identify.problem.parameter_scales`) and
+states by the magnitude of their data-based initial guess, so the decision variables are O(1). The states
+start from the data (:mod:`duffsym.identify.states`): for the models with output :math:`y = A_f x_2`,
+:math:`x_2 = y / A_f` and :math:`x_1` its cumulative integral with its linear drift removed. Starting the
+states at the data, not at a simulation from a guess, is what makes the fit insensitive to the parameter guess.
 Those magnitudes, the bounds and IPOPT's tolerances are those of O(1) units: a record whose input or
 output peak is far from 1 is fitted divided by powers of 1000 and its answer mapped back through the
 model's derived unit-scaling map (:mod:`duffsym.identify.unitscale`), so the same record in any units
