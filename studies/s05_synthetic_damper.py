@@ -33,10 +33,10 @@ Result (full run, seed 2024), RMS relative error of (c1, c2, c3, k1, k2):
   dynamics: the damper's time constant at low velocity (about 1/(c1 + c2) = 50 ms) is longer than
   the gap (about 20 ms here).
 * Modelling the play removes most of the bias: with the ``backlash`` effect the error is
-  0.065–0.23 (median 0.11), 2.4–12.1 times smaller than unmasked (median 7.7, a factor >= 3 on six
+  0.065–0.23 (median 0.11), 2.5–12.3 times smaller than unmasked (median 7.7, a factor >= 3 on six
   rows of seven), the free run reaches the noise (NRMSE 0.020–0.021 against 0.034–0.053 unmasked
-  and 0.041–0.074 masked) and bl_h comes back as 0.0152–0.0160 for the true 0.02 (the smooth play
-  engages before the hard one does). It also predicts better on the validation records (1 Hz sine
+  and 0.041–0.074 masked) and bl_h comes back as 0.0174–0.0184 for the true 0.02 (the smooth play,
+  calibrated to the exact one, still engages a little before it does). It also predicts better on the validation records (1 Hz sine
   NRMSE 0.024–0.104 against 0.042–0.190 masked). It gains least at 0 V and 0.2 V (errors 0.23 and
   0.20, mostly k1 and k2, 18–29 % low); I have not found why.
 
