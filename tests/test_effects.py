@@ -394,6 +394,7 @@ def test_a_play_that_changes_the_kinematics_is_refused_at_once():
 def test_a_seal_friction_force_is_scaled_to_the_record_in_the_fit():
     # forces in N (the Dyke slice: 840 N RMS): the fixed scale 0.1 put seal_F = 333 N at 3300 in the NLP and the
     # candidate took 73 s to the optimum it reached in 7 s scaled; O(1) records keep the ParamSpec scales
+    from duffsym.data import Record
     from duffsym.identify.problem import parameter_scales
 
     model = CATALOGUE["seal-friction"].apply(M)
@@ -405,3 +406,9 @@ def test_a_seal_friction_force_is_scaled_to_the_record_in_the_fit():
     scales = parameter_scales(model, [big, small])
     assert scales["seal_F"] == pytest.approx(84.0) and scales["seal_eps"] == 0.1
     assert scales["c1"] == model.param("c1").typical_scale
+    # the same on a record of the independent generator (tests/independent_sim.py) with its force in "N"
+    from independent_sim import scenario
+
+    g = scenario("seal-friction", 0)
+    rec = Record(t=g.t, d=g.d, y=840.0 / float(np.std(g.y)) * g.y, name="seal-0", source="independent_sim")
+    assert parameter_scales(model, [rec])["seal_F"] == pytest.approx(84.0)

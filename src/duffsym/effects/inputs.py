@@ -389,7 +389,9 @@ class Backlash(Effect):
 
     def width(self, model: SymbolicModel) -> sp.Expr:
         """The operator's half-width :math:`h' = w\\,h` (``width_scale * bl_h``) as a symbol expression."""
-        h = model.param(f"{self.prefix}h").symbol
+        return self._scaled(model.param(f"{self.prefix}h").symbol)
+
+    def _scaled(self, h: sp.Symbol) -> sp.Expr:
         return h * sp.Float(self.width_scale) if self.width_scale != 1.0 else h
 
     def path(self, d: sp.Expr, dd: sp.Expr, z: sp.Expr, h: sp.Expr) -> tuple[sp.Expr, sp.Expr, sp.Expr]:
@@ -405,7 +407,7 @@ class Backlash(Effect):
         if 1 not in ch:
             raise ModelError(f"effect {self.name} needs the piston velocity d_dot among the inputs of {model.name}")
         (hp,) = self.parameters()
-        h = hp.symbol * sp.Float(self.width_scale) if self.width_scale != 1.0 else hp.symbol
+        h = self._scaled(hp.symbol)
         z = sp.Symbol(GAP_STATE, real=True)  # the gap in units of h (the class's docstring says why)
         d, dd = ch[0], ch[1]
         b, b_dot, z_dot = self.path(d, dd, z, h)

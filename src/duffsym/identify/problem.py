@@ -62,33 +62,32 @@ def effect_record_bounds(model, records) -> dict[str, tuple[float, float]]:
     """Default bounds of the catalogued effects' parameters scaled to the records (``Effect.record_bounds``, e.g.
     a seal friction's switching velocity within the records' velocity range, so that it cannot run off to a
     flat switch); over several records the widest range. Explicit ``bounds`` override them."""
+    out: dict[str, tuple[float, float]] = {}
+    for k, (lo, hi) in _effect_values(model, records, "record_bounds"):
+        a, b = out.get(k, (lo, hi))
+        out[k] = (min(a, lo), max(b, hi))
+    return {k: v for k, v in out.items() if k in model.param_names}
+
+
+def _effect_values(model, records, method: str):
+    """``(parameter, value)`` pairs of each catalogued effect of ``model`` on each record, from the effect's
+    ``method`` (``record_bounds`` or ``record_scales``)."""
     from duffsym.effects import CATALOGUE
 
-    out: dict[str, tuple[float, float]] = {}
     for name in getattr(model, "effects", ()):
-        if name not in CATALOGUE:
-            continue
-        for rec in records:
-            for k, (lo, hi) in CATALOGUE[name].record_bounds(rec).items():
-                a, b = out.get(k, (lo, hi))
-                out[k] = (min(a, lo), max(b, hi))
-    return {k: v for k, v in out.items() if k in model.param_names}
+        if name in CATALOGUE:
+            for rec in records:
+                yield from getattr(CATALOGUE[name], method)(rec).items()
 
 
 def parameter_scales(model, records) -> dict[str, float]:
     """The magnitude by which the fit scales each parameter: ``ParamSpec.scale``, or for a catalogued effect's
     parameter that follows the records' units (``Effect.record_scales``) the larger of the two (over several
     records the largest)."""
-    from duffsym.effects import CATALOGUE
-
     out = {p.name: p.typical_scale for p in model.params}
-    for name in getattr(model, "effects", ()):
-        if name not in CATALOGUE:
-            continue
-        for rec in records:
-            for k, v in CATALOGUE[name].record_scales(rec).items():
-                if k in out and math.isfinite(v):
-                    out[k] = max(out[k], v)
+    for k, v in _effect_values(model, records, "record_scales"):
+        if k in out and math.isfinite(v):
+            out[k] = max(out[k], v)
     return out
 
 
