@@ -203,6 +203,47 @@ def test_a_crawl_at_the_final_barrier_is_a_ridge_naming_what_still_moves():
     assert said.startswith("ridge:") and "k2 -12.05 -> -9.564" in said and "k1" not in said
 
 
+def _log(times, reg, inf_pr):
+    from duffsym.identify.nlp import IterationLog
+
+    log = IterationLog(0.0)
+    log.times += list(times)
+    log.reg += list(reg)
+    log.inf_pr += list(inf_pr)
+    return log
+
+
+def test_a_run_whose_iterate_leaves_the_dynamics_has_diverged():
+    """The divergence rule, on the numbers of the Dyke fit at 500 Hz (duffsym fit --model mr-damper-current): the
+    collocation defect sat at ~2e2 from 17, then one step took it to 1.1e11; a transient climb to 3.2e3 (the Dyke
+    input-delay candidate, which came back) and a start that is infeasible from the outset are not divergence."""
+    n = 52
+    dyke = _log([0.3] * n, [0.0] * n, [17.0] * 40 + [206.0] * 11 + [1.09e11])
+    said = dyke.diverged()
+    assert said.startswith("diverged:") and "1.1e+11" in said and "6.4e+09 times" in said
+    assert dyke.stalled() == ""  # no slow, ill-conditioned iteration yet
+    assert _log([0.1] * 16, [0.0] * 16, [16.9] * 15 + [3.23e3]).diverged() == ""
+    assert _log([0.1] * 3, [0.0] * 3, [5e9, 4e9, 3e9]).diverged() == ""  # far from the dynamics, but falling
+    assert _log([0.1] * 2, [0.0] * 2, [1e-3, 2e8]).diverged().startswith("diverged:")
+
+
+def test_a_run_slowed_by_ill_conditioned_iterations_has_stalled():
+    """The stall rule, on the Dyke fit's second start (--starts 3): iterations of 0.3-0.8 s, then 6, 7, 19, 22 s
+    with the Hessian regularisation at 1e8 or more from the third of those. It stops at the third slow iteration that
+    is also ill-conditioned; slow iterations alone, or ill-conditioned fast ones (the play of the friction damper:
+    lg(rg) 4-10 at nearly every iteration), do not stop a run."""
+    times = [0.8, 0.4, 0.5, 0.6, 0.7, 0.5, 1.4, 6.0, 6.9, 19.0, 22.0, 26.0]
+    reg = [0.0] * 7 + [1e4, 1e7, 1.3e8, 3.5e8, 1.2e8]
+    start2 = _log(times, reg, [1.0] * 12)
+    said = start2.stalled()
+    assert said.startswith("stalled: 3 iterations") and "up to 26 s" in said
+    assert _log(times[:11], reg[:11], [1.0] * 11).stalled() == ""  # two of them so far
+    assert _log(times, [0.0] * 12, [1.0] * 12).stalled() == ""  # slow, but well conditioned
+    assert _log([0.3] * 12, [1e10] * 12, [1.0] * 12).stalled() == ""  # ill-conditioned, but not slow
+    fast = _log([0.01] * 9 + [1.5] * 3, [1e9] * 12, [1.0] * 12)  # 150x its median, but under the 2 s floor
+    assert fast.stalled() == ""
+
+
 def test_a_run_stopped_on_a_ridge_is_usable_with_its_status_and_flag():
     from duffsym.identify.collocation import _on_ridge, ridge_flag
     from duffsym.status import Status
@@ -240,6 +281,22 @@ def test_the_ridge_stop_reaches_ipopt_and_the_fit_reports_it(problem, monkeypatc
     (flag,) = [f for f in res.flags if f["flag"] == "ridge"]
     moved = flag["message"].split(" while ")[1]
     assert any(f"{n} " in moved for n in res.free) and " -> " in moved
+
+
+def test_the_divergence_and_stall_stops_reach_ipopt_and_the_fit_says_why(problem, monkeypatch):
+    """The wiring, on a real solve: with each rule made to fire at once, IPOPT stops within a few iterations and
+    the fit is not a success, its message giving the rule's reason."""
+    from duffsym.identify import nlp as nlp_mod
+
+    monkeypatch.setattr(nlp_mod, "DIVERGED_INF_PR", -math.inf)
+    monkeypatch.setattr(nlp_mod, "DIVERGED_GROWTH", 0.0)
+    res = fit(problem, compute_stderr=False, bound_restart=False)
+    assert not res.success and res.n_iter <= 3 and "diverged: IPOPT's iterate left the dynamics" in res.message
+    monkeypatch.setattr(nlp_mod, "DIVERGED_INF_PR", math.inf)
+    for name, value in (("REGULARISATION_ALARM", -1.0), ("STALL_FLOOR", -1.0), ("STALL_FACTOR", 0.0)):
+        monkeypatch.setattr(nlp_mod, name, value)
+    res = fit(problem, compute_stderr=False, bound_restart=False)
+    assert not res.success and res.n_iter <= 7 and "stalled: 3 iterations" in res.message
 
 
 def test_an_automatic_start_whose_fit_diverges_free_is_fitted_again_from_the_defaults(problem, monkeypatch):

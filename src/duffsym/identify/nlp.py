@@ -65,6 +65,26 @@ RIDGE_MOVE = 0.01
 #: fit (1503 samples, mr-damper-current from the fitting part's optimum) crawled 500 iterations at mu 1e-11, the
 #: cost falling 0.007 % per 50, unseen: k2 (typical 500) moved -12.05 -> -9.56, which counted as 0.5 %.
 RIDGE_FLOOR = 0.1
+#: A run has diverged when IPOPT's primal infeasibility (the largest collocation defect, in the NLP's scaled units,
+#: where states are of order one) exceeds ``DIVERGED_INF_PR`` and ``DIVERGED_GROWTH`` times the lowest it had in the
+#: run. Measured on 6 s of the Dyke command record at 500 Hz (``duffsym fit --model mr-damper-current``, 3005
+#: samples): from iteration 40 the infeasibility sat at ~2e2 with steps of 1e-4, then a watchdog step took it to
+#: 1.1e11 (dual infeasibility 3e15); the next iteration's Hessian regularisation reached 1.6e13, MUMPS ran out of
+#: workspace, and one iteration ran past 4 minutes (the fit had not ended after 5). Converging runs in the tests and
+#: benchmarks peak below 1e4 (e.g. 3.2e3 from 17 on the Dyke input-delay candidate, which then came back).
+DIVERGED_INF_PR = 1e8
+DIVERGED_GROWTH = 1e6
+#: A run has stalled when ``STALL_ITERATIONS`` of its iterations each took over ``STALL_FACTOR`` times the median of
+#: the run's iterations before it (and over ``STALL_FLOOR`` s) with IPOPT's Hessian regularisation at
+#: :data:`REGULARISATION_ALARM` or more: each such iteration factorises the KKT system many times over while MUMPS
+#: reallocates its workspace. Measured on the same Dyke fit's second start (``--starts 3``): iterations of
+#: 0.3-0.8 s, then 6, 7, 19, 22, 26, 170 and 60 s (regularisation 1.2e8-8.3e8) without the iterate diverging; the
+#: rule stops it at its 12th iteration (85 s) where it ran past 6 minutes.
+STALL_ITERATIONS = 3
+#: what to do after either stop: on that Dyke fit the third of three starts converged (NRMSE 0.197, 132 s in all)
+OTHER_STARTS = "Try other starts (--starts 3) or fix parameters the record does not determine (--fix)"
+STALL_FACTOR = 10.0
+STALL_FLOOR = 2.0
 
 
 class FitInterrupted(KeyboardInterrupt):
@@ -481,10 +501,12 @@ class CollocationNLP:
         )
 
     def _with_ridge(self, guard: Callable[[IterationLog], str] | None) -> Callable[[IterationLog], str]:
-        """``guard``, and after it the ridge check (:meth:`IterationLog.ridge`), as one stop rule."""
+        """``guard``, then the divergence, stall and ridge checks (:meth:`IterationLog.diverged`,
+        :meth:`IterationLog.stalled`, :meth:`IterationLog.ridge`), as one stop rule."""
 
         def both(log: IterationLog) -> str:
-            return (guard(log) if guard is not None else "") or log.ridge(self.slot_names, self.p_scale)
+            told = guard(log) if guard is not None else ""
+            return told or log.diverged() or log.stalled() or log.ridge(self.slot_names, self.p_scale)
 
         return both
 
@@ -812,6 +834,37 @@ class IterationLog:
             return ""
         said = ", ".join(f"{names[j]} {before[j]:.4g} -> {after[j]:.4g}" for j in moving[:4])
         return f"ridge: over the last {k} iterations the cost fell by {100 * gain:.2g} % while {said} still moved"
+
+    def diverged(self) -> str:
+        """Why the run has diverged (see :data:`DIVERGED_INF_PR`), or "" when it has not."""
+        pr = [v for v in self.inf_pr if v == v]
+        if len(pr) < 2:
+            return ""
+        now, low = pr[-1], min(pr[:-1])
+        if not (now > DIVERGED_INF_PR and now > DIVERGED_GROWTH * max(low, 1e-300)):
+            return ""
+        return (
+            f"diverged: IPOPT's iterate left the dynamics (collocation defect {now:.1e}, {now / max(low, 1e-300):.1e} "
+            f"times its lowest in this run); its next iterations would be ill-conditioned and slow. {OTHER_STARTS}"
+        )
+
+    def stalled(self) -> str:
+        """Why the run has stalled in slow, ill-conditioned iterations (see :data:`STALL_ITERATIONS`), or ""."""
+        if not (self._slow_and_ill(len(self.times) - 1)):
+            return ""
+        bad = [i for i in range(len(self.times)) if self._slow_and_ill(i)]
+        if len(bad) < STALL_ITERATIONS:
+            return ""
+        worst = max(self.times[i] for i in bad)
+        return (
+            f"stalled: {len(bad)} iterations took over {STALL_FACTOR:g} times the run's median (up to {worst:.0f} s) "
+            f"with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} (ill-conditioned). {OTHER_STARTS}"
+        )
+
+    def _slow_and_ill(self, i: int) -> bool:
+        if i < 3 or i >= len(self.reg) or not self.reg[i] >= REGULARISATION_ALARM:
+            return False
+        return self.times[i] > max(STALL_FLOOR, STALL_FACTOR * float(np.median(self.times[:i])))
 
     def finish(self, stats: Mapping) -> None:
         status = str(stats.get("return_status", ""))
