@@ -62,3 +62,31 @@ def test_a_field_faster_than_the_sampling_is_fitted_at_the_sampling_bound():
     assert res.params["eta"] == pytest.approx(cap, rel=1e-3)
     flag = next(f for f in res.flags if f["flag"] == "on-bound")
     assert "eta" in flag["parameters"] and "set by the sampling" in flag["message"]
+
+
+def test_an_input_delay_reaches_at_most_a_quarter_of_the_dominant_period():
+    """The Padé delay is a delay only for delays short against the input's period: its bound is a quarter of the
+    dominant period (the range its guess scans), 0.125 s for a 2 Hz sine, where the static bound is 1 s; a record
+    too short to have a period keeps the static bound."""
+    from duffsym.identify.problem import record_scaled_bounds
+
+    m = apply_effects(get_model("mr-damper"), [CATALOGUE["input-delay"]])
+    t = np.arange(4000) * 0.002
+    rec = Record(t=t, d=np.sin(2 * np.pi * 2.0 * t), y=np.cos(2 * np.pi * 2.0 * t))
+    lo, hi = record_scaled_bounds(m, [rec])["delay_tau"]
+    assert lo == m.param("delay_tau").lower and hi == pytest.approx(0.125, rel=0.01)
+    slow = Record(t=t, d=np.sin(2 * np.pi * 0.05 * t), y=np.cos(2 * np.pi * 0.05 * t))  # 20 s period: 5 s > 1 s
+    assert "delay_tau" not in record_scaled_bounds(m, [slow])
+
+
+def test_an_effect_bound_and_a_sampling_bound_on_one_parameter_both_hold(monkeypatch):
+    """Where an effect's record bound and the sampling's bound the same parameter, the tighter of each limit holds
+    (before, the effect's replaced the sampling's); where they do not overlap, the effect's."""
+    from duffsym.identify import problem as P
+
+    m = apply_effects(get_model("mr-damper"), [CATALOGUE["output-lag"]])
+    monkeypatch.setattr(P, "sampling_bounds", lambda model, records: {"lag_tau": (0.01, 5.0)})
+    monkeypatch.setattr(P, "effect_record_bounds", lambda model, records: {"lag_tau": (0.001, 0.5)})
+    assert P.record_scaled_bounds(m, []) == {"lag_tau": (0.01, 0.5)}
+    monkeypatch.setattr(P, "effect_record_bounds", lambda model, records: {"lag_tau": (6.0, 7.0)})
+    assert P.record_scaled_bounds(m, []) == {"lag_tau": (6.0, 7.0)}

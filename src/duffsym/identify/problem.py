@@ -151,8 +151,14 @@ def sampling_bounds(model, records) -> dict[str, tuple[float, float]]:
 
 def record_scaled_bounds(model, records) -> dict[str, tuple[float, float]]:
     """The default bounds scaled to the records: the sampling's (:func:`sampling_bounds`) and the effects'
-    (:func:`effect_record_bounds`). An automatic start outside them is moved inside."""
-    return {**sampling_bounds(model, records), **effect_record_bounds(model, records)}
+    (:func:`effect_record_bounds`), the tighter of each limit where both bound a parameter (the effect's when they
+    do not overlap). An automatic start outside them is moved inside."""
+    out = sampling_bounds(model, records)
+    for k, (lo, hi) in effect_record_bounds(model, records).items():
+        a, b = out.get(k, (lo, hi))
+        both = (max(a, lo), min(b, hi))  # both limits hold: the tighter of each
+        out[k] = both if both[0] < both[1] else (lo, hi)
+    return out
 
 
 def _as_records(records) -> tuple[Record, ...]:
