@@ -198,7 +198,7 @@ def fit(
     -----
     Standard errors use the Laplace (Gauss–Newton) approximation of the least-squares objective
     around the optimum: with :math:`J` the sensitivity of the free-run outputs at the samples in the
-    objective to the free parameters and the initial states of each record (central differences of
+    objective to the free parameters and the initial states of each record (forward differences of
     :func:`duffsym.simulate.simulate` with a fixed substep count),
     :math:`\Sigma = \sigma^2 (J^\top W J)^{-1}`, :math:`\sigma^2 = \mathrm{SSR}/(N - p)`, ``p``
     counting the free parameters and the initial states; the parameter block of :math:`\Sigma`
