@@ -327,3 +327,39 @@ def test_an_automatic_start_whose_fit_diverges_free_is_fitted_again_from_the_def
     calls.clear()
     given = fit(problem, x0={n: MODEL.param(n).default for n in problem.free}, compute_stderr=False)
     assert len(calls) == 1 and given.status is Status.FREE_RUN_FAILED
+
+
+@pytest.mark.parametrize("rule", ["diverged", "stalled"])
+def test_an_automatic_start_whose_solve_diverges_or_stalls_is_fitted_again_from_the_defaults(
+    problem, monkeypatch, rule
+):
+    """The same second start after the divergence or stall stop (the real case: 6 s of the Dyke record at 500 Hz,
+    whose command start diverged at iteration 52 and whose fit from the defaults reached NRMSE 0.197); any other
+    failed stop (here the caller's guard) is not fitted again."""
+    from dataclasses import replace
+
+    from duffsym.identify import collocation
+
+    real, calls = collocation._fit_from, []
+
+    def first_stops(pb, x0, opts):
+        calls.append(x0)
+        res = real(pb, x0, opts)
+        if len(calls) == 1:
+            return replace(res, success=False, message=f"stopped after 52 iterations: {rule}: the rule's words")
+        return res
+
+    monkeypatch.setattr(collocation, "_fit_from", first_stops)
+    res = fit(problem, compute_stderr=False)
+    assert calls[0] is None and calls[1] == {n: MODEL.param(n).default for n in problem.free}
+    assert res.success and res.settings["second_start"]["kept"] == "defaults" and res.nrmse < 1e-3
+    assert f"the automatic start's fit was stopped: {rule}: the rule's words" in res.message
+    calls.clear()
+    monkeypatch.setattr(
+        collocation,
+        "_fit_from",
+        lambda pb, x0, opts: (
+            calls.append(x0) or replace(real(pb, x0, opts), success=False, message="stopped after 3 iterations: enough")
+        ),
+    )
+    assert not fit(problem, compute_stderr=False).success and len(calls) == 1
