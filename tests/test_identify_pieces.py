@@ -292,6 +292,7 @@ def test_the_divergence_and_stall_stops_reach_ipopt_and_the_fit_says_why(problem
     monkeypatch.setattr(nlp_mod, "DIVERGED_GROWTH", 0.0)
     res = fit(problem, compute_stderr=False, bound_restart=False)
     assert not res.success and res.n_iter <= 3 and "diverged: IPOPT's iterate left the dynamics" in res.message
+    assert res.message.endswith("Try other starts (--starts 3) or fix parameters the record does not determine (--fix)")
     monkeypatch.setattr(nlp_mod, "DIVERGED_INF_PR", math.inf)
     for name, value in (("REGULARISATION_ALARM", -1.0), ("STALL_FLOOR", -1.0), ("STALL_FACTOR", 0.0)):
         monkeypatch.setattr(nlp_mod, name, value)

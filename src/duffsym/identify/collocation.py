@@ -43,7 +43,15 @@ import numpy as np
 from duffsym.errors import ModelError
 from duffsym.identify.covariance import laplace_covariance
 from duffsym.identify.initial import initial_guess
-from duffsym.identify.nlp import HOPELESS_STOPS, CollocationNLP, IterationLog, Run, ipopt_settings, restart_guard
+from duffsym.identify.nlp import (
+    HOPELESS_STOPS,
+    OTHER_STARTS,
+    CollocationNLP,
+    IterationLog,
+    Run,
+    ipopt_settings,
+    restart_guard,
+)
 from duffsym.identify.problem import Problem, record_scaled_bounds
 from duffsym.identify.quality import fit_flags, usability
 from duffsym.identify.result import IdentificationResult
@@ -450,7 +458,8 @@ def _on_guard(run: Run) -> Run:
     """A run the caller's ``guard`` stopped (not the time limit, not a ridge): not a success, saying why."""
     if not run.stopped or run.stopped == "time" or run.status == Status.RIDGE:
         return run
-    return replace(run, success=False, message=f"stopped after {run.n_iter} iterations: {run.stopped}")
+    advice = f". {OTHER_STARTS}" if run.stopped.startswith(HOPELESS_STOPS) else ""
+    return replace(run, success=False, message=f"stopped after {run.n_iter} iterations: {run.stopped}{advice}")
 
 
 def ridge_flag(run: Run) -> list[dict]:

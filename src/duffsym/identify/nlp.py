@@ -84,7 +84,8 @@ STALL_ITERATIONS = 3
 #: the reasons the divergence and stall rules give start with these (a fit from the automatic start stopped by either
 #: is fitted again from the model's defaults, :func:`duffsym.identify.collocation.fit`)
 HOPELESS_STOPS = ("diverged:", "stalled:")
-#: what to do after either stop: on that Dyke fit the third of three starts converged (NRMSE 0.197, 132 s in all)
+#: what to do after either stop ended a fit (not a bound restart, which keeps its converged first run): on that Dyke
+#: fit the third of three starts converged (NRMSE 0.197, 132 s in all)
 OTHER_STARTS = "Try other starts (--starts 3) or fix parameters the record does not determine (--fix)"
 STALL_FACTOR = 10.0
 STALL_FLOOR = 2.0
@@ -848,7 +849,7 @@ class IterationLog:
             return ""
         return (
             f"diverged: IPOPT's iterate left the dynamics (collocation defect {now:.1e}, {now / max(low, 1e-300):.1e} "
-            f"times its lowest in this run); its next iterations would be ill-conditioned and slow. {OTHER_STARTS}"
+            f"times its lowest in this run); its next iterations would be ill-conditioned and slow"
         )
 
     def stalled(self) -> str:
@@ -861,7 +862,7 @@ class IterationLog:
         worst = max(self.times[i] for i in bad)
         return (
             f"stalled: {len(bad)} iterations took over {STALL_FACTOR:g} times the run's median (up to {worst:.0f} s) "
-            f"with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} (ill-conditioned). {OTHER_STARTS}"
+            f"with IPOPT's Hessian regularisation >= {REGULARISATION_ALARM:.0e} (ill-conditioned)"
         )
 
     def _slow_and_ill(self, i: int) -> bool:
