@@ -81,14 +81,14 @@ DIVERGED_GROWTH = 1e6
 #: 0.3-0.8 s, then 6, 7, 19, 22, 26, 170 and 60 s (regularisation 1.2e8-8.3e8) without the iterate diverging; the
 #: rule stops it at its 12th iteration (85 s) where it ran past 6 minutes.
 STALL_ITERATIONS = 3
+STALL_FACTOR = 10.0
+STALL_FLOOR = 2.0
 #: the reasons the divergence and stall rules give start with these (a fit from the automatic start stopped by either
 #: is fitted again from the model's defaults, :func:`duffsym.identify.collocation.fit`)
 HOPELESS_STOPS = ("diverged:", "stalled:")
 #: what to do after either stop ended a fit (not a bound restart, which keeps its converged first run): on that Dyke
 #: fit the third of three starts converged (NRMSE 0.197, 132 s in all)
 OTHER_STARTS = "Try other starts (--starts 3) or fix parameters the record does not determine (--fix)"
-STALL_FACTOR = 10.0
-STALL_FLOOR = 2.0
 
 
 class FitInterrupted(KeyboardInterrupt):
