@@ -282,8 +282,11 @@ class _EquationError:
         self.rest = sp.lambdify(self.args, acc.xreplace(syms), "numpy")
         cols = [sp.diff(acc, model.param(n).symbol) for n in names]
         self.cols = [sp.lambdify(self.args, c, "numpy") for c in cols]
-        # the integral x of x' has an unknown offset and drift: they enter through x's coefficients
-        slopes = {sp.diff(c, model.position) for c in cols} - {0}
+        # the integral x of x' has an unknown offset and drift: they enter through x's coefficients. In the
+        # columns' order, each once: a set of SymPy expressions iterates in an order set by the process's string
+        # hash seed, which reordered the least-squares columns and moved the start's last bits from one Python
+        # process to the next (on the 6 s Dyke slice, the base fit then took 151 or 245 IPOPT iterations)
+        slopes = [d for d in dict.fromkeys(sp.diff(c, model.position) for c in cols) if d != 0]
         self.nuisance = [
             sp.lambdify(self.args, c, "numpy") for c in slopes if not c.free_symbols & {model.position, model.velocity}
         ]

@@ -327,7 +327,7 @@ def stability_selection(
         rows = np.concatenate([tr, va])
         support, _, _ = validated_support(Theta[rows], r[rows], tr.size, max_terms, parsimony)
         hits[support] += 1
-        for f in {groups[i] for i in support}:
+        for f in dict.fromkeys(groups[i] for i in support):  # in column order (a set: the hash seed's order)
             group_hits[f] = group_hits.get(f, 0) + 1
     best: dict[str, int] = {}
     for i in np.argsort(-hits):
