@@ -69,6 +69,24 @@ def execute(task: Task) -> Any:
     return task.execute()
 
 
+@dataclass
+class Pending:
+    """A task given to :meth:`Engine.submit`: its Dask future, or (serial) the task to run when asked."""
+
+    future: Any = None
+    task: Task | None = None
+
+    def result(self) -> Any:
+        """The task's value (its error raised here); waits for a worker's task to finish."""
+        if self.future is None:
+            assert self.task is not None
+            return self.task.execute()
+        try:
+            return self.future.result()
+        finally:
+            self.future.release()
+
+
 def default_workers() -> int:
     """The number of local worker processes used when none is given: the cores this process may use."""
     try:
@@ -218,6 +236,14 @@ class Engine:
         finally:
             for f in futures:
                 f.release()
+
+    def submit(self, task: Task) -> Pending:
+        """Start ``task`` on a worker and return at once (serial: it runs when its result is asked for), so that
+        this process can do other work meanwhile; :meth:`Pending.result` waits for its value or raises its error."""
+        if self.kind == "serial":
+            return Pending(task=task)
+        self.start()
+        return Pending(future=self._client.submit(execute, task, pure=False))
 
     def run(self, tasks: Iterable[Task]) -> Iterator[Outcome]:
         """Execute every :class:`Task`; yield an :class:`Outcome` per task (its index, and the task's return

@@ -640,7 +640,7 @@ def _discovered(record, model, dg, fixed, mask, progress, rules, deadline=None):
     """(discovery dict, extended model, start) when a discovered term is needed; else (None, model, None, note)."""
     from duffsym.diagnose.discover import discover_term
 
-    judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
+    judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained", "engine")}
     disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, deadline=deadline, **judge)
     if not disc.needed:
         why = disc.summary().removeprefix("discovery: ").replace("\n", ";")
