@@ -259,11 +259,12 @@ def test_a_run_stopped_on_a_ridge_is_usable_with_its_status_and_flag():
 
 def test_a_fit_stopped_by_the_callers_guard_is_not_a_success_and_says_why(problem):
     """``guard`` (FitOptions): asked after every iteration with the iteration log; the reason it returns stops
-    IPOPT there, the fit is not a success and its message gives the reason."""
-    res = fit(
-        problem, compute_stderr=False, bound_restart=False, guard=lambda log: "enough" if len(log.times) >= 3 else ""
-    )
+    IPOPT there, the fit is not a success and its message gives the reason. No standard errors are computed for a
+    stopped run (not an optimum); its free run is."""
+    res = fit(problem, bound_restart=False, guard=lambda log: "enough" if len(log.times) >= 3 else "")
     assert not res.success and res.n_iter <= 4 and res.message == f"stopped after {res.n_iter} iterations: enough"
+    assert all(math.isnan(v) for v in res.stderr.values()) and res.timings["stderr"] < 1e-3, res.stderr
+    assert math.isfinite(res.nrmse)
     free = fit(problem, compute_stderr=False, bound_restart=False, guard=lambda log: "")
     assert free.success and free.n_iter > 4
 
