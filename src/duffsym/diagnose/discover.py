@@ -816,7 +816,7 @@ def _fit_each(effects, record, model, dg, fixed, mask, max_iter, say) -> list:
     """:func:`_fit_effect` of every term set, in order: here one after the other, or at the same time on the
     engine of :func:`discover_term` (on the 6 s Dyke slice two sets took 18 and 11 s one after the other)."""
     engine = _ENGINE.get()
-    if engine is None or len(effects) < 2:
+    if engine is None or engine.kind == "serial" or len(effects) < 2:
         return [_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects]
     from duffsym.diagnose.search import time_left
     from duffsym.engine import Task

@@ -1102,8 +1102,8 @@ def _base_fit(
     fitting part's length at the record's rate (default ``rec_fit``'s, when not decimated);
     ``rec_plain``: (record, mask) of the plain fit (default ``record``, ``mask``; a decimated copy).
     ``deadline``: the base fit may take ``BASE_SHARE`` of the time left, the reference and the refit from
-    it ``REFERENCE_SHARE`` each (``check.budget`` says which stopped on it). ``engine``: the base fit and the
-    reference are made at the same time on its workers (the same fits).
+    it ``REFERENCE_SHARE`` each (``check.budget`` says which stopped on it). ``engine``: the reference is made on
+    one of its workers while the base fit runs here (the same fits).
     """
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
@@ -1185,11 +1185,11 @@ def _reference_task(model, record, fixed, start, mask, fit_result, rec_plain, de
 
 def _first_fits(base_task: Task, ref_task: Task | None, fit_result, engine, say):
     """(base fit, reference): one after the other here, or the reference on one of ``engine``'s workers while the
-    base fit runs here (on the 6 s Dyke slice the reference took 9 s after a 17 s base fit; both on the workers,
-    each paid a worker's first imports and code loading: 22 s, against 26 s one after the other)."""
+    base fit runs here (on the 6 s Dyke slice: 26 s, against 37 s one after the other; with both on the workers,
+    each paid a worker's first imports and code loading)."""
     if ref_task is None:
         return base_task.execute(), fit_result
-    if engine is None:
+    if engine is None or engine.kind == "serial":
         base = base_task.execute()
         say("  reference: a plain fit of the whole record")
         return base, ref_task.execute()
