@@ -10,19 +10,20 @@ import math
 import numpy as np
 import pytest
 
-from duffsym.engine import Engine, Task
+from duffsym.engine import Engine
 
 
-def _fail(text: str) -> float:
-    return float(text)
+def _fail(text: str, *, twice: bool) -> float:
+    return 2 * float(text) if twice else float(text)
 
 
 @pytest.mark.parametrize("workers", [0, 1])
 def test_submit_returns_the_value_or_raises_the_error(workers):
     with Engine(workers) as engine:
-        assert engine.submit(Task(math.sqrt, (6.25,))).result() == 2.5
+        assert engine.submit(math.sqrt, 6.25).result() == 2.5
+        assert engine.submit(_fail, "1.5", twice=True).result() == 3.0
         with pytest.raises(ValueError, match="could not convert"):
-            engine.submit(Task(_fail, ("not a number",))).result()
+            engine.submit(_fail, "not a number", twice=False).result()
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +35,7 @@ def seal_record():
 
 def test_diagnosis_and_discovery_on_workers_equal_one_process(seal_record):
     from duffsym.diagnose import diagnose
-    from duffsym.diagnose.discover import discover_term
+    from duffsym.diagnose.discover import discover_term, on_engine
     from duffsym.model import get_model
 
     model = get_model("mr-damper")
@@ -44,7 +45,8 @@ def test_diagnosis_and_discovery_on_workers_equal_one_process(seal_record):
         there = diagnose(seal_record, model, engine=engine, **kw)
         assert there.base_check.reference == "a plain fit of the record"
         said_there: list[str] = []
-        found_there = discover_term(seal_record, model, here, engine=engine, progress=said_there.append)
+        with on_engine(engine):
+            found_there = discover_term(seal_record, model, here, progress=said_there.append)
     assert dict(there.base_fit.params) == dict(here.base_fit.params)
     assert there.base_check == here.base_check
     assert [(c.effect, c.nrmse_after, c.params) for c in there.candidates] == [

@@ -71,13 +71,13 @@ def execute(task: Task) -> Any:
 
 @dataclass
 class Pending:
-    """A task given to :meth:`Engine.submit`: its Dask future, or (serial) the task to run when asked."""
+    """A call given to :meth:`Engine.submit`: its Dask future, or (serial) the call to make when asked."""
 
     future: Any = None
     task: Task | None = None
 
     def result(self) -> Any:
-        """The task's value (its error raised here); waits for a worker's task to finish."""
+        """The call's value (its error raised here); waits for a worker's call to finish."""
         if self.future is None:
             assert self.task is not None
             return self.task.execute()
@@ -237,9 +237,11 @@ class Engine:
             for f in futures:
                 f.release()
 
-    def submit(self, task: Task) -> Pending:
-        """Start ``task`` on a worker and return at once (serial: it runs when its result is asked for), so that
-        this process can do other work meanwhile; :meth:`Pending.result` waits for its value or raises its error."""
+    def submit(self, func: Callable, *args, **kwargs) -> Pending:
+        """Start ``func(*args, **kwargs)`` on a worker and return at once (serial: it runs when its result is asked
+        for), so that this process can do other work meanwhile; :meth:`Pending.result` waits for its value or raises
+        its error. ``func`` is a module-level function (it travels by name)."""
+        task = Task(func, args, kwargs)
         if self.kind == "serial":
             return Pending(task=task)
         self.start()

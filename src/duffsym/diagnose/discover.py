@@ -34,6 +34,7 @@ which the library spans.
 
 from __future__ import annotations
 
+import contextlib
 import contextvars
 import dataclasses
 import math
@@ -513,7 +514,6 @@ def discover_term(
     tries: int = TRIES,
     progress=None,
     deadline: float | None = None,
-    engine=None,
 ) -> Discovery:
     """Discover what ``model`` lacks on ``record`` outside the catalogue, from the diagnosis ``dg`` of it.
 
@@ -525,17 +525,26 @@ def discover_term(
     :mod:`duffsym.diagnose.search`). ``tries``: how many term sets to fit; the one with the lowest BIC on
     the fitting part is kept (the held-out tail is never used to choose). ``deadline`` (a ``time.monotonic()``
     instant): every fit is limited to the time left and fitted on at most ``BUDGET_SAMPLES`` samples, as a
-    diagnosis under a budget; a fit left when it has passed is not made. ``engine``: an
-    :class:`~duffsym.engine.Engine` whose workers fit the term sets at the same time (the same fits).
+    diagnosis under a budget; a fit left when it has passed is not made. Inside ``with on_engine(engine):`` the
+    term sets are fitted at the same time on the engine's workers (the same fits).
     """
     token = _DEADLINE.set(deadline)
-    engine_token = _ENGINE.set(engine)
     try:
         return _discover(record, model, dg, fixed, mask, bic_threshold, min_improvement, min_explained, max_iter,
                          tries, progress)  # fmt: skip
     finally:
         _DEADLINE.reset(token)
-        _ENGINE.reset(engine_token)
+
+
+@contextlib.contextmanager
+def on_engine(engine):
+    """Within it, :func:`discover_term` fits its term sets at the same time on ``engine``'s workers (an
+    :class:`~duffsym.engine.Engine`; None or a serial one: one after the other, in this process)."""
+    token = _ENGINE.set(engine)
+    try:
+        yield
+    finally:
+        _ENGINE.reset(token)
 
 
 def _discover(
@@ -819,27 +828,27 @@ def _fit_each(effects, record, model, dg, fixed, mask, max_iter, say) -> list:
     if engine is None or engine.kind == "serial" or len(effects) < 2:
         return [_fit_effect(e, record, model, dg, fixed, mask, max_iter, say) for e in effects]
     from duffsym.diagnose.search import time_left
-    from duffsym.engine import Task
 
     say(f"  fitting {len(effects)} term sets on {engine!r}: " + "; ".join(e.name for e in effects))
     left = time_left(_DEADLINE.get())
     seconds = None if math.isinf(left) else left  # a clock of this process: each worker starts its own
-    tasks = [Task(_fit_effect_task, (e, record, model, dg, fixed, mask, max_iter, seconds)) for e in effects]
-    got: list = [None] * len(tasks)
-    for outcome in engine.run(tasks):
+    items = [(e, record, model, dg, fixed, mask, max_iter, seconds) for e in effects]
+    got: list = [None] * len(items)
+    for outcome in engine.as_completed(_fit_effect_task, items):
         if not outcome.ok:
             raise outcome.error
         got[outcome.index] = outcome.value
     return got
 
 
-def _fit_effect_task(effect, record, model, dg, fixed, mask, max_iter, seconds: float | None):
-    """:func:`_fit_effect` in a worker process, with ``seconds`` left (None: no limit)."""
+def _fit_effect_task(item):
+    """:func:`_fit_effect` in a worker process: ``item`` is its arguments and the seconds left (None: no limit)."""
     import time
 
+    *args, seconds = item
     token = _DEADLINE.set(None if seconds is None else time.monotonic() + seconds)
     try:
-        return _fit_effect(effect, record, model, dg, fixed, mask, max_iter, lambda msg: None)
+        return _fit_effect(*args, lambda msg: None)
     finally:
         _DEADLINE.reset(token)
 

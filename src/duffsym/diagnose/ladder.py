@@ -638,10 +638,11 @@ def _simplify(record, base_model, model, steps: list, say, kw) -> object:
 
 def _discovered(record, model, dg, fixed, mask, progress, rules, deadline=None):
     """(discovery dict, extended model, start) when a discovered term is needed; else (None, model, None, note)."""
-    from duffsym.diagnose.discover import discover_term
+    from duffsym.diagnose.discover import discover_term, on_engine
 
-    judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained", "engine")}
-    disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, deadline=deadline, **judge)
+    judge = {k: v for k, v in rules.items() if k in ("bic_threshold", "min_improvement", "min_explained")}
+    with on_engine(rules.get("engine")):
+        disc = discover_term(record, model, dg, fixed=fixed, mask=mask, progress=progress, deadline=deadline, **judge)
     if not disc.needed:
         why = disc.summary().removeprefix("discovery: ").replace("\n", ";")
         return None, model, None, " Term discovery outside the catalogue: " + why

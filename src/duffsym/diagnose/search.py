@@ -61,7 +61,6 @@ from duffsym.diagnose.options import (
 from duffsym.diagnose.parts import BaseCheck, BaseEvidence, Candidate, CandidateRun, FitOutcome, SindyCheck, Split
 from duffsym.diagnose.residuals import ResidualAnalysis, analyse_residuals, rising_crossings
 from duffsym.diagnose.verdict import band_sentence, full_verdict, play_sentence, why_not
-from duffsym.engine import Task
 from duffsym.errors import DataError, ModelError
 from duffsym.identify.quality import inactive_effects
 from duffsym.model.library import path_epsilon
@@ -1108,19 +1107,18 @@ def _base_fit(
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
     mask, mask_fit = unmasked(model, mask), unmasked(model, mask_fit)
-    base_task = Task(
-        _fit,
+    base_call = (
         (model, rec_fit, fixed, start),
         dict(mask=mask_fit, bound_restart=True, max_wall_time=_time_share(deadline, BASE_SHARE)),
     )
-    ref_task = _reference_task(model, record, fixed, start, mask, fit_result, rec_plain, deadline, engine)
-    base, plain = _first_fits(base_task, ref_task, fit_result, engine, say)
+    ref_call = _reference_call(model, record, fixed, start, mask, fit_result, rec_plain, deadline, engine)
+    base, plain = _first_fits(base_call, ref_call, fit_result, engine, say)
     out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
     # a base fit stopped by its share of the time budget is still used when its free run holds (the verdict
     # says it was not converged)
     y_base = _in_range(model, base, record, y) if base.success or out_of_time else None
-    plain_src = "the given fit" if ref_task is None else "a plain fit of the record"
-    out_of_time += ["plain-fit reference"] if ref_task is not None and plain.status in OUT_OF_TIME else []
+    plain_src = "the given fit" if ref_call is None else "a plain fit of the record"
+    out_of_time += ["plain-fit reference"] if ref_call is not None and plain.status in OUT_OF_TIME else []
     x0p = plain.x0[0] if plain.x0 and len(plain.x0[0]) == model.n_states else None
     y_plain = free_run(model, {**model.defaults(), **dict(plain.params)}, record, x0p)
     y_plain = y_plain if _within_range(y_plain, y) else None
@@ -1170,32 +1168,33 @@ def _in_range(model, fr, record: Record, y) -> np.ndarray | None:
     return yy if _within_range(yy, y) else None
 
 
-def _reference_task(model, record, fixed, start, mask, fit_result, rec_plain, deadline, together) -> Task | None:
-    """The plain fit of the whole record that is the base fit's reference, or None when ``fit_result`` has free
-    parameters and initial states (it is the reference). ``together``: it runs beside the base fit, so its share
-    of the time is not taken after the base's."""
+def _reference_call(model, record, fixed, start, mask, fit_result, rec_plain, deadline, together):
+    """(args, keywords) of :func:`_fit` for the plain fit of the whole record that is the base fit's reference, or
+    None when ``fit_result`` has free parameters and initial states (it is the reference). ``together``: it runs
+    beside the base fit, so its share of the time is not taken after the base's."""
     if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
         return None
     rec_p, mask_p = (record, mask) if rec_plain is None else rec_plain
     share = REFERENCE_SHARE if together else REFERENCE_SHARE / (1 - BASE_SHARE)
     # compute_stderr: only its free run and parameters are used (a Laplace covariance costs ~10 s on Dyke)
     kw = dict(mask=mask_p, bound_restart=True, max_wall_time=_time_share(deadline, share), compute_stderr=False)
-    return Task(_fit, (model, rec_p, fixed, start), kw)
+    return (model, rec_p, fixed, start), kw
 
 
-def _first_fits(base_task: Task, ref_task: Task | None, fit_result, engine, say):
-    """(base fit, reference): one after the other here, or the reference on one of ``engine``'s workers while the
-    base fit runs here (on the 6 s Dyke slice: 26 s, against 37 s one after the other; with both on the workers,
-    each paid a worker's first imports and code loading)."""
-    if ref_task is None:
-        return base_task.execute(), fit_result
+def _first_fits(base_call, ref_call, fit_result, engine, say):
+    """(base fit, reference), each a :func:`_fit` call ``(args, keywords)``: one after the other here, or the
+    reference on one of ``engine``'s workers while the base fit runs here (on the 6 s Dyke slice: 26 s, against
+    37 s one after the other; with both on the workers, each paid a worker's first imports and code loading)."""
+    base_args, base_kw = base_call
+    if ref_call is None:
+        return _fit(*base_args, **base_kw), fit_result
     if engine is None or engine.kind == "serial":
-        base = base_task.execute()
+        base = _fit(*base_args, **base_kw)
         say("  reference: a plain fit of the whole record")
-        return base, ref_task.execute()
+        return base, _fit(*ref_call[0], **ref_call[1])
     say(f"  reference: a plain fit of the whole record, on {engine!r} beside the base fit")
-    pending = engine.submit(ref_task)
-    return base_task.execute(), pending.result()
+    pending = engine.submit(_fit, *ref_call[0], **ref_call[1])
+    return _fit(*base_args, **base_kw), pending.result()
 
 
 def _candidate_runs(
