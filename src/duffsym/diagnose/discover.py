@@ -832,13 +832,7 @@ def _fit_each(effects, record, model, dg, fixed, mask, max_iter, say) -> list:
     say(f"  fitting {len(effects)} term sets on {engine!r}: " + "; ".join(e.name for e in effects))
     left = time_left(_DEADLINE.get())
     seconds = None if math.isinf(left) else left  # a clock of this process: each worker starts its own
-    items = [(e, record, model, dg, fixed, mask, max_iter, seconds) for e in effects]
-    got: list = [None] * len(items)
-    for outcome in engine.as_completed(_fit_effect_task, items):
-        if not outcome.ok:
-            raise outcome.error
-        got[outcome.index] = outcome.value
-    return got
+    return engine.map(_fit_effect_task, [(e, record, model, dg, fixed, mask, max_iter, seconds) for e in effects])
 
 
 def _fit_effect_task(item):
