@@ -38,29 +38,33 @@ def _slice(tmp_path, a, b):
     return printed, exact
 
 
-def _same_fit(a, b, se) -> list[str]:
-    """Parameters of fit ``a`` neither within 2 % nor within 0.1 standard error of fit ``b``."""
-    return [n for n in b.free if abs(a.params[n] - b.params[n]) > max(0.02 * abs(b.params[n]), 0.1 * se[n])]
-
-
 @pytest.mark.slow
 @pytest.mark.claim  # a real-data fit (the Dyke MR damper record) in every CI run
 def test_dyke_printed_time_fits_like_the_exact_time(tmp_path):
-    """2 s past t = 13 s (6000 samples, all stamps rounded to 0.1 ms). Measured: the rebuilt fit matches
-    the exact one (c1..c3 within 5e-5, k1 0.35 %, k2 4.7 % = 0.1 of its spread); with the stamps taken as
-    printed (the old behaviour, kept as --sampling as-given) k2 came out -284 instead of -21."""
+    """2 s past t = 13 s (6000 samples, all stamps rounded to 0.1 ms). Fitted from the exact-time fit's optimum, the
+    record with its grid rebuilt stays there (its data are the exact record's; measured: parameters within 5e-8
+    relative), while the stamps taken as printed (the old behaviour, kept as --sampling as-given) move it (c1, c3
+    by 0.26 %, 0.34 %). From the automatic start both fits reach the same NRMSE (0.397418 and 0.397458); k1 and k2
+    differ there (1.3, -282 and 20.0, -20.0: a ridge, k2's standard error 256), so the parameters are compared from
+    one start. An earlier version compared the automatic starts' k2 (-21 rebuilt, -284 as printed) as the
+    distortion: that was the ridge, which IPOPT's initial barrier parameter alone moves."""
     from duffsym.identify import Problem, fit
     from duffsym.model import get_model
 
     printed, exact = _slice(tmp_path, 40_000, 46_000)
     model = get_model("mr-damper")
     ref = fit(Problem(model, read_csv(exact, columns=COLUMNS)))
-    rebuilt = fit(Problem(model, read_csv(printed, columns=COLUMNS)))
-    distorted = fit(Problem(model, read_csv(printed, columns=COLUMNS, sampling="as-given")))
-    assert ref.success and rebuilt.success
-    assert abs(rebuilt.nrmse - ref.nrmse) < 1e-4
-    assert _same_fit(rebuilt, ref, ref.stderr) == []
-    assert _same_fit(distorted, ref, ref.stderr) != []  # the check can fail: the printed steps do distort
+    auto = fit(Problem(model, read_csv(printed, columns=COLUMNS)))
+    assert ref.success and auto.success and abs(auto.nrmse - ref.nrmse) < 1e-4
+    start = {n: ref.params[n] for n in ref.free}
+    rebuilt = fit(Problem(model, read_csv(printed, columns=COLUMNS)), start)
+    distorted = fit(Problem(model, read_csv(printed, columns=COLUMNS, sampling="as-given")), start)
+
+    def moved(res) -> float:
+        return max(abs(res.params[n] / ref.params[n] - 1) for n in ("c1", "c2", "c3"))
+
+    assert moved(rebuilt) < 1e-5 and abs(rebuilt.nrmse - ref.nrmse) < 1e-7
+    assert moved(distorted) > 1e-3  # the check can fail: the printed steps do distort
 
 
 def test_silverbox_with_six_decimal_time_stamps_allows_derivatives(tmp_path):

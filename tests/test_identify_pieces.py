@@ -270,15 +270,15 @@ def test_a_fit_stopped_by_the_callers_guard_is_not_a_success_and_says_why(proble
 
 
 def test_the_ridge_stop_reaches_ipopt_and_the_fit_reports_it(problem, monkeypatch):
-    """The wiring, on a real solve: with the rule made to fire on the first 5 iterations (any gain, any mu), IPOPT
+    """The wiring, on a real solve: with the rule made to fire on the first 2 iterations (any gain, any mu), IPOPT
     is stopped there, and the fit carries the status, the message and the flag with the parameters that moved."""
     from duffsym.identify import nlp as nlp_mod
     from duffsym.status import Status
 
-    for name, value in (("RIDGE_WINDOW", 5), ("RIDGE_GAIN", 1.0), ("RIDGE_MU", math.inf), ("RIDGE_INF_PR", math.inf)):
+    for name, value in (("RIDGE_WINDOW", 2), ("RIDGE_GAIN", 1.0), ("RIDGE_MU", math.inf), ("RIDGE_INF_PR", math.inf)):
         monkeypatch.setattr(nlp_mod, name, value)
     res = fit(problem, compute_stderr=False, bound_restart=False)
-    assert res.status is Status.RIDGE and res.n_iter <= 6
+    assert res.status is Status.RIDGE and res.n_iter <= 3 and res.settings["stop_rule"] == "ridge"
     (flag,) = [f for f in res.flags if f["flag"] == "ridge"]
     moved = flag["message"].split(" while ")[1]
     assert any(f"{n} " in moved for n in res.free) and " -> " in moved
@@ -294,11 +294,33 @@ def test_the_divergence_and_stall_stops_reach_ipopt_and_the_fit_says_why(problem
     res = fit(problem, compute_stderr=False, bound_restart=False)
     assert not res.success and res.n_iter <= 3 and "diverged: IPOPT's iterate left the dynamics" in res.message
     assert res.message.endswith("Try other starts (--starts 3) or fix parameters the record does not determine (--fix)")
+    assert res.settings["stop_rule"] == "diverged"
     monkeypatch.setattr(nlp_mod, "DIVERGED_INF_PR", math.inf)
     for name, value in (("REGULARISATION_ALARM", -1.0), ("STALL_FLOOR", -1.0), ("STALL_FACTOR", 0.0)):
         monkeypatch.setattr(nlp_mod, name, value)
     res = fit(problem, compute_stderr=False, bound_restart=False)
     assert not res.success and res.n_iter <= 7 and "stalled: 3 iterations" in res.message
+    assert res.settings["stop_rule"] == "stalled"
+
+
+def test_the_second_start_follows_the_stop_rule_not_the_message(problem, monkeypatch):
+    """A failed fit whose message carries the divergence rule's words but which IPOPT ended on its own
+    (``settings["stop_rule"]`` None) is not fitted again: the second start reads the rule, not the words."""
+    from dataclasses import replace
+
+    from duffsym.identify import collocation
+
+    real, calls = collocation._fit_from, []
+
+    def fake(pb, x0, opts):
+        calls.append(x0)
+        res = real(pb, x0, opts)
+        assert res.settings["stop_rule"] is None  # this small fit converges on its own
+        return replace(res, success=False, message="stopped after 9 iterations: diverged: words, not the rule")
+
+    monkeypatch.setattr(collocation, "_fit_from", fake)
+    res = fit(problem, compute_stderr=False)
+    assert len(calls) == 1 and not res.success and "second_start" not in res.settings
 
 
 def test_an_automatic_start_whose_fit_diverges_free_is_fitted_again_from_the_defaults(problem, monkeypatch):
@@ -348,7 +370,9 @@ def test_an_automatic_start_whose_solve_diverges_or_stalls_is_fitted_again_from_
         calls.append(x0)
         res = real(pb, x0, opts)
         if len(calls) == 1:
-            return replace(res, success=False, message=f"stopped after 52 iterations: {rule}: the rule's words")
+            stopped = {**res.settings, "stop_rule": rule}
+            return replace(res, success=False, message=f"stopped after 52 iterations: {rule}: the rule's words",
+                           settings=stopped)  # fmt: skip
         return res
 
     monkeypatch.setattr(collocation, "_fit_from", first_stops)
@@ -361,7 +385,13 @@ def test_an_automatic_start_whose_solve_diverges_or_stalls_is_fitted_again_from_
         collocation,
         "_fit_from",
         lambda pb, x0, opts: (
-            calls.append(x0) or replace(real(pb, x0, opts), success=False, message="stopped after 3 iterations: enough")
+            calls.append(x0)
+            or replace(
+                res := real(pb, x0, opts),
+                success=False,
+                message="stopped after 3 iterations: enough",
+                settings={**res.settings, "stop_rule": "enough"},
+            )
         ),
     )
     assert not fit(problem, compute_stderr=False).success and len(calls) == 1

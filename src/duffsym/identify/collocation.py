@@ -240,8 +240,15 @@ def _fit(problem: Problem, x0, opts: FitOptions) -> IdentificationResult:
 
 
 def _hopeless(res: IdentificationResult) -> bool:
-    """Whether ``res``'s solve was stopped because it diverged or stalled (:data:`~.nlp.HOPELESS_STOPS`)."""
-    return not res.success and any(f" iterations: {p}" in res.message for p in HOPELESS_STOPS)
+    """Whether ``res``'s solve was stopped because it diverged or stalled (:data:`~.nlp.HOPELESS_STOPS`), read from
+    ``settings["stop_rule"]`` (:func:`stop_rule`), not from the message's words."""
+    return not res.success and f"{res.settings.get('stop_rule')}:" in HOPELESS_STOPS
+
+
+def stop_rule(run: Run) -> str | None:
+    """The name of the duffsym rule that stopped IPOPT in ``run`` (``"time"``, ``"ridge"``, ``"diverged"``,
+    ``"stalled"``, or the first word of a caller's guard reason), or None when IPOPT ended on its own."""
+    return run.stopped.split(":", 1)[0].strip() or None if run.stopped else None
 
 
 def _second_start(problem: Problem, first: IdentificationResult, opts: FitOptions) -> IdentificationResult:
@@ -409,6 +416,7 @@ def _settings(
         "starts_converged": solved.n_converged,
         "constraints": nlp.constraints,
         "bound_restart": bound_note,
+        "stop_rule": stop_rule(solved.best),
         "start_costs": [r.cost * 2 * nlp.y_norm**2 for r in runs],
         "y_norm": nlp.y_norm,
         "max_wall_time": opts.max_wall_time,
