@@ -248,7 +248,9 @@ def _hopeless(res: IdentificationResult) -> bool:
 def stop_rule(run: Run) -> str | None:
     """The name of the duffsym rule that stopped IPOPT in ``run`` (``"time"``, ``"ridge"``, ``"diverged"``,
     ``"stalled"``, or the first word of a caller's guard reason), or None when IPOPT ended on its own."""
-    return run.stopped.split(":", 1)[0].strip() or None if run.stopped else None
+    if not run.stopped:
+        return None
+    return run.stopped.split(":", 1)[0].strip() or None
 
 
 def _second_start(problem: Problem, first: IdentificationResult, opts: FitOptions) -> IdentificationResult:
