@@ -27,6 +27,7 @@ The procedure (:func:`diagnose`):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -1107,10 +1108,10 @@ def _base_fit(
     y = np.asarray(record.y, dtype=float)
     k = rec_fit.n_times if k is None else k
     mask, mask_fit = unmasked(model, mask), unmasked(model, mask_fit)
-    base_call = (
-        (model, rec_fit, fixed, start),
-        dict(mask=mask_fit, bound_restart=True, max_wall_time=_time_share(deadline, BASE_SHARE)),
-    )
+    base_call = functools.partial(
+        _fit, model, rec_fit, fixed, start, mask=mask_fit, bound_restart=True,
+        max_wall_time=_time_share(deadline, BASE_SHARE),
+    )  # fmt: skip
     ref_call = _reference_call(model, record, fixed, start, mask, fit_result, rec_plain, deadline, engine)
     base, plain = _first_fits(base_call, ref_call, fit_result, engine, say)
     out_of_time = [] if base.status not in OUT_OF_TIME else ["base fit"]
@@ -1169,7 +1170,8 @@ def _in_range(model, fr, record: Record, y) -> np.ndarray | None:
 
 
 def _reference_call(model, record, fixed, start, mask, fit_result, rec_plain, deadline, together):
-    """(args, keywords) of :func:`_fit` for the plain fit of the whole record that is the base fit's reference, or
+    """The :func:`_fit` call (a :func:`functools.partial`) of the plain fit of the whole record that is the base
+    fit's reference, or
     None when ``fit_result`` has free parameters and initial states (it is the reference). ``together``: it runs
     beside the base fit, so its share of the time is not taken after the base's."""
     if fit_result is not None and tuple(getattr(fit_result, "free", ())) and fit_result.x0:
@@ -1178,23 +1180,23 @@ def _reference_call(model, record, fixed, start, mask, fit_result, rec_plain, de
     share = REFERENCE_SHARE if together else REFERENCE_SHARE / (1 - BASE_SHARE)
     # compute_stderr: only its free run and parameters are used (a Laplace covariance costs ~10 s on Dyke)
     kw = dict(mask=mask_p, bound_restart=True, max_wall_time=_time_share(deadline, share), compute_stderr=False)
-    return (model, rec_p, fixed, start), kw
+    return functools.partial(_fit, model, rec_p, fixed, start, **kw)
 
 
 def _first_fits(base_call, ref_call, fit_result, engine, say):
-    """(base fit, reference), each a :func:`_fit` call ``(args, keywords)``: one after the other here, or the
-    reference on one of ``engine``'s workers while the base fit runs here (on the 6 s Dyke slice: 26 s, against
-    37 s one after the other; with both on the workers, each paid a worker's first imports and code loading)."""
-    base_args, base_kw = base_call
+    """(base fit, reference), each a :func:`_fit` call held by :func:`functools.partial`: one after the other here,
+    or the reference on one of ``engine``'s workers while the base fit runs here (on the 6 s Dyke slice: 26 s,
+    against 37 s one after the other; with both on the workers, each paid a worker's first imports and code
+    loading)."""
     if ref_call is None:
-        return _fit(*base_args, **base_kw), fit_result
+        return base_call(), fit_result
     if engine is None or engine.kind == "serial":
-        base = _fit(*base_args, **base_kw)
+        base = base_call()
         say("  reference: a plain fit of the whole record")
-        return base, _fit(*ref_call[0], **ref_call[1])
+        return base, ref_call()
     say(f"  reference: a plain fit of the whole record, on {engine!r} beside the base fit")
-    pending = engine.submit(_fit, *ref_call[0], **ref_call[1])
-    return _fit(*base_args, **base_kw), pending.result()
+    pending = engine.submit(ref_call.func, *ref_call.args, **ref_call.keywords)
+    return base_call(), pending.result()
 
 
 def _candidate_runs(
